@@ -1,0 +1,1 @@
+"""MuJoCo scenes, contact datastream, simulated acoustic sensor and Gymnasium environments."""
