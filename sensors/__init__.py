@@ -3,3 +3,8 @@
 This package imports neither MuJoCo nor PyAudio: simulation (``aas_gym``) and the real rig
 (``real``) both build on it.
 """
+
+from .excitation import Excitation
+from .features import amplitude_spectrum, feature_frequencies_hz, smooth_spectrum, spectral_features
+from .observation import AcousticObservation, AcousticSensor
+from .transformers import SpectralFeatures

@@ -1,0 +1,222 @@
+"""Excitation signals played by the fingertip actuator.
+
+The paper's three excitations, at 44.1 kHz, each looping with a 0.5 s period:
+
+- an impulse of 0.01 s (a rectangular pulse; ``shape="click"`` gives a one-sample click
+  with a flat spectrum instead),
+- a linear sweep and an exponential sweep from 20 Hz to 10 kHz over 0.5 s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+KINDS = ("impulse", "linear_sweep", "exponential_sweep")
+IMPULSE_SHAPES = ("rect", "click")
+
+DEFAULT_FS = 44100
+DEFAULT_PERIOD_S = 0.5
+
+
+def _require_finite_positive(name: str, value: float) -> float:
+    value = float(value)
+    if not math.isfinite(value) or value <= 0.0:
+        raise ValueError(f"{name} must be a finite positive number, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class Excitation:
+    """One period of a looping actuator excitation.
+
+    Build one with :meth:`impulse`, :meth:`linear_sweep` or :meth:`exponential_sweep`.
+
+    Attributes:
+        kind: ``"impulse"``, ``"linear_sweep"`` or ``"exponential_sweep"``.
+        fs: sample rate in Hz.
+        duration_s: active part of each period (pulse length or sweep length), seconds.
+        period_s: loop period in seconds (>= ``duration_s``); silence fills the rest.
+        amplitude: peak amplitude (full scale is 1.0).
+        f0_hz, f1_hz: sweep start and end frequency (sweeps only).
+        fade_s: raised-cosine fade-in/out of a sweep, seconds (0 = none).
+        shape: impulse shape, ``"rect"`` (paper) or ``"click"`` (one sample).
+    """
+
+    kind: str
+    fs: int = DEFAULT_FS
+    duration_s: float = 0.5
+    period_s: float = DEFAULT_PERIOD_S
+    amplitude: float = 1.0
+    f0_hz: float | None = None
+    f1_hz: float | None = None
+    fade_s: float = 0.0
+    shape: str = "rect"
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
+        if isinstance(self.fs, bool) or int(self.fs) != self.fs or self.fs <= 0:
+            raise ValueError(f"fs must be a positive integer sample rate in Hz, got {self.fs!r}")
+        object.__setattr__(self, "fs", int(self.fs))
+        _require_finite_positive("duration_s", self.duration_s)
+        _require_finite_positive("period_s", self.period_s)
+        _require_finite_positive("amplitude", self.amplitude)
+        if self.period_s < self.duration_s:
+            raise ValueError(
+                f"period_s ({self.period_s} s) must be >= duration_s ({self.duration_s} s)"
+            )
+        if round(self.duration_s * self.fs) < 1:
+            raise ValueError(f"duration_s={self.duration_s} s is shorter than one sample at fs={self.fs} Hz")
+        if not math.isfinite(self.fade_s) or self.fade_s < 0 or 2 * self.fade_s > self.duration_s:
+            raise ValueError(f"fade_s must be in [0, duration_s / 2], got {self.fade_s!r}")
+        if self.kind == "impulse":
+            if self.shape not in IMPULSE_SHAPES:
+                raise ValueError(f"shape must be one of {IMPULSE_SHAPES}, got {self.shape!r}")
+            return
+        if self.f0_hz is None or self.f1_hz is None:
+            raise ValueError(f"a {self.kind} needs f0_hz and f1_hz")
+        nyquist = self.fs / 2.0
+        f0, f1 = float(self.f0_hz), float(self.f1_hz)
+        if not (math.isfinite(f0) and math.isfinite(f1)):
+            raise ValueError(f"f0_hz and f1_hz must be finite, got {f0!r}, {f1!r}")
+        if self.kind == "exponential_sweep" and f0 <= 0:
+            raise ValueError(f"f0_hz must be > 0 for an exponential sweep, got {f0}")
+        if f0 < 0:
+            raise ValueError(f"f0_hz must be >= 0, got {f0}")
+        if not f0 < f1:
+            raise ValueError(f"f0_hz ({f0} Hz) must be below f1_hz ({f1} Hz)")
+        if not f1 < nyquist:
+            raise ValueError(f"f1_hz ({f1} Hz) must be below the Nyquist frequency fs/2 = {nyquist} Hz")
+
+    # -- constructors ---------------------------------------------------------------------
+
+    @classmethod
+    def impulse(
+        cls,
+        duration_s: float = 0.01,
+        *,
+        fs: int = DEFAULT_FS,
+        period_s: float = DEFAULT_PERIOD_S,
+        amplitude: float = 1.0,
+        shape: str = "rect",
+    ) -> Excitation:
+        """The paper's impulse: a rectangular pulse of ``duration_s`` (0.01 s) per period."""
+        return cls("impulse", fs=fs, duration_s=duration_s, period_s=period_s, amplitude=amplitude, shape=shape)
+
+    @classmethod
+    def linear_sweep(
+        cls,
+        f0_hz: float = 20.0,
+        f1_hz: float = 10_000.0,
+        duration_s: float = 0.5,
+        *,
+        fs: int = DEFAULT_FS,
+        period_s: float = DEFAULT_PERIOD_S,
+        amplitude: float = 1.0,
+        fade_s: float = 0.0,
+    ) -> Excitation:
+        """Linear sweep: instantaneous frequency f0 + (f1 - f0) t / T."""
+        return cls("linear_sweep", fs=fs, duration_s=duration_s, period_s=period_s,
+                   amplitude=amplitude, f0_hz=f0_hz, f1_hz=f1_hz, fade_s=fade_s)
+
+    @classmethod
+    def exponential_sweep(
+        cls,
+        f0_hz: float = 20.0,
+        f1_hz: float = 10_000.0,
+        duration_s: float = 0.5,
+        *,
+        fs: int = DEFAULT_FS,
+        period_s: float = DEFAULT_PERIOD_S,
+        amplitude: float = 1.0,
+        fade_s: float = 0.0,
+    ) -> Excitation:
+        """Exponential sweep: instantaneous frequency f0 (f1 / f0)^(t / T)."""
+        return cls("exponential_sweep", fs=fs, duration_s=duration_s, period_s=period_s,
+                   amplitude=amplitude, f0_hz=f0_hz, f1_hz=f1_hz, fade_s=fade_s)
+
+    @classmethod
+    def by_name(cls, name: str, **kwargs: Any) -> Excitation:
+        """Paper-default excitation by name (``impulse``, ``linear``/``linear_sweep``,
+        ``exponential``/``exponential_sweep``); keyword arguments override defaults."""
+        key = name.lower().replace("-", "_")
+        aliases = {"linear": "linear_sweep", "exponential": "exponential_sweep", "exp": "exponential_sweep"}
+        key = aliases.get(key, key)
+        if key not in KINDS:
+            raise ValueError(f"unknown excitation {name!r}; known: impulse, linear, exponential")
+        return getattr(cls, key)(**kwargs)
+
+    # -- signals --------------------------------------------------------------------------
+
+    @property
+    def name(self) -> str:
+        """Short name: ``impulse``, ``linear`` or ``exponential``."""
+        return {"impulse": "impulse", "linear_sweep": "linear", "exponential_sweep": "exponential"}[self.kind]
+
+    @property
+    def period_samples(self) -> int:
+        """Samples in one loop period."""
+        return int(round(self.period_s * self.fs))
+
+    @property
+    def active_samples(self) -> int:
+        """Samples of the active part (pulse or sweep) at the start of each period."""
+        return int(round(self.duration_s * self.fs))
+
+    def instantaneous_frequency_hz(self, t_s: np.ndarray) -> np.ndarray:
+        """Analytic instantaneous frequency of a sweep at times ``t_s`` in [0, duration_s]."""
+        if self.kind == "impulse":
+            raise ValueError("an impulse has no instantaneous frequency")
+        t = np.asarray(t_s, dtype=float) / self.duration_s
+        if self.kind == "linear_sweep":
+            return self.f0_hz + (self.f1_hz - self.f0_hz) * t
+        return self.f0_hz * (self.f1_hz / self.f0_hz) ** t
+
+    def _phase_rad(self, t_s: np.ndarray) -> np.ndarray:
+        T = self.duration_s
+        if self.kind == "linear_sweep":
+            return 2 * np.pi * (self.f0_hz * t_s + (self.f1_hz - self.f0_hz) * t_s**2 / (2 * T))
+        log_ratio = math.log(self.f1_hz / self.f0_hz)
+        return 2 * np.pi * self.f0_hz * T / log_ratio * np.expm1(t_s / T * log_ratio)
+
+    @property
+    def signal(self) -> np.ndarray:
+        """One period of the excitation, float64 in [-amplitude, amplitude]."""
+        out = np.zeros(self.period_samples)
+        n = self.active_samples
+        if self.kind == "impulse":
+            if self.shape == "rect":
+                out[:n] = self.amplitude
+            else:
+                out[0] = self.amplitude
+            return out
+        t = np.arange(n) / self.fs
+        active = self.amplitude * np.sin(self._phase_rad(t))
+        n_fade = int(round(self.fade_s * self.fs))
+        if n_fade > 0:
+            ramp = 0.5 - 0.5 * np.cos(np.pi * np.arange(n_fade) / n_fade)
+            active[:n_fade] *= ramp
+            active[n - n_fade:] *= ramp[::-1]
+        out[:n] = active
+        return out
+
+    def loop(self, duration_s: float) -> np.ndarray:
+        """The excitation looped for ``duration_s`` seconds (``round(duration_s * fs)`` samples)."""
+        _require_finite_positive("duration_s", duration_s)
+        n = int(round(duration_s * self.fs))
+        return np.resize(self.signal, n)
+
+    # -- metadata -------------------------------------------------------------------------
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-JSON description (stored with recordings)."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Excitation:
+        """Inverse of :meth:`to_dict`."""
+        return cls(**data)

@@ -1,0 +1,149 @@
+"""From a recording to the paper's spectral feature vector.
+
+A recording is cut into windows of one excitation period (0.5 s), aligned to the start of
+the excitation (``start_s`` absorbs the playback/recording latency). Each window's amplitude
+spectrum is evaluated exactly at the feature frequencies 3000, 3050, ..., 9950 Hz (140
+values): with a 0.5 s window at 44.1 kHz these are FFT bins; for any other window length the
+discrete-time Fourier transform is evaluated at those frequencies (chirp-z), so there is no
+interpolation error. The amplitude is scaled so that a sine of amplitude A at a feature
+frequency reads A.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.signal import savgol_filter, zoom_fft
+
+DEFAULT_F_MIN_HZ = 3000.0
+DEFAULT_F_MAX_HZ = 10000.0
+DEFAULT_STEP_HZ = 50.0
+
+
+def feature_frequencies_hz(
+    f_min_hz: float = DEFAULT_F_MIN_HZ, f_max_hz: float = DEFAULT_F_MAX_HZ, step_hz: float = DEFAULT_STEP_HZ
+) -> np.ndarray:
+    """Centre frequencies of the features: ``f_min_hz`` up to (excluding) ``f_max_hz``."""
+    if not (math.isfinite(f_min_hz) and math.isfinite(f_max_hz) and math.isfinite(step_hz)):
+        raise ValueError("f_min_hz, f_max_hz and step_hz must be finite")
+    if step_hz <= 0:
+        raise ValueError(f"step_hz must be positive, got {step_hz}")
+    if not 0 <= f_min_hz < f_max_hz:
+        raise ValueError(f"need 0 <= f_min_hz < f_max_hz, got f_min_hz={f_min_hz}, f_max_hz={f_max_hz}")
+    n = int(round((f_max_hz - f_min_hz) / step_hz))
+    if not math.isclose(n * step_hz, f_max_hz - f_min_hz, rel_tol=1e-9):
+        raise ValueError(f"(f_max_hz - f_min_hz) = {f_max_hz - f_min_hz} Hz is not a multiple of step_hz = {step_hz} Hz")
+    return f_min_hz + step_hz * np.arange(n)
+
+
+def _validate_waveform(waveform: np.ndarray, name: str = "waveform") -> np.ndarray:
+    x = np.asarray(waveform)
+    if x.dtype.kind not in "fiu":
+        raise TypeError(f"{name} must be a real numeric array, got dtype {x.dtype}")
+    x = x.astype(float, copy=False)
+    if x.ndim != 1:
+        raise ValueError(f"{name} must be 1-D (one channel), got shape {x.shape}")
+    if x.size == 0:
+        raise ValueError(f"{name} is empty")
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"{name} contains NaN or infinite samples")
+    return x
+
+
+def _validate_fs(fs: float, f_needed_hz: float) -> float:
+    fs = float(fs)
+    if not math.isfinite(fs) or fs <= 0:
+        raise ValueError(f"fs must be a positive sample rate in Hz, got {fs!r}")
+    if f_needed_hz >= fs / 2:
+        raise ValueError(
+            f"fs={fs:g} Hz is too low: the features reach {f_needed_hz:g} Hz, above the Nyquist frequency {fs / 2:g} Hz"
+        )
+    return fs
+
+
+def segment(waveform: np.ndarray, fs: float, period_s: float = 0.5, start_s: float = 0.0) -> np.ndarray:
+    """Windows of one excitation period, shape ``(n_windows, window_samples)``.
+
+    ``start_s`` is where the first excitation period begins in the recording (latency).
+    Incomplete trailing windows are dropped.
+    """
+    x = _validate_waveform(waveform)
+    if not math.isfinite(period_s) or period_s <= 0:
+        raise ValueError(f"period_s must be a positive duration, got {period_s!r}")
+    if not math.isfinite(start_s) or start_s < 0:
+        raise ValueError(f"start_s must be >= 0, got {start_s!r}")
+    length = int(round(period_s * fs))
+    start = int(round(start_s * fs))
+    if length < 2:
+        raise ValueError(f"period_s={period_s} s is shorter than two samples at fs={fs:g} Hz")
+    n_windows = (x.size - start) // length if x.size > start else 0
+    if n_windows < 1:
+        raise ValueError(
+            f"recording too short: {x.size} samples ({x.size / fs:.4g} s) from start_s={start_s} s "
+            f"hold no complete window of period_s={period_s} s ({length} samples)"
+        )
+    return x[start:start + n_windows * length].reshape(n_windows, length)
+
+
+def _amplitude_at(windows: np.ndarray, fs: float, freqs_hz: np.ndarray) -> np.ndarray:
+    """|DTFT| of each window at ``freqs_hz`` (equally spaced), scaled to sine amplitude."""
+    length = windows.shape[1]
+    bins = freqs_hz * length / fs
+    if np.allclose(bins, np.round(bins), rtol=0, atol=1e-9):
+        spectrum = np.fft.rfft(windows, axis=1)[:, np.round(bins).astype(int)]
+    elif freqs_hz.size == 1:
+        n = np.arange(length)
+        spectrum = windows @ np.exp(-2j * np.pi * freqs_hz[0] * n / fs)[:, None]
+    else:
+        step = freqs_hz[1] - freqs_hz[0]
+        spectrum = zoom_fft(windows, [freqs_hz[0], freqs_hz[-1] + step], m=freqs_hz.size, fs=fs, endpoint=False, axis=1)
+    return 2.0 * np.abs(spectrum) / length
+
+
+def spectral_features(
+    waveform: np.ndarray,
+    fs: float = 44100,
+    *,
+    period_s: float = 0.5,
+    start_s: float = 0.0,
+    f_min_hz: float = DEFAULT_F_MIN_HZ,
+    f_max_hz: float = DEFAULT_F_MAX_HZ,
+    step_hz: float = DEFAULT_STEP_HZ,
+    average: bool = True,
+) -> np.ndarray:
+    """The paper's feature vector: FFT amplitude at 3000, 3050, ..., 9950 Hz.
+
+    Args:
+        waveform: one-channel recording.
+        fs: its sample rate in Hz.
+        period_s: excitation period = window length, seconds.
+        start_s: where the first excitation period starts in the recording, seconds.
+        f_min_hz, f_max_hz, step_hz: feature band (``f_max_hz`` excluded) and spacing.
+        average: mean amplitude over windows (shape ``(n_features,)``); otherwise one row
+            per window (shape ``(n_windows, n_features)``).
+    """
+    freqs = feature_frequencies_hz(f_min_hz, f_max_hz, step_hz)
+    fs = _validate_fs(fs, freqs[-1])
+    windows = segment(waveform, fs, period_s, start_s)
+    amplitude = _amplitude_at(windows, fs, freqs)
+    return amplitude.mean(axis=0) if average else amplitude
+
+
+def amplitude_spectrum(
+    waveform: np.ndarray, fs: float = 44100, *, period_s: float = 0.5, start_s: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Full-resolution amplitude spectrum averaged over windows: ``(frequencies_hz, amplitude)``."""
+    fs = _validate_fs(fs, 0.0)
+    windows = segment(waveform, fs, period_s, start_s)
+    amplitude = 2.0 * np.abs(np.fft.rfft(windows, axis=1)).mean(axis=0) / windows.shape[1]
+    return np.fft.rfftfreq(windows.shape[1], 1.0 / fs), amplitude
+
+
+def smooth_spectrum(amplitude: np.ndarray, window_length: int = 51, polyorder: int = 3) -> np.ndarray:
+    """Savitzky-Golay smoothed spectrum, as in the paper's figure (for plots)."""
+    a = np.asarray(amplitude, dtype=float)
+    window_length = min(window_length, a.shape[-1] - (1 - a.shape[-1] % 2))
+    if window_length <= polyorder:
+        return a.copy()
+    return savgol_filter(a, window_length, polyorder, axis=-1)

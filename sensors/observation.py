@@ -1,0 +1,126 @@
+"""The acoustic observation that the simulated and the real sensor both produce."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from .excitation import Excitation
+from .features import amplitude_spectrum, spectral_features
+
+
+@dataclass
+class AcousticObservation:
+    """One recording of the contact microphone while the actuator plays an excitation.
+
+    Attributes:
+        waveform: microphone signal, float32, one channel (arbitrary units, full scale 1).
+        sample_rate_hz: sample rate of ``waveform``.
+        excitation: the excitation that was played.
+        start_time_s: time in ``waveform`` at which the first excitation period starts
+            (playback latency on the rig, 0 in simulation); feature windows start here.
+        metadata: free-form JSON-serialisable facts (source "sim"/"real", device,
+            latency, labels, ground truth, timestamp).
+    """
+
+    waveform: np.ndarray
+    sample_rate_hz: int
+    excitation: Excitation
+    start_time_s: float = 0.0
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        w = np.asarray(self.waveform)
+        if w.ndim != 1 or w.size == 0:
+            raise ValueError(f"waveform must be a non-empty 1-D array, got shape {w.shape}")
+        if not np.all(np.isfinite(w)):
+            raise ValueError("waveform contains NaN or infinite samples")
+        self.waveform = w.astype(np.float32, copy=False)
+        if int(self.sample_rate_hz) != self.sample_rate_hz or self.sample_rate_hz <= 0:
+            raise ValueError(f"sample_rate_hz must be a positive integer, got {self.sample_rate_hz!r}")
+        self.sample_rate_hz = int(self.sample_rate_hz)
+        if not isinstance(self.excitation, Excitation):
+            raise TypeError(f"excitation must be a sensors.Excitation, got {type(self.excitation).__name__}")
+        if self.excitation.fs != self.sample_rate_hz:
+            raise ValueError(
+                f"sample_rate_hz={self.sample_rate_hz} Hz differs from the excitation's fs={self.excitation.fs} Hz"
+            )
+        if not np.isfinite(self.start_time_s) or self.start_time_s < 0:
+            raise ValueError(f"start_time_s must be >= 0, got {self.start_time_s!r}")
+
+    @property
+    def duration_s(self) -> float:
+        """Length of the recording in seconds."""
+        return self.waveform.size / self.sample_rate_hz
+
+    def features(self, *, average: bool = True, **kwargs: Any) -> np.ndarray:
+        """The 140-d spectral feature vector (see :func:`sensors.spectral_features`).
+
+        Windows are one excitation period long and start at ``start_time_s``.
+        """
+        return spectral_features(
+            self.waveform, self.sample_rate_hz, period_s=self.excitation.period_s,
+            start_s=self.start_time_s, average=average, **kwargs,
+        )
+
+    def spectrum(self) -> tuple[np.ndarray, np.ndarray]:
+        """Full-resolution amplitude spectrum averaged over windows: ``(frequencies_hz, amplitude)``."""
+        return amplitude_spectrum(
+            self.waveform, self.sample_rate_hz, period_s=self.excitation.period_s, start_s=self.start_time_s
+        )
+
+    # -- persistence ----------------------------------------------------------------------
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write an ``.npz`` atomically: a crash never leaves a half-written file that looks whole."""
+        path = Path(path)
+        if path.suffix != ".npz":
+            path = path.with_suffix(".npz")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        meta = json.dumps({
+            "sample_rate_hz": self.sample_rate_hz,
+            "excitation": self.excitation.to_dict(),
+            "start_time_s": self.start_time_s,
+            "metadata": self.metadata,
+        })
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                np.savez(fh, waveform=self.waveform, meta=np.array(meta))
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> AcousticObservation:
+        """Read a file written by :meth:`save`."""
+        with np.load(Path(path), allow_pickle=False) as data:
+            meta = json.loads(str(data["meta"]))
+            waveform = data["waveform"]
+        return cls(
+            waveform=waveform,
+            sample_rate_hz=meta["sample_rate_hz"],
+            excitation=Excitation.from_dict(meta["excitation"]),
+            start_time_s=meta["start_time_s"],
+            metadata=meta["metadata"],
+        )
+
+
+@runtime_checkable
+class AcousticSensor(Protocol):
+    """What the simulated and the real sensor both implement."""
+
+    def sense(self, excitation: Excitation, duration_s: float) -> AcousticObservation:
+        """Play ``excitation`` (looping) for ``duration_s`` seconds and return the recording."""
+        ...
