@@ -2,8 +2,10 @@
 
 The paper's three excitations, at 44.1 kHz, each looping with a 0.5 s period:
 
-- an impulse of 0.01 s (a rectangular pulse; ``shape="click"`` gives a one-sample click
-  with a flat spectrum instead),
+- an impulse of 0.01 s: by default a one-sample click at the start of a 0.01 s slot, whose
+  spectrum is flat. ``shape="rect"`` gives a rectangular 0.01 s pulse instead; its spectrum
+  has nulls at every multiple of 100 Hz, which is exactly every other 50 Hz feature bin, so it
+  is not the default.
 - a linear sweep and an exponential sweep from 20 Hz to 10 kHz over 0.5 s.
 """
 
@@ -43,7 +45,8 @@ class Excitation:
         amplitude: peak amplitude (full scale is 1.0).
         f0_hz, f1_hz: sweep start and end frequency (sweeps only).
         fade_s: raised-cosine fade-in/out of a sweep, seconds (0 = none).
-        shape: impulse shape, ``"rect"`` (paper) or ``"click"`` (one sample).
+        shape: impulse shape, ``"click"`` (one sample, flat spectrum) or ``"rect"``
+            (a pulse lasting ``duration_s``).
     """
 
     kind: str
@@ -54,7 +57,7 @@ class Excitation:
     f0_hz: float | None = None
     f1_hz: float | None = None
     fade_s: float = 0.0
-    shape: str = "rect"
+    shape: str = "click"
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -102,9 +105,10 @@ class Excitation:
         fs: int = DEFAULT_FS,
         period_s: float = DEFAULT_PERIOD_S,
         amplitude: float = 1.0,
-        shape: str = "rect",
+        shape: str = "click",
     ) -> Excitation:
-        """The paper's impulse: a rectangular pulse of ``duration_s`` (0.01 s) per period."""
+        """The paper's impulse of ``duration_s`` (0.01 s) per period: a click opening a
+        0.01 s slot (``shape="click"``) or a rectangular pulse filling it (``"rect"``)."""
         return cls("impulse", fs=fs, duration_s=duration_s, period_s=period_s, amplitude=amplitude, shape=shape)
 
     @classmethod

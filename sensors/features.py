@@ -57,7 +57,8 @@ def _validate_fs(fs: float, f_needed_hz: float) -> float:
         raise ValueError(f"fs must be a positive sample rate in Hz, got {fs!r}")
     if f_needed_hz >= fs / 2:
         raise ValueError(
-            f"fs={fs:g} Hz is too low: the features reach {f_needed_hz:g} Hz, above the Nyquist frequency {fs / 2:g} Hz"
+            f"fs={fs:g} Hz is too low for the feature band: f_max_hz reaches {f_needed_hz:g} Hz, "
+            f"above the Nyquist frequency {fs / 2:g} Hz"
         )
     return fs
 

@@ -1,0 +1,75 @@
+"""The ``aas`` command line.
+
+Subcommands are registered by the modules that own them, so each capability keeps its CLI
+next to its code (``real.cli`` for the rig, ``aas_gym.experiments`` for the paper's runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from pathlib import Path
+from typing import Callable
+
+# Modules that may add subcommands through ``add_subcommands(subparsers)``. A module whose
+# optional dependency is missing (PyAudio for ``real``) only loses its own commands.
+_PLUGIN_MODULES = ("aas_gym.demo", "real.cli", "aas_gym.experiments.cli", "aas_gym.calibration_cli")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="aas",
+        description="aas-gym: active acoustic sensing for robot manipulation, simulated and real.",
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in _PLUGIN_MODULES:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name is not None and (exc.name == name or name.startswith(exc.name + ".")):
+                continue  # that capability is not in this checkout
+            _missing_dependency(sub, name, exc)
+            continue
+        module.add_subcommands(sub)
+    return parser
+
+
+def _missing_dependency(sub, module_name: str, exc: ModuleNotFoundError) -> None:
+    group = module_name.split(".")[0]
+
+    def fail(_args) -> int:
+        print(f"aas: the '{group}' commands need the Python package '{exc.name}', which is not installed "
+              f"(install the project with its extras: pip install -e '.[real,ray]').", file=sys.stderr)
+        return 2
+
+    p = sub.add_parser(group, help=f"(unavailable: missing '{exc.name}')")
+    p.set_defaults(func=fail)
+
+
+def _version() -> str:
+    try:
+        from importlib.metadata import version
+
+        return version("aas-gym")
+    except Exception:  # running from a source tree without an install
+        return "unknown"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    func: Callable[[argparse.Namespace], int] | None = getattr(args, "func", None)
+    if func is None:
+        parser.print_help()
+        return 0
+    return int(func(args) or 0)
+
+
+def default_output_dir() -> Path:
+    return Path("outputs")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
