@@ -120,15 +120,18 @@ def ensure_installed(py: Path) -> None:
     if STAMP.exists() and STAMP.read_text() == fingerprint:
         return
     say("installing aas-gym and its pinned dependencies into .venv (first run takes a few minutes)")
-    run([str(py), "-m", "pip", "install", "-q", "--upgrade", "pip", "setuptools", "wheel"])
-    cmd = [str(py), "-m", "pip", "install", "-q", "-c", str(ROOT / "constraints.txt"), "-e", f"{ROOT}[{EXTRAS}]"]
-    try:
-        run(cmd)
-    except subprocess.CalledProcessError:
-        say("ERROR: pip could not install the project. If PyAudio failed to build, install the "
-            "PortAudio headers (Debian: portaudio19-dev) and run again.")
-        raise SystemExit(1)
+    pip = [str(py), "-m", "pip", "install", "--disable-pip-version-check"]
+    for cmd in ([*pip, "--upgrade", "pip", "setuptools", "wheel"],
+                [*pip, "-c", str(ROOT / "constraints.txt"), "-e", f"{ROOT}[{EXTRAS}]"]):
+        # pip's log is long; show it only when something fails.
+        res = subprocess.run(cmd, capture_output=True, text=True)
+        if res.returncode != 0:
+            print(res.stdout[-6000:], res.stderr[-6000:], sep="\n", file=sys.stderr)
+            say("ERROR: pip could not install the project (log above). If PyAudio failed to build, "
+                "install the PortAudio headers (Debian: portaudio19-dev) and run again.")
+            raise SystemExit(1)
     STAMP.write_text(fingerprint)
+    say("installed")
 
 
 def runtime_env() -> dict[str, str]:
