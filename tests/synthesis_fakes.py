@@ -73,3 +73,27 @@ def grasp(model):
     h = model.a / 2
     return (np.array([0.05, h, 0.001]), np.array([0.0, 1.0, 0.0]),
             np.array([0.05, -h, 0.001]), np.array([0.0, -1.0, 0.0]))
+
+
+def lsim_reference(model, C, u, fs, dp, dn, mp, mn, output="displacement", x0=None):
+    """Independent reference: scipy.signal.lsim (matrix exponential, linear input
+    interpolation) of q'' + C q' + w^2 q = U_d^T (-n_d) u in plain [q; q'] coordinates.
+    Returns (y, state trajectory in [q; q'])."""
+    import scipy.signal as ss
+
+    w = np.asarray(model.angular_frequencies_rad_s, dtype=float)
+    r = len(w)
+    U = model.mode_shapes_at(np.array([dp, mp]))
+    b = -np.asarray(dn) @ U[0]
+    o = np.asarray(mp * 0 + mn) @ U[1]
+    A = np.block([[np.zeros((r, r)), np.eye(r)], [-np.diag(w**2), -C]])
+    B = np.concatenate([np.zeros(r), b])[:, None]
+    if output == "displacement":
+        Cm, D = np.concatenate([o, np.zeros(r)]), 0.0
+    elif output == "velocity":
+        Cm, D = np.concatenate([np.zeros(r), o]), 0.0
+    else:
+        Cm, D = o @ A[r:], o @ b
+    t = np.arange(len(u)) / fs
+    _, y, x = ss.lsim((A, B, Cm[None], np.array([[D]])), u, t, X0=x0, interp=True)
+    return y, x
