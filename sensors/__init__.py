@@ -8,3 +8,6 @@ from .excitation import Excitation
 from .features import amplitude_spectrum, feature_frequencies_hz, smooth_spectrum, spectral_features
 from .observation import AcousticObservation, AcousticSensor
 from .transformers import SpectralFeatures
+from .contact import Contact
+from .damping import modal_damping_matrix
+from .synthesis import ModalSystem, modal_response, periodic_response
