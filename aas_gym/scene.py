@@ -333,12 +333,23 @@ def _add_stage(spec: mujoco.MjSpec) -> None:
     """Light, cameras and a sky colour for pictures."""
     spec.visual.global_.offwidth = 640
     spec.visual.global_.offheight = 480
+    spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+                     rgb1=[0.55, 0.65, 0.8], rgb2=[0.1, 0.1, 0.15], width=256, height=256)
     spec.worldbody.add_light(name="key", pos=[0.3, -0.4, 1.2], dir=[-0.25, 0.35, -1], diffuse=[0.8, 0.8, 0.8])
     spec.worldbody.add_light(name="fill", pos=[-0.5, 0.5, 1.0], dir=[0.4, -0.4, -1], diffuse=[0.3, 0.3, 0.3])
-    spec.worldbody.add_camera(name="overview", pos=[0.42, -0.42, 0.38],
-                              xyaxes=[0.707, 0.707, 0, -0.36, 0.36, 0.86])
-    spec.worldbody.add_camera(name="closeup", pos=[0.16, -0.2, 0.14],
-                              xyaxes=[0.78, 0.625, 0, -0.26, 0.32, 0.91])
+    spec.worldbody.add_camera(name="overview", pos=[0.5, -0.5, 0.5], xyaxes=_look_at([0.5, -0.5, 0.5], [0, 0, 0.1]))
+    spec.worldbody.add_camera(name="closeup", pos=[0.17, -0.22, 0.16],
+                              xyaxes=_look_at([0.17, -0.22, 0.16], [0, 0, 0.02]))
+
+
+def _look_at(pos, target) -> list[float]:
+    """MuJoCo camera ``xyaxes`` looking from ``pos`` at ``target`` with world z up."""
+    back = np.asarray(pos, float) - np.asarray(target, float)
+    back /= np.linalg.norm(back)
+    right = np.cross([0.0, 0.0, 1.0], back)
+    right /= np.linalg.norm(right)
+    up = np.cross(back, right)
+    return [*right, *up]
 
 
 def unique_body_names(objects: Sequence[ObjectSpec]) -> list[str]:

@@ -1,0 +1,96 @@
+"""``aas_gym/AcousticGrasp-v0``: reach, grasp and sense an object with the floating hand."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+from gymnasium import spaces
+
+from aas_gym.envs.base import HOME_TCP, AasEnv
+
+# Largest TCP change per env step (action 1): 10 mm, 0.05 rad.
+MAX_DELTA = np.array([0.01, 0.01, 0.01, 0.05])
+
+
+class AcousticGraspEnv(AasEnv):
+    """Reach, grasp and sense one object (single-object scene) or one object touched by
+    others (``scene="multi"``).
+
+    Action (Box, 6, in [-1, 1]): TCP delta x, y, z, yaw (scaled by 10 mm / 0.05 rad), gripper
+    (> 0 open, <= 0 close with the grip force), sense (> 0 records ``duration_s`` of the
+    excitation through the current grasp at the end of this step).
+
+    Observation (Dict): ``tcp`` (x, y, z [m], yaw [rad]), ``tcp_velocity``, ``gripper``
+    (opening [m], opening speed [m/s], motor force [N]), ``object`` (target position [m] and
+    quaternion), ``acoustic`` (140-d features of the latest recording, zeros before the first),
+    ``waveform`` (its raw samples, with ``include_waveform=True``).
+
+    Reward: minus the TCP-object distance [m], +1 while both sensor fingertips press the
+    object, +10 for a recording of the grasped object, which ends the episode (success).
+    ``sense_mode="every_step"`` records every step, ``"never"`` never (pure control).
+    """
+
+    def __init__(self, objects=("aluminium_bar",), *, sense_mode: str = "action", **kwargs) -> None:
+        super().__init__(objects, **kwargs)
+        if sense_mode not in ("action", "every_step", "never"):
+            raise ValueError(f"sense_mode must be 'action', 'every_step' or 'never', got {sense_mode!r}")
+        self.sense_mode = sense_mode
+        self.action_space = spaces.Box(-1.0, 1.0, (6,), np.float32)
+        obs = self._proprio_spaces()
+        obs["object"] = spaces.Box(-np.inf, np.inf, (7,), np.float32)
+        obs.update(self._acoustic_spaces())
+        self.observation_space = spaces.Dict(obs)
+        self._last_acoustic = self._empty_acoustic()
+
+    def _obs(self) -> dict:
+        obs = self._proprio()
+        b = self._scene.body_ids[0]
+        obs["object"] = np.concatenate([self.data.xpos[b], self.data.xquat[b]]).astype(np.float32)
+        obs.update({k: v.copy() for k, v in self._last_acoustic.items()})
+        return obs
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        options = options or {}
+        target = self.objects[int(self.np_random.integers(len(self.objects)))]
+        if "object" in options:
+            from aas_gym.scene import get_object
+
+            target = get_object(options["object"])
+        self._get_scene(self._choose_objects(target))
+        self._place_objects()
+        self.hand.teleport(self.data, HOME_TCP, 0.08)
+        self.hand.set_grip_force(self._episode_grip_force())
+        self._randomize_sensor()
+        self._last_acoustic = self._empty_acoustic()
+        info = self._ground_truth(contacts=True)
+        info["grip_force_n"] = self.hand.grip_force_n
+        if self.render_mode == "human":
+            self.render()
+        return self._obs(), info
+
+    def step(self, action):
+        a = np.clip(np.asarray(action, dtype=np.float64).reshape(6), -1.0, 1.0)
+        hand, d = self.hand, self.data
+        target = d.ctrl[hand.tcp_actuators] + a[:4] * MAX_DELTA
+        hand.command(d, tcp=target, opening_m=0.08 if a[4] > 0 else 0.0)
+        mujoco.mj_step(self.model, d, nstep=self.frame_skip)
+        grasped = self._is_grasped()
+        b = self._scene.body_ids[0]
+        dist = float(np.linalg.norm(d.site_xpos[hand.tcp_site] - d.xpos[b]))
+        reward = -dist + (1.0 if grasped else 0.0)
+        terminated = False
+        info = {"grasped": grasped, "is_success": False}
+        sense = self.sense_mode == "every_step" or (self.sense_mode == "action" and a[5] > 0)
+        if sense:
+            acoustic, rec = self._sense()
+            self._last_acoustic = acoustic
+            info.update(self._ground_truth(contacts=True))
+            info["recording_grasped"] = bool(rec.metadata.get("grasped", False))
+            if grasped and info["recording_grasped"] and self.sense_mode == "action":
+                reward += 10.0
+                terminated = True
+                info["is_success"] = True
+        if self.render_mode == "human":
+            self.render()
+        return self._obs(), float(reward), terminated, False, info

@@ -1,0 +1,385 @@
+"""Shared machinery of the aas_gym environments: scenes per object set (built lazily and
+cached), object placement with random contacts, proprioception, sensing, rendering.
+
+Follows Gymnasium's MuJoCo-env conventions (``frame_skip``, ``dt``, ``render_mode`` in
+``human`` / ``rgb_array`` / ``depth_array``, ``width``/``height``/``camera_name``, renderer
+created on first ``render``) without depending on ``gymnasium.envs.mujoco`` (it needs
+imageio). All randomness comes from ``self.np_random``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from gymnasium import spaces
+
+from aas_gym.contacts import ContactStream
+from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
+from aas_gym.scene import DEFAULT_OBJECT_NAMES, ObjectSpec, build_scene, euler_to_quat, get_object
+from aas_gym.sim_sensor import SimAcousticSensor
+
+N_FEATURES = 140
+HOME_TCP = np.array([0.0, 0.0, 0.3, 0.0])
+EXCITATION_NAMES = ("impulse", "linear_sweep", "exponential_sweep")
+
+
+@dataclass(frozen=True)
+class DomainRandomization:
+    """Domain-randomization knobs; every draw uses the env's ``np_random`` (seeded by
+    ``reset(seed=...)``). Set a knob to 0 to switch it off (``DomainRandomization.off()``).
+
+    Attributes:
+        grip_force_rel: grip force drawn uniformly in ``F (1 +- grip_force_rel)``.
+        position_noise_m: std of the grasp point's error along the object axis.
+        placement_m: object centre drawn uniformly in ``+- placement_m`` on the table (x, y).
+        yaw_rad: object yaw drawn uniformly in ``+- yaw_rad``.
+        material_rel: Rayleigh and contact damping (alpha, beta, gamma) scaled by
+            ``1 +- material_rel`` per episode.
+        sensor_noise_std: std of additive microphone noise (units of the waveform).
+        leak_scale: leak recording scaled uniformly in this range (if a leak is given).
+    """
+
+    grip_force_rel: float = 0.05
+    position_noise_m: float = 0.0005
+    placement_m: float = 0.02
+    yaw_rad: float = 0.3
+    material_rel: float = 0.05
+    sensor_noise_std: float = 0.0
+    leak_scale: tuple[float, float] = (1.0, 1.0)
+
+    @classmethod
+    def off(cls) -> "DomainRandomization":
+        """No randomization at all (every reset gives the same scene)."""
+        return cls(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, (1.0, 1.0))
+
+    @classmethod
+    def coerce(cls, value) -> "DomainRandomization":
+        if value is None:
+            return cls()
+        if isinstance(value, cls):
+            return value
+        if isinstance(value, dict):
+            unknown = set(value) - set(asdict(cls()))
+            if unknown:
+                raise ValueError(f"unknown randomization knobs {sorted(unknown)}; known: {sorted(asdict(cls()))}")
+            return cls(**value)
+        if value is False:
+            return cls.off()
+        raise TypeError(f"randomization must be a DomainRandomization, a dict, None or False, got {value!r}")
+
+
+def resolve_excitation(excitation):
+    """A ``sensors.Excitation`` from an Excitation, a name or a ``to_dict`` dict."""
+    from sensors import Excitation
+
+    if isinstance(excitation, Excitation):
+        return excitation
+    if isinstance(excitation, str):
+        return Excitation.by_name(excitation)
+    if isinstance(excitation, dict):
+        return Excitation.from_dict(excitation)
+    raise TypeError(f"excitation must be a sensors.Excitation, a name {EXCITATION_NAMES} or a dict, got {excitation!r}")
+
+
+def _has_display() -> bool:
+    """Whether a window can be opened (macOS/Windows always; Linux needs X11 or Wayland)."""
+    import os
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+class _Scene:
+    """One compiled scene (model, data, hand, sensor) for a tuple of objects."""
+
+    def __init__(self, objects: tuple[ObjectSpec, ...]):
+        self.objects = objects
+        self.model = build_scene(list(objects))
+        self.data = mujoco.MjData(self.model)
+        self.hand = Hand(self.model)
+        self.sensor = SimAcousticSensor(self.model, self.data, on_no_grasp="silence")
+        self.bodies = self.sensor.bodies
+        self.stream: ContactStream = self.sensor.stream
+        self.body_ids = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, b) for b in self.bodies]
+        self.free_qpos = [int(self.model.jnt_qposadr[self.model.body_jntadr[b]]) for b in self.body_ids]
+        self.free_qvel = [int(self.model.jnt_dofadr[self.model.body_jntadr[b]]) for b in self.body_ids]
+        # Geoms of each fingertip, for the cheap vectorized "is grasped" test of every step.
+        act_body = self.model.site_bodyid[self.hand.actuator_site]
+        mic_body = self.model.site_bodyid[self.hand.mic_site]
+        self.act_geoms = np.flatnonzero(self.model.geom_bodyid == act_body)
+        self.mic_geoms = np.flatnonzero(self.model.geom_bodyid == mic_body)
+        self.body_geoms = [np.flatnonzero(self.model.geom_bodyid == b) for b in self.body_ids]
+
+
+class AasEnv(gym.Env):
+    """Base class: not registered. Subclasses define spaces, ``reset`` and ``step``."""
+
+    metadata = {"render_modes": ["human", "rgb_array", "depth_array"], "render_fps": 50}
+    MAX_CACHED_SCENES = 8
+    #: Distractors only at the target's -x end (tasks that grasp on the +x half).
+    _far_end_only = False
+
+    def __init__(self, objects: Sequence[str | ObjectSpec] = DEFAULT_OBJECT_NAMES, *,
+                 scene: str = "single", distractors: Sequence[str | ObjectSpec] | None = None,
+                 excitation="linear_sweep", duration_s: float = 1.0,
+                 grip_force_n: float = DEFAULT_GRIP_FORCE_N, include_waveform: bool = False,
+                 randomization=None, frame_skip: int = 10, render_mode: str | None = None,
+                 width: int = 480, height: int = 480, camera_name: str = "closeup") -> None:
+        self.objects = [get_object(o) for o in objects]
+        if not self.objects:
+            raise ValueError("objects must name at least one object")
+        if scene not in ("single", "multi"):
+            raise ValueError(f"scene must be 'single' or 'multi', got {scene!r}")
+        self.scene_kind = scene
+        # Default distractors: the paper's bars (a leaning tube rolls away before it settles).
+        self.distractors = [get_object(o) for o in (distractors if distractors is not None else
+                                                    [n for n in DEFAULT_OBJECT_NAMES if n.endswith("_bar")])]
+        self.excitation = resolve_excitation(excitation)
+        self.duration_s = float(duration_s)
+        if not (self.duration_s >= self.excitation.period_s):
+            raise ValueError(f"duration_s must be at least one excitation period ({self.excitation.period_s} s)")
+        if not 0 < grip_force_n <= 140:
+            raise ValueError(f"grip_force_n must be in (0, 140] N, got {grip_force_n}")
+        self.grip_force_n = float(grip_force_n)
+        self.include_waveform = bool(include_waveform)
+        self.randomization = DomainRandomization.coerce(randomization)
+        self.frame_skip = int(frame_skip)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        self.render_mode = render_mode
+        self.width, self.height, self.camera_name = int(width), int(height), camera_name
+        self._scenes: OrderedDict[tuple, _Scene] = OrderedDict()
+        self._renderer = None
+        self._viewer = None
+        self._warned_no_display = False
+        self._scene: _Scene = self._get_scene((self.objects[0],))
+        self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self.dt)))
+        self.n_samples = int(round(self.duration_s * self.excitation.fs))
+
+    # --- scenes -----------------------------------------------------------------------------
+    def _get_scene(self, objects: tuple[ObjectSpec, ...]) -> _Scene:
+        if objects in self._scenes:
+            self._scenes.move_to_end(objects)
+        else:
+            self._scenes[objects] = _Scene(objects)
+            while len(self._scenes) > self.MAX_CACHED_SCENES:
+                self._scenes.popitem(last=False)
+        scene = self._scenes[objects]
+        if scene is not getattr(self, "_scene", None):
+            self._close_renderers()  # renderers are bound to one model
+        self._scene = scene
+        return scene
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        return self._scene.model
+
+    @property
+    def data(self) -> mujoco.MjData:
+        return self._scene.data
+
+    @property
+    def hand(self) -> Hand:
+        return self._scene.hand
+
+    @property
+    def sensor(self) -> SimAcousticSensor:
+        return self._scene.sensor
+
+    @property
+    def dt(self) -> float:
+        return self._scene.model.opt.timestep * self.frame_skip
+
+    def _choose_objects(self, target: ObjectSpec) -> tuple[ObjectSpec, ...]:
+        """Target first, then distractors for multi-object scenes (1 or 2, random)."""
+        if self.scene_kind == "single":
+            return (target,)
+        pool = [d for d in self.distractors if d != target] or self.distractors
+        k = 1 if self._far_end_only else int(self.np_random.integers(1, 3))  # one per target end
+        picks = self.np_random.choice(len(pool), size=min(k, len(pool)), replace=False)
+        return (target,) + tuple(pool[int(i)] for i in sorted(picks))
+
+    # --- placement --------------------------------------------------------------------------
+    def _place_objects(self, settle_s: float = 0.4) -> None:
+        """Reset the data, put the hand home (open), the target on the table with random pose,
+        distractors lying across one end of the target (random contacts), then let it settle.
+        ``self._far_end_only`` keeps distractors on the target's -x end (grasps on the +x half)."""
+        far_end_only = self._far_end_only
+        sc, m, d, r = self._scene, self._scene.model, self._scene.data, self.randomization
+        mujoco.mj_resetData(m, d)
+        sc.hand.set_grip_force(self.grip_force_n)
+        sc.hand.teleport(d, HOME_TCP, 0.08)
+        rng = self.np_random
+        target = sc.objects[0]
+        xy = rng.uniform(-r.placement_m, r.placement_m, 2) if r.placement_m > 0 else np.zeros(2)
+        yaw = float(rng.uniform(-r.yaw_rad, r.yaw_rad)) if r.yaw_rad > 0 else 0.0
+        self._set_free_pose(0, [xy[0], xy[1], target.half_extents_m[2]], euler_to_quat(yaw))
+        axis = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+        across = np.array([-axis[1], axis[0], 0.0])
+        top = 2 * target.half_extents_m[2]
+        ends = [-1.0] if far_end_only else ([-1.0, 1.0] if rng.random() < 0.5 else [1.0, -1.0])
+        for i, obj in enumerate(sc.objects[1:], start=1):
+            end = ends[(i - 1) % len(ends)]
+            # Crossing point near one end of the target, clear of the grasp region.
+            u = end * rng.uniform(0.072, 0.088) * target.length_m / 0.2
+            angle = rng.uniform(math.radians(60), math.radians(120)) * (1 if rng.random() < 0.5 else -1)
+            direction = math.cos(angle) * axis + math.sin(angle) * across
+            dyaw = math.atan2(direction[1], direction[0])
+            # Centre beyond the target: the distractor leans with its bottom face on the
+            # target's top and its far end on the table (its analytic rest pose; settling
+            # then only removes small overlaps).
+            side = rng.uniform(0.03, 0.06) * obj.length_m / 0.2
+            half_len, half_h = obj.length_m / 2, obj.half_extents_m[2]
+            pitch = math.atan2(top, half_len + side)
+            bottom = top * half_len / (half_len + side)
+            centre = np.array([xy[0], xy[1], 0.0]) + axis * u + direction * (side + half_h * math.sin(pitch))
+            centre[2] = bottom + half_h * math.cos(pitch) + 0.0003
+            self._set_free_pose(i, centre, euler_to_quat(dyaw, pitch))
+        mujoco.mj_forward(m, d)
+        mujoco.mj_step(m, d, nstep=max(1, int(settle_s / m.opt.timestep)))
+
+    def _set_free_pose(self, index: int, pos, quat) -> None:
+        a, v = self._scene.free_qpos[index], self._scene.free_qvel[index]
+        self.data.qpos[a:a + 3] = pos
+        self.data.qpos[a + 3:a + 7] = quat
+        self.data.qvel[v:v + 6] = 0.0
+
+    def _episode_grip_force(self) -> float:
+        r = self.randomization.grip_force_rel
+        f = self.grip_force_n * (1 + self.np_random.uniform(-r, r)) if r > 0 else self.grip_force_n
+        return float(np.clip(f, 1.0, 140.0))
+
+    def _randomize_sensor(self) -> None:
+        """Per-episode sensor randomization (noise, leak scale, damping scale)."""
+        r = self.randomization
+        sensor = self.sensor
+        sensor.rng = self.np_random
+        sensor.noise_std = r.sensor_noise_std
+        self._damping_scale = (float(self.np_random.uniform(1 - r.material_rel, 1 + r.material_rel))
+                               if r.material_rel > 0 else 1.0)
+        sensor.damping_scale = self._damping_scale
+        lo, hi = r.leak_scale
+        sensor.leak_scale = float(self.np_random.uniform(lo, hi)) if hi > lo else float(lo)
+
+    def _grasp(self, position_m: float, grip_force_n: float) -> dict:
+        """Scripted planar grasp of the target at ``position_m`` (+ noise) along its axis."""
+        r = self.randomization
+        noise = float(self.np_random.normal(0.0, r.position_noise_m)) if r.position_noise_m > 0 else 0.0
+        release(self.model, self.data, self.hand, retreat_m=0.0, duration_s=0.06)
+        result = planar_grasp(self.model, self.data, self._scene.bodies[0], position_m + noise, grip_force_n,
+                              hand=self.hand, stream=self._scene.stream)
+        return {"grasp_position_m": position_m + noise, "grasp_success": result.success,
+                "grip_force_n": grip_force_n}
+
+    # --- observation parts ------------------------------------------------------------------
+    def _proprio_spaces(self) -> dict:
+        inf = np.inf
+        return {
+            "tcp": spaces.Box(-inf, inf, (4,), np.float32),
+            "tcp_velocity": spaces.Box(-inf, inf, (4,), np.float32),
+            "gripper": spaces.Box(-inf, inf, (3,), np.float32),
+        }
+
+    def _acoustic_spaces(self) -> dict:
+        out = {"acoustic": spaces.Box(0.0, np.inf, (N_FEATURES,), np.float32)}
+        if self.include_waveform:
+            out["waveform"] = spaces.Box(-np.inf, np.inf, (self.n_samples,), np.float32)
+        return out
+
+    def _proprio(self) -> dict:
+        """TCP pose/velocity, and gripper opening [m], opening speed [m/s], motor force [N]
+        (what the real hand reports; no contact sensing needed)."""
+        sc, d = self._scene, self._scene.data
+        return {
+            "tcp": d.qpos[sc.hand.tcp_qpos].astype(np.float32),
+            "tcp_velocity": d.qvel[sc.hand.tcp_qvel].astype(np.float32),
+            "gripper": np.array([d.qpos[sc.hand.finger_qpos].sum(), d.qvel[sc.hand.finger_qvel].sum(),
+                                 -d.actuator_force[sc.hand.gripper_actuator]], dtype=np.float32),
+        }
+
+    def _sense(self, excitation=None) -> tuple[dict, object]:
+        """Record through the current grasp: observation entries and the AcousticObservation."""
+        excitation = self.excitation if excitation is None else excitation
+        rec = self.sensor.sense(excitation, self.duration_s)
+        out = {"acoustic": np.asarray(rec.features(), dtype=np.float32)}
+        if self.include_waveform:
+            w = np.zeros(self.n_samples, np.float32)
+            n = min(self.n_samples, rec.waveform.size)
+            w[:n] = rec.waveform[:n]
+            out["waveform"] = w
+        return out, rec
+
+    def _empty_acoustic(self) -> dict:
+        out = {"acoustic": np.zeros(N_FEATURES, np.float32)}
+        if self.include_waveform:
+            out["waveform"] = np.zeros(self.n_samples, np.float32)
+        return out
+
+    def _is_grasped(self, index: int = 0) -> bool:
+        """Both sensor fingertips touch object ``index`` (vectorized over the contact list)."""
+        d, sc = self.data, self._scene
+        if d.ncon == 0:
+            return False
+        g = np.asarray(d.contact.geom)[:d.ncon]
+        obj = np.isin(g, sc.body_geoms[index])
+        other = np.where(obj[:, 0], g[:, 1], np.where(obj[:, 1], g[:, 0], -1))
+        return bool(np.isin(sc.act_geoms, other).any() and np.isin(sc.mic_geoms, other).any())
+
+    def _ground_truth(self, contacts: bool = True) -> dict:
+        sc = self._scene
+        target = sc.objects[0]
+        info = {"label": target.label, "material": target.material, "shape": target.shape,
+                "object_body": sc.bodies[0], "objects": [o.label for o in sc.objects],
+                "object_pose": np.concatenate([self.data.xpos[sc.body_ids[0]],
+                                               self.data.xquat[sc.body_ids[0]]]).astype(np.float64)}
+        if contacts:
+            info["contacts"] = {b: c.as_dict() for b, c in sc.stream.read(self.data).items()}
+        return info
+
+    # --- rendering --------------------------------------------------------------------------
+    def render(self):
+        """``rgb_array``: (height, width, 3) uint8; ``depth_array``: (height, width) float32
+        metres; ``human``: updates a passive viewer window (needs a display)."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to gym.make")
+            return None
+        if self.render_mode == "human":
+            if self._viewer is None:
+                if not _has_display():
+                    # MuJoCo aborts the process when GLFW cannot open a window: do not try.
+                    if not self._warned_no_display:
+                        gym.logger.warn("render_mode='human' but no display (DISPLAY/WAYLAND_DISPLAY unset): "
+                                        "nothing is shown; use render_mode='rgb_array' headless")
+                        self._warned_no_display = True
+                    return None
+                from mujoco import viewer as mj_viewer
+
+                self._viewer = mj_viewer.launch_passive(self.model, self.data)
+            self._viewer.sync()
+            return None
+        if self._renderer is None:
+            self._renderer = mujoco.Renderer(self.model, self.height, self.width)
+        if self.render_mode == "depth_array":
+            self._renderer.enable_depth_rendering()
+        self._renderer.update_scene(self.data, camera=self.camera_name)
+        return self._renderer.render()
+
+    def _close_renderers(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        if self._viewer is not None:
+            self._viewer.close()
+            self._viewer = None
+
+    def close(self) -> None:
+        self._close_renderers()
+        super().close()

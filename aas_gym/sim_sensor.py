@@ -1,0 +1,185 @@
+"""``SimAcousticSensor``: the simulated active acoustic sensor on any MuJoCo model.
+
+The sensor needs two sites (default ``aas_actuator`` and ``aas_mic``, on the bodies of the
+fingertips carrying the exciter and the microphone) and, for every object it may sense, a
+shape and material: given explicitly as ``objects={body: ObjectSpec | "<material>_<shape>" |
+sensors.ModalModel}``, or read from the ``aas_object:<body>`` custom texts our scenes carry.
+
+Nothing happens until ``sense`` is called: it then reads the contacts of the current MuJoCo
+state (the caller steps the simulation), finds the object pressed by both sensor fingertips,
+builds or loads its modal model (memory cache here, disk cache in ``sensors``) and runs
+``sensors.simulate_recording``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from aas_gym.contacts import ContactStream, ObjectContacts
+from aas_gym.scene import ObjectSpec, get_object, object_specs_from_model
+
+
+class SensorSitesError(ValueError):
+    """The model lacks the sensor's sites."""
+
+
+class NoGraspError(RuntimeError):
+    """No sensed object is pressed by both sensor fingertips: there is nothing to record."""
+
+
+class SimAcousticSensor:
+    """Simulated ``sensors.AcousticSensor`` reading contacts from a MuJoCo model.
+
+    Args:
+        model, data: the MuJoCo model and the data the caller steps.
+        objects: body name -> ``ObjectSpec``, object name (``"wood_bar"``) or a ready
+            ``sensors.ModalModel``. ``None`` reads the model's ``aas_object:`` descriptions.
+        actuator_site, mic_site: names of the sensor sites.
+        fingertip: ``sensors`` fingertip (lumped actuator) model passed to the synthesis.
+        leak: leak recording(s) passed to the synthesis.
+        noise_std: std of additive microphone noise.
+        seed: seed of the noise generator (``rng`` wins if given).
+        rng: ``numpy.random.Generator`` for the noise (an env passes its ``np_random``).
+        min_force_n: contacts carrying less force are ignored (resting, touching-only).
+        on_no_grasp: ``"raise"`` (``NoGraspError``) or ``"silence"``: return what the
+            microphone records with nothing in the hand (noise only).
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData,
+                 objects: Mapping[str, Any] | None = None, *, actuator_site: str = "aas_actuator",
+                 mic_site: str = "aas_mic", fingertip=None, leak=None, noise_std: float = 0.0,
+                 seed: int | None = None, rng: np.random.Generator | None = None,
+                 min_force_n: float = 1e-3, on_no_grasp: str = "raise") -> None:
+        missing = [s for s in (actuator_site, mic_site)
+                   if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, s) < 0]
+        if missing:
+            raise SensorSitesError(
+                f"model has no site(s) {missing}: the acoustic sensor needs a site on the actuator "
+                f"fingertip ({actuator_site!r}) and one on the microphone fingertip ({mic_site!r})")
+        if on_no_grasp not in ("raise", "silence"):
+            raise ValueError(f"on_no_grasp must be 'raise' or 'silence', got {on_no_grasp!r}")
+        if not (np.isfinite(noise_std) and noise_std >= 0):
+            raise ValueError(f"noise_std must be >= 0, got {noise_std!r}")
+        self.model, self.data = model, data
+        if objects is None:
+            objects = object_specs_from_model(model)
+            if not objects:
+                raise ValueError("no objects given and the model describes none (no 'aas_object:<body>' "
+                                 "custom texts): pass objects={body_name: ObjectSpec or '<material>_<shape>'}")
+        self._specs: dict[str, ObjectSpec | None] = {}
+        self._modal: dict[str, Any] = {}
+        for body, desc in objects.items():
+            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body) < 0:
+                raise ValueError(f"model has no body named {body!r} (objects must map body names)")
+            if isinstance(desc, (str, ObjectSpec)):
+                self._specs[body] = get_object(desc)
+            elif hasattr(desc, "mode_shapes_at") and hasattr(desc, "frequencies_hz"):
+                self._specs[body] = None
+                self._modal[body] = desc
+            else:
+                raise TypeError(f"object {body!r}: expected an ObjectSpec, an object name or a "
+                                f"sensors.ModalModel, got {type(desc).__name__}")
+        self.actuator_site, self.mic_site = actuator_site, mic_site
+        self.fingertip, self.leak = fingertip, leak
+        self.noise_std = float(noise_std)
+        self.rng = rng if rng is not None else np.random.default_rng(seed)
+        self.min_force_n = float(min_force_n)
+        self.on_no_grasp = on_no_grasp
+        self.stream = ContactStream(model, list(self._specs), actuator_site, mic_site)
+
+    @property
+    def bodies(self) -> list[str]:
+        """Names of the bodies this sensor can sense."""
+        return list(self._specs)
+
+    def object_spec(self, body: str) -> ObjectSpec | None:
+        """Shape and material of ``body`` (``None`` if it was given as a ready modal model)."""
+        return self._specs[body]
+
+    def modal_model(self, body: str):
+        """The ``sensors.ModalModel`` of ``body``, built or loaded on first use."""
+        if body not in self._modal:
+            spec = self._specs.get(body)
+            if spec is None:
+                raise KeyError(f"{body!r} is not an object of this sensor; known: {self.bodies}")
+            self._modal[body] = spec.modal_model()
+        return self._modal[body]
+
+    def contacts(self) -> dict[str, ObjectContacts]:
+        """The contact datastream of the sensed objects in the current state."""
+        return self.stream.read(self.data)
+
+    def grasped_body(self, contacts: Mapping[str, ObjectContacts] | None = None) -> str | None:
+        """The object pressed by both sensor fingertips (the one with the larger grip if
+        several), or ``None``."""
+        contacts = self.contacts() if contacts is None else contacts
+        best, best_force = None, 0.0
+        for body, c in contacts.items():
+            fa, fm = c.total_normal_force_n("actuator"), c.total_normal_force_n("mic")
+            if fa > self.min_force_n and fm > self.min_force_n and min(fa, fm) > best_force:
+                best, best_force = body, min(fa, fm)
+        return best
+
+    def grasp_contacts(self, contacts: Mapping[str, ObjectContacts] | None = None):
+        """``(body, actuator_contact, mic_contact, other_contacts)`` as ``sensors.Contact``
+        in the grasped object's frame; raises ``NoGraspError`` if nothing is grasped."""
+        from sensors.contact import Contact
+
+        contacts = self.contacts() if contacts is None else contacts
+        body = self.grasped_body(contacts)
+        if body is None:
+            touching = {b: sorted(set(c.kinds.tolist())) for b, c in contacts.items() if len(c)}
+            raise NoGraspError(
+                "no object is pressed by both the actuator fingertip (site "
+                f"{self.actuator_site!r}) and the microphone fingertip ({self.mic_site!r}); "
+                f"current object contacts by kind: {touching or 'none'}")
+        c = contacts[body]
+        merged = {}
+        for kind in ("actuator", "mic"):
+            point, normal, force, mu = c.merged(kind)
+            merged[kind] = Contact(position_m=point, normal=normal, force_n=force, friction=mu)
+        others = c.select(~np.isin(c.kinds, ("actuator", "mic"))).to_sensor_contacts(self.min_force_n)
+        return body, merged["actuator"], merged["mic"], others
+
+    def sense(self, excitation, duration_s: float = 1.0):
+        """Play ``excitation`` (a ``sensors.Excitation`` or its name) for ``duration_s`` seconds
+        through the current grasp and return the ``sensors.AcousticObservation``.
+
+        The grasp is taken as constant during the recording (the paper records a static grasp).
+        """
+        import sensors
+        from sensors import AcousticObservation, Excitation
+
+        if isinstance(excitation, str):
+            excitation = Excitation.by_name(excitation)
+        if not isinstance(excitation, Excitation):
+            raise TypeError(f"excitation must be a sensors.Excitation or a name, got {type(excitation).__name__}")
+        duration_s = float(duration_s)
+        if not (np.isfinite(duration_s) and duration_s > 0):
+            raise ValueError(f"duration_s must be > 0, got {duration_s!r}")
+        contacts = self.contacts()
+        try:
+            body, act, mic, others = self.grasp_contacts(contacts)
+        except NoGraspError:
+            if self.on_no_grasp == "raise":
+                raise
+            n = int(round(duration_s * excitation.fs))
+            noise = self.rng.normal(0.0, self.noise_std, n) if self.noise_std > 0 else np.zeros(n)
+            return AcousticObservation(noise.astype(np.float32), excitation.fs, excitation,
+                                       metadata={"source": "sim", "grasped": False})
+        obs = sensors.simulate_recording(
+            self.modal_model(body), excitation, duration_s, act, mic, other_contacts=others,
+            fingertip=self.fingertip, leak=self.leak, noise_std=self.noise_std, rng=self.rng)
+        spec = self._specs.get(body)
+        obs.metadata.update({
+            "source": "sim", "grasped": True, "object_body": body,
+            "material": spec.material if spec else None, "shape": spec.shape if spec else None,
+            "label": spec.label if spec else None,
+            "actuator_contact": act.to_dict(), "mic_contact": mic.to_dict(),
+            "other_contacts": [o.to_dict() for o in others],
+        })
+        return obs
