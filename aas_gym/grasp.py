@@ -180,6 +180,7 @@ def planar_grasp(model: mujoco.MjModel, data: mujoco.MjData, body: str, position
     """
     hand = hand or Hand(model)
     hand.set_grip_force(grip_force_n)
+    mujoco.mj_forward(model, data)  # poses of a fresh or edited state
     tcp, width = grasp_pose(model, data, body, position_m, height_offset_m)
     if width + 2 * clearance_m > MAX_OPENING_M:
         if width >= MAX_OPENING_M:
