@@ -11,3 +11,6 @@ from .transformers import SpectralFeatures
 from .contact import Contact
 from .damping import modal_damping_matrix
 from .synthesis import ModalSystem, modal_response, periodic_response
+from .fingertip import FingertipModel
+from .leak import LeakRecording, align_leak, load_leak, save_leak
+from .recording import simulate_recording

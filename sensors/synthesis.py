@@ -588,7 +588,13 @@ def _build_parts(su: _Setup, method: str, output: str, T: float, hold: str):
         su = _Setup(su.w, np.diag(np.diag(su.C)), su.b, su.o)
         return _diagonal_parts(su, output, T, hold)
     A, B, Cout, D = _state_matrices(su, output)
-    idx = np.arange(2 * r)
+    return _lti_parts(A, B, Cout, D, T, hold)
+
+
+def _lti_parts(A, B, Cout, D, T, hold):
+    """Complex-mode part of x' = A x + B u, y = Cout x + D u, or the dense part if the
+    eigenvector matrix is ill-conditioned (defective or nearly repeated eigenvalues)."""
+    idx = np.arange(A.shape[0])
     lam, V = sla.eig(A, check_finite=False, overwrite_a=False)
     V = V / np.linalg.norm(V, axis=0)
     lu, piv = sla.lu_factor(V, check_finite=False)
@@ -597,7 +603,7 @@ def _build_parts(su: _Setup, method: str, output: str, T: float, hold: str):
     if not np.isfinite(rcond) or rcond * _MAX_EIGVEC_COND < 1.0:
         return [_DensePart(idx, A, B, Cout, D, T, hold)]
     keep = lam.imag >= 0
-    Vinv = sla.lu_solve((lu, piv), np.eye(2 * r), check_finite=False)[keep]
+    Vinv = sla.lu_solve((lu, piv), np.eye(A.shape[0]), check_finite=False)[keep]
     return [_EigenPart(idx, lam[keep], V[:, keep], Vinv, B, Cout, D, T, hold)]
 
 
@@ -642,6 +648,18 @@ def _diagonal_parts(su: _Setup, output: str, T: float, hold: str):
 # ----------------------------------------------------------------------------------------
 # public functions
 # ----------------------------------------------------------------------------------------
+
+def lti_system(A, B, Cout, D, fs: float, hold: str = "foh") -> "ModalSystem":
+    """Exact discretisation of a small LTI system x' = A x + B u, y = Cout x + D u (even
+    state size) with the same machinery (used by the fingertip model)."""
+    A = np.asarray(A, dtype=float)
+    n = A.shape[0]
+    if n % 2:
+        raise ValueError("lti_system needs an even state size")
+    parts = _lti_parts(A, np.asarray(B, float).reshape(n), np.asarray(Cout, float).reshape(n),
+                       float(D), 1.0 / float(fs), hold)
+    return ModalSystem(parts, n // 2, np.arange(n // 2), fs, hold)
+
 
 def _schedule(contacts, fs: float, n: int):
     """[(start_sample, [Contact...]), ...] from a contact list or a (time_s, contacts) list."""

@@ -1,0 +1,121 @@
+"""Actuator-to-microphone leak through the gripper body.
+
+On the rig the exciter's vibration also reaches the piezo through the hand itself.  It is
+recorded once per excitation with the gripper idle (nothing grasped) and stored as an .npz
+file with:
+
+- ``waveform``: float32 (n,), the microphone recording (full scale 1, same units as the
+  observation waveform);
+- ``sample_rate_hz``: int;
+- ``excitation``: the excitation's ``to_dict()`` as a JSON string;
+- ``metadata``: JSON string (device, latency, date, ...; optional).
+
+``real`` writes this format with :func:`save_leak`; the simulator reads it with
+:func:`load_leak` and adds :func:`align_leak` 's output to the synthesized signal, shifted so
+that the excitation peak (the maximum of the cross-correlation with one excitation period)
+falls at the same sample in both signals.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.signal as ssig
+
+__all__ = ["LeakRecording", "save_leak", "load_leak", "excitation_lag", "align_leak"]
+
+
+@dataclass
+class LeakRecording:
+    """A leak recording: waveform (float32), sample rate, excitation dict, metadata."""
+
+    waveform: np.ndarray
+    sample_rate_hz: int
+    excitation: dict
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        w = np.asarray(self.waveform, dtype=np.float32)
+        if w.ndim != 1 or w.size == 0 or not np.all(np.isfinite(w)):
+            raise ValueError("leak waveform must be a non-empty finite 1-D array")
+        self.waveform = w
+        if int(self.sample_rate_hz) != self.sample_rate_hz or self.sample_rate_hz <= 0:
+            raise ValueError(f"sample_rate_hz must be a positive integer, got {self.sample_rate_hz!r}")
+        self.sample_rate_hz = int(self.sample_rate_hz)
+        if hasattr(self.excitation, "to_dict"):
+            self.excitation = self.excitation.to_dict()
+        self.excitation = dict(self.excitation)
+
+    def matches(self, excitation) -> bool:
+        """True if recorded with this excitation (same description)."""
+        d = excitation.to_dict() if hasattr(excitation, "to_dict") else dict(excitation)
+        return json.loads(json.dumps(d)) == json.loads(json.dumps(self.excitation))
+
+
+def save_leak(path: str | os.PathLike, waveform, sample_rate_hz: int, excitation,
+              metadata: dict | None = None) -> Path:
+    """Write a leak recording (``excitation``: a ``sensors.Excitation`` or its dict)."""
+    rec = LeakRecording(waveform, sample_rate_hz, excitation, dict(metadata or {}))
+    path = Path(path)
+    if path.suffix != ".npz":
+        path = path.with_suffix(".npz")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez(path, waveform=rec.waveform, sample_rate_hz=np.int64(rec.sample_rate_hz),
+             excitation=np.array(json.dumps(rec.excitation)), metadata=np.array(json.dumps(rec.metadata)))
+    return path
+
+
+def load_leak(path: str | os.PathLike) -> LeakRecording:
+    """Read a leak recording written by :func:`save_leak`."""
+    with np.load(path, allow_pickle=False) as z:
+        missing = {"waveform", "sample_rate_hz", "excitation"} - set(z.files)
+        if missing:
+            raise ValueError(f"{path}: not a leak recording (missing {sorted(missing)})")
+        meta = json.loads(str(z["metadata"])) if "metadata" in z.files else {}
+        return LeakRecording(z["waveform"], int(z["sample_rate_hz"]), json.loads(str(z["excitation"])), meta)
+
+
+def excitation_lag(signal, excitation_period, max_lag: int | None = None) -> int:
+    """Sample at which the excitation sits in ``signal``: argmax over lags 0..max_lag of
+    |cross-correlation| with one excitation period (polarity does not matter)."""
+    x = np.asarray(signal, dtype=float)
+    e = np.asarray(excitation_period, dtype=float)
+    if max_lag is None:
+        max_lag = len(e) - 1
+    max_lag = int(min(max_lag, len(x) - 1))
+    if not np.any(e) or not np.any(x):
+        return 0
+    # c[k] = sum_n x[n + k] e[n]
+    c = ssig.fftconvolve(x, e[::-1])[len(e) - 1: len(e) + max_lag]
+    return int(np.argmax(np.abs(c)))
+
+
+def align_leak(leak: LeakRecording, excitation, n_samples: int, target_lag: int = 0) -> np.ndarray:
+    """The leak shifted so its excitation peak falls at ``target_lag``, ``n_samples`` long.
+
+    The leak was recorded under the looping excitation, so it is periodic with the
+    excitation period; where the shifted recording does not cover the output it is extended
+    by whole periods.
+    """
+    if leak.sample_rate_hz != excitation.fs:
+        raise ValueError(f"leak recorded at {leak.sample_rate_hz} Hz, excitation at {excitation.fs} Hz")
+    if not leak.matches(excitation):
+        raise ValueError(f"leak was recorded for {leak.excitation.get('kind')!r}, not for this excitation "
+                         f"{excitation.to_dict().get('kind')!r} (settings differ)")
+    P = excitation.period_samples
+    w = leak.waveform.astype(float)
+    if len(w) < P:
+        raise ValueError(f"leak recording ({len(w)} samples) is shorter than one excitation period ({P})")
+    lag = excitation_lag(w, excitation.signal, max_lag=min(P - 1, len(w) - P))
+    start = lag - int(target_lag)
+    pos = start + np.arange(int(n_samples))
+    # periodic extension inside the recorded span [lo, hi) of whole periods
+    lo = lag % P
+    span = ((len(w) - lo) // P) * P
+    pos = lo + np.mod(pos - lo, span)
+    return w[pos]
