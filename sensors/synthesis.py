@@ -188,14 +188,14 @@ def modal_state_energy(x: np.ndarray) -> np.ndarray:
 class _EigenPart:
     """Complex-mode form: coordinates z (one eigenvalue per conjugate pair)."""
 
-    def __init__(self, idx, lam, V, Vinv, B, Cout, D, T, hold):
+    def __init__(self, idx, lam, V, Vinv, B, Cout, D, T, hold, g=None):
         # idx: indices into the global state; lam (K,), V (n, K), Vinv (K, n) for the kept
         # eigenvalues; conjugate partners folded by the weight w (2 for a pair, 1 if real).
         self.idx = idx
         self.lam = lam
         self.w = np.where(lam.imag > 0, 2.0, 1.0)
         self.V = V
-        self.Vinv = Vinv
+        self._vinv = Vinv  # array or _LazyInverseRows
         self.T = T
         x = lam * T
         self.a = np.exp(x)
@@ -204,11 +204,17 @@ class _EigenPart:
             self.b0, self.b1 = T * (phi1 - phi2), T * phi2
         else:
             self.b0, self.b1 = T * phi1, np.zeros_like(phi1)
-        self.g = Vinv @ B                   # input gain per eigen-coordinate
+        self.g = self.Vinv @ B if g is None else g  # input gain per eigen-coordinate
         self.co = self.w * (Cout @ V)       # output row (weight folded in)
         self.D = float(D)
         self.G0 = self.g * self.b0
         self.G1 = self.g * self.b1
+
+    @property
+    def Vinv(self):
+        if isinstance(self._vinv, _LazyInverseRows):
+            self._vinv = self._vinv.get()
+        return self._vinv
 
     # coordinates ------------------------------------------------------------------------
     def to_coords(self, x):
@@ -240,21 +246,28 @@ class _EigenPart:
 
     def power_sums(self, vs: np.ndarray, n: int) -> np.ndarray:
         """out[s, l] = Re(C Phi^l v_s), l < n, for coordinate vectors vs (S, K)."""
-        S = vs.shape[0]
-        out = np.zeros((S, n))
+        S, K = vs.shape
         L = self.decay_length(vs, n)
         if L == 0:
-            return out
+            return np.zeros((S, n))
         Bk, M = _block(L)
-        coef = vs * self.co                                           # (S, K)
+        coef = vs * self.co                                            # (S, K)
         aB = np.exp(self.lam * (self.T * Bk))
-        rows = coef[:, None, :] * _powers(aB, M).T[None]               # (S, M, K): a^(mB)
-        cols = _powers(self.a, Bk)                                      # (K, Bk): a^j
+        rows = coef[:, None, :] * _powers(aB, M).T[None]                # (S, M, K): c a^(mB)
+        cols = _powers(self.a, Bk)                                       # (K, Bk): a^j
         # Re(P Q) = Re P Re Q - Im P Im Q as one real matrix product
-        P = np.concatenate([rows.real, -rows.imag], axis=2).reshape(S * M, -1)
-        Q = np.concatenate([cols.real, cols.imag], axis=0)
-        out[:, :L] = (P @ Q).reshape(S, M * Bk)[:, :L]
-        return out
+        P = np.empty((S, M, 2 * K))
+        P[:, :, :K] = rows.real
+        np.negative(rows.imag, out=P[:, :, K:])
+        Q = np.empty((2 * K, Bk))
+        Q[:K] = cols.real
+        Q[K:] = cols.imag
+        out = (P.reshape(S * M, 2 * K) @ Q).reshape(S, M * Bk)
+        if L == n:
+            return out[:, :n]
+        full = np.zeros((S, n))
+        full[:, :L] = out[:, :L]
+        return full
 
     def propagate(self, z0, u: np.ndarray) -> np.ndarray:
         """Coordinates after len(u)-1 steps from z0 under the piecewise-linear force u."""
@@ -479,10 +492,12 @@ class ModalSystem:
             ps = p.power_sums(np.array(vecs), n)
             k = 0
             if has_u:
-                h = np.empty(n)
-                h[0] = p.direct()
-                h[1:] = ps[0, : n - 1]
-                y += _convolve(u, h[: _nonzero_length(h)], n)
+                # y[n] = direct u[n] + sum_l ps[0, l] u[n-1-l]  (h[0] = direct, h[l] = ps[l-1])
+                y += p.direct() * u
+                h = ps[0, : n - 1]
+                L = _nonzero_length(h)
+                if L:
+                    y[1:] += _convolve(u[: n - 1], h[:L], n - 1)
                 k = 1
                 if u[0] != 0:
                     y -= u[0] * ps[1]
@@ -603,8 +618,23 @@ def _lti_parts(A, B, Cout, D, T, hold):
     if not np.isfinite(rcond) or rcond * _MAX_EIGVEC_COND < 1.0:
         return [_DensePart(idx, A, B, Cout, D, T, hold)]
     keep = lam.imag >= 0
-    Vinv = sla.lu_solve((lu, piv), np.eye(A.shape[0]), check_finite=False)[keep]
-    return [_EigenPart(idx, lam[keep], V[:, keep], Vinv, B, Cout, D, T, hold)]
+    # only V^-1 B is needed for the response; the full inverse (state mapping) is lazy
+    g = sla.lu_solve((lu, piv), B.astype(complex), check_finite=False)[keep]
+    vinv = _LazyInverseRows(lu, piv, keep)
+    return [_EigenPart(idx, lam[keep], V[:, keep], vinv, B, Cout, D, T, hold, g=g)]
+
+
+class _LazyInverseRows:
+    """Rows ``keep`` of V^-1 from V's LU factors, computed on first use."""
+
+    def __init__(self, lu, piv, keep):
+        self.lu, self.piv, self.keep, self._rows = lu, piv, keep, None
+
+    def get(self):
+        if self._rows is None:
+            n = self.lu.shape[0]
+            self._rows = sla.lu_solve((self.lu, self.piv), np.eye(n), check_finite=False)[self.keep]
+        return self._rows
 
 
 def _diagonal_parts(su: _Setup, output: str, T: float, hold: str):
