@@ -17,6 +17,7 @@ lower its gain).
 from __future__ import annotations
 
 import os
+from collections import OrderedDict
 from typing import Sequence
 
 import numpy as np
@@ -26,7 +27,7 @@ from .excitation import Excitation
 from .fingertip import FingertipModel
 from .leak import LeakRecording, align_leak, excitation_lag, load_leak
 from .observation import AcousticObservation
-from .synthesis import ModalSystem, modal_response
+from .synthesis import ModalSystem
 
 __all__ = ["MIC_GAIN_PER_M", "mic_gain", "simulate_recording"]
 
@@ -103,15 +104,14 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
             fingertip = FingertipModel(**kw)
         contacts = [actuator_contact, mic_contact, *others]
         geom = (actuator_contact.position_m, actuator_contact.normal, mic_contact.position_m, mic_contact.normal)
+        sysm = _cached_system(model, fs, geom, contacts, method, output)
         if steady_state:
             force_p, info = _periodic_fingertip_force(fingertip, excitation)
-            sysm = ModalSystem.build(model, fs, *geom, contacts, method=method, output=output)
             y = np.resize(sysm.periodic_response(force_p), n)
-            meta["fingertip_separated"] = info["separated"]
         else:
             force, info = fingertip.contact_force(e, fs, return_info=True)
-            y = modal_response(model, force, fs, *geom, contacts, method=method, output=output)
-            meta["fingertip_separated"] = info["separated"]
+            y = sysm.response(force)
+        meta["fingertip_separated"] = info["separated"]
         meta["fingertip"] = {k: float(v) for k, v in fingertip.__dict__.items()}
     wave = mic_gain(output) * y
     if noise_std > 0:
@@ -126,6 +126,27 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
         wave = wave + align_leak(leak, excitation, n, target_lag=target)
         meta["leak_target_lag"] = int(target)
     return AcousticObservation(wave.astype(np.float32), fs, excitation, 0.0, meta)
+
+
+# The per-grasp set-up (damping matrix, eigen-decomposition) dominates a short recording;
+# the same grasp is typically sensed with several excitations, so keep the last few systems.
+_CACHE: "OrderedDict[tuple, tuple]" = OrderedDict()
+_CACHE_SIZE = 8
+
+
+def _cached_system(model, fs, geom, contacts, method, output) -> ModalSystem:
+    key = (id(model), float(fs), method, output,
+           np.concatenate([np.ravel(g) for g in geom]).tobytes(),
+           np.array([[*c.position_m, *c.normal, c.force_n, c.friction] for c in contacts]).tobytes())
+    hit = _CACHE.get(key)
+    if hit is not None and hit[0] is model:
+        _CACHE.move_to_end(key)
+        return hit[1]
+    sysm = ModalSystem.build(model, fs, *geom, contacts, method=method, output=output)
+    _CACHE[key] = (model, sysm)
+    while len(_CACHE) > _CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return sysm
 
 
 def _periodic_fingertip_force(fingertip: FingertipModel, excitation: Excitation):
