@@ -244,12 +244,12 @@ exact for the piecewise-linear force; ZOH shifts and attenuates the high band.
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
-        fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
-        for rw in rows:
-            if np.isfinite(rw["err"]):
-                ax[0].scatter(rw["rtf"], max(rw["err"], 1e-16), s=30)
-                ax[0].annotate(rw["name"].split(" (")[0][:38], (rw["rtf"], max(rw["err"], 1e-16)), fontsize=7,
-                               xytext=(4, 2), textcoords="offset points")
+        fig, ax = plt.subplots(1, 2, figsize=(13, 5))
+        markers = "osD^v<>pP*X"
+        for i, rw in enumerate(r_ for r_ in rows if np.isfinite(r_["err"])):
+            ax[0].scatter(rw["rtf"], max(rw["err"], 1e-16), s=40, marker=markers[i % len(markers)],
+                          label=rw["name"])
+        ax[0].legend(fontsize=7, loc="center left")
         ax[0].set_xscale("log")
         ax[0].set_yscale("log")
         ax[0].axvline(200, color="g", ls="--", lw=0.8)
@@ -260,6 +260,8 @@ exact for the piecewise-linear force; ZOH shifts and attenuates the high band.
         ax[1].loglog(rs, [s[1] for s in scaling], "o-", label="synthesis")
         ax[1].loglog(rs, [s[2] for s in scaling], "s-", label="incl. per-grasp set-up")
         ax[1].axhline(200, color="g", ls="--", lw=0.8)
+        ax[1].set_xticks(rs, [str(r_) for r_ in rs])
+        ax[1].minorticks_off()
         ax[1].set_xlabel("coupled modes")
         ax[1].set_ylabel("real-time factor")
         ax[1].legend()
