@@ -39,14 +39,19 @@ class SimAcousticSensor:
         objects: body name -> ``ObjectSpec``, object name (``"wood_bar"``) or a ready
             ``sensors.ModalModel``. ``None`` reads the model's ``aas_object:`` descriptions.
         actuator_site, mic_site: names of the sensor sites.
-        fingertip: ``sensors`` fingertip (lumped actuator) model passed to the synthesis.
-        leak: leak recording(s) passed to the synthesis.
+        fingertip: ``sensors.FingertipModel`` (lumped exciter/fingertip drive); its grip force
+            and object mass are replaced by the grasp's. ``None``: the synthesis default.
+        leak: ``sensors.LeakRecording`` or its .npz path, or a mapping excitation name ->
+            leak (the rig records one per excitation); added to every recording.
         noise_std: std of additive microphone noise.
         seed: seed of the noise generator (``rng`` wins if given).
         rng: ``numpy.random.Generator`` for the noise (an env passes its ``np_random``).
         min_force_n: contacts carrying less force are ignored (resting, touching-only).
         on_no_grasp: ``"raise"`` (``NoGraspError``) or ``"silence"``: return what the
-            microphone records with nothing in the hand (noise only).
+            microphone records with nothing in the hand (leak and noise only).
+
+    Domain randomization hooks (set by the environments per episode): ``damping_scale``
+    multiplies the material's Rayleigh and contact damping, ``leak_scale`` the leak.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData,
@@ -90,6 +95,8 @@ class SimAcousticSensor:
         self.min_force_n = float(min_force_n)
         self.on_no_grasp = on_no_grasp
         self.stream = ContactStream(model, list(self._specs), actuator_site, mic_site)
+        self.damping_scale = 1.0
+        self.leak_scale = 1.0
 
     @property
     def bodies(self) -> list[str]:
@@ -162,19 +169,27 @@ class SimAcousticSensor:
         if not (np.isfinite(duration_s) and duration_s > 0):
             raise ValueError(f"duration_s must be > 0, got {duration_s!r}")
         contacts = self.contacts()
+        leak = self._leak_for(excitation)
         try:
             body, act, mic, others = self.grasp_contacts(contacts)
         except NoGraspError:
             if self.on_no_grasp == "raise":
                 raise
-            n = int(round(duration_s * excitation.fs))
-            noise = self.rng.normal(0.0, self.noise_std, n) if self.noise_std > 0 else np.zeros(n)
-            return AcousticObservation(noise.astype(np.float32), excitation.fs, excitation,
-                                       metadata={"source": "sim", "grasped": False})
-        obs = sensors.simulate_recording(
-            self.modal_model(body), excitation, duration_s, act, mic, other_contacts=others,
-            fingertip=self.fingertip, leak=self.leak, noise_std=self.noise_std, rng=self.rng)
+            # Nothing between the fingertips: the microphone hears the leak and its noise.
+            obs = sensors.simulate_recording(None, excitation, duration_s, None, None, leak=leak,
+                                             noise_std=self.noise_std, rng=self.rng)
+            obs.metadata.update({"grasped": False})
+            return obs
         spec = self._specs.get(body)
+        fingertip = self.fingertip
+        if fingertip is not None:
+            changes = {"grip_force_n": act.force_n}
+            if spec is not None:
+                changes["object_mass_kg"] = spec.mass_kg
+            fingertip = fingertip.with_(**changes)
+        obs = sensors.simulate_recording(
+            self._scaled_model(body), excitation, duration_s, act, mic, other_contacts=others,
+            fingertip=fingertip, leak=leak, noise_std=self.noise_std, rng=self.rng)
         obs.metadata.update({
             "source": "sim", "grasped": True, "object_body": body,
             "material": spec.material if spec else None, "shape": spec.shape if spec else None,
@@ -183,3 +198,50 @@ class SimAcousticSensor:
             "other_contacts": [o.to_dict() for o in others],
         })
         return obs
+
+    def _leak_for(self, excitation):
+        """The leak recording for ``excitation`` (scaled by ``leak_scale``), or ``None``."""
+        from sensors import LeakRecording, load_leak
+
+        leak = self.leak
+        if leak is None:
+            return None
+        if isinstance(leak, Mapping):
+            leak = leak.get(excitation.kind, leak.get(excitation.name, None))
+            if leak is None:
+                return None
+        if not isinstance(leak, LeakRecording):
+            leak = load_leak(leak)
+        if self.leak_scale != 1.0:
+            leak = LeakRecording(leak.waveform * self.leak_scale, leak.sample_rate_hz, leak.excitation,
+                                 dict(leak.metadata))
+        return leak
+
+    def _scaled_model(self, body: str):
+        """The modal model of ``body`` with its damping scaled by ``damping_scale``."""
+        model = self.modal_model(body)
+        if self.damping_scale == 1.0:
+            return model
+        return scale_damping(model, self.damping_scale)
+
+
+def scale_damping(model, factor: float):
+    """``model`` seen with its material damping (alpha, beta, gamma) ``factor`` times larger:
+    same modes, different decay and contact damping (the synthesis reads ``model.material``)."""
+    import dataclasses
+
+    material = model.material
+    scaled = dataclasses.replace(material, alpha=material.alpha * factor, beta=material.beta * factor,
+                                 gamma=material.gamma * factor)
+    return _WithMaterial(model, scaled)
+
+
+class _WithMaterial:
+    """Delegates everything to a modal model except ``material``."""
+
+    def __init__(self, model, material) -> None:
+        self._model = model
+        self.material = material
+
+    def __getattr__(self, name: str):
+        return getattr(self._model, name)

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 from gymnasium import spaces
 
 from aas_gym.envs.base import HOME_TCP, AasEnv
 
-# Largest TCP change per env step (action 1): 10 mm, 0.05 rad.
+# Largest TCP change per env step (action 1, dt = 0.05 s): 10 mm, 0.05 rad.
 MAX_DELTA = np.array([0.01, 0.01, 0.01, 0.05])
 
 
@@ -43,9 +45,11 @@ class AcousticGraspEnv(AasEnv):
         self._last_acoustic = self._empty_acoustic()
 
     def _obs(self) -> dict:
-        obs = self._proprio()
-        b = self._scene.body_ids[0]
-        obs["object"] = np.concatenate([self.data.xpos[b], self.data.xquat[b]]).astype(np.float32)
+        obs, extra = self._proprio(7)
+        sc = self._scene
+        extra[0:3] = sc.xpos[sc.target_body]
+        extra[3:7] = sc.xquat[sc.target_body]
+        obs["object"] = extra
         obs.update({k: v.copy() for k, v in self._last_acoustic.items()})
         return obs
 
@@ -70,14 +74,17 @@ class AcousticGraspEnv(AasEnv):
         return self._obs(), info
 
     def step(self, action):
-        a = np.clip(np.asarray(action, dtype=np.float64).reshape(6), -1.0, 1.0)
-        hand, d = self.hand, self.data
-        target = d.ctrl[hand.tcp_actuators] + a[:4] * MAX_DELTA
-        hand.command(d, tcp=target, opening_m=0.08 if a[4] > 0 else 0.0)
-        mujoco.mj_step(self.model, d, nstep=self.frame_skip)
+        a = np.asarray(action, dtype=np.float64).reshape(6)
+        sc = self._scene
+        hand, ctrl = sc.hand, sc.ctrl
+        # Per-step code: plain ufuncs (np.clip's wrapper costs more than the arithmetic).
+        delta = np.minimum(np.maximum(a[:4], -1.0), 1.0) * MAX_DELTA
+        ctrl[sc.tcp_ctrl] = np.minimum(np.maximum(ctrl[sc.tcp_ctrl] + delta, hand.tcp_low), hand.tcp_high)
+        ctrl[sc.gripper] = 0.08 if a[4] > 0 else 0.0
+        mujoco.mj_step(sc.model, sc.data, nstep=self.frame_skip)
         grasped = self._is_grasped()
-        b = self._scene.body_ids[0]
-        dist = float(np.linalg.norm(d.site_xpos[hand.tcp_site] - d.xpos[b]))
+        delta = sc.site_xpos[sc.tcp_site] - sc.xpos[sc.target_body]
+        dist = math.sqrt(float(delta @ delta))
         reward = -dist + (1.0 if grasped else 0.0)
         terminated = False
         info = {"grasped": grasped, "is_success": False}

@@ -117,12 +117,37 @@ class _Scene:
         self.act_geoms = np.flatnonzero(self.model.geom_bodyid == act_body)
         self.mic_geoms = np.flatnonzero(self.model.geom_bodyid == mic_body)
         self.body_geoms = [np.flatnonzero(self.model.geom_bodyid == b) for b in self.body_ids]
+        # pair_role[g0, g1]: 1 = target object x actuator tip, 2 = target x mic tip, else 0.
+        ng = self.model.ngeom
+        self.pair_role = np.zeros((ng, ng), dtype=np.int8)
+        for tips, role in ((self.act_geoms, 1), (self.mic_geoms, 2)):
+            for g in self.body_geoms[0]:
+                self.pair_role[g, tips] = role
+                self.pair_role[tips, g] = role
+        # Views into the MjData arrays (their memory never moves): saves the per-access view
+        # creation of the mujoco bindings in the per-step code.
+        d = self.data
+        self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl
+        self.actuator_force, self.xpos, self.xquat, self.site_xpos = d.actuator_force, d.xpos, d.xquat, d.site_xpos
+        self.tcp_ctrl = slice(int(self.hand.tcp_actuators[0]), int(self.hand.tcp_actuators[0]) + 4) \
+            if np.array_equal(self.hand.tcp_actuators, np.arange(self.hand.tcp_actuators[0], self.hand.tcp_actuators[0] + 4)) \
+            else self.hand.tcp_actuators
+        self.f0, self.f1 = (int(i) for i in self.hand.finger_qpos)
+        self.v0, self.v1 = (int(i) for i in self.hand.finger_qvel)
+        self.gripper = int(self.hand.gripper_actuator)
+        self.target_body = int(self.body_ids[0])
+        self.tcp_site = int(self.hand.tcp_site)
+        tcp = self.hand.tcp_qpos
+        self.tcp_slice = slice(int(tcp[0]), int(tcp[0]) + 4) if np.array_equal(tcp, np.arange(tcp[0], tcp[0] + 4)) else tcp
+        tcpv = self.hand.tcp_qvel
+        self.tcpv_slice = slice(int(tcpv[0]), int(tcpv[0]) + 4) if np.array_equal(tcpv, np.arange(tcpv[0], tcpv[0] + 4)) else tcpv
 
 
 class AasEnv(gym.Env):
     """Base class: not registered. Subclasses define spaces, ``reset`` and ``step``."""
 
-    metadata = {"render_modes": ["human", "rgb_array", "depth_array"], "render_fps": 50}
+    # 20 Hz control (timestep 2 ms x frame_skip 25), like Gymnasium's Ant and HalfCheetah.
+    metadata = {"render_modes": ["human", "rgb_array", "depth_array"], "render_fps": 20}
     MAX_CACHED_SCENES = 8
     #: Distractors only at the target's -x end (tasks that grasp on the +x half).
     _far_end_only = False
@@ -131,7 +156,7 @@ class AasEnv(gym.Env):
                  scene: str = "single", distractors: Sequence[str | ObjectSpec] | None = None,
                  excitation="linear_sweep", duration_s: float = 1.0,
                  grip_force_n: float = DEFAULT_GRIP_FORCE_N, include_waveform: bool = False,
-                 randomization=None, frame_skip: int = 10, render_mode: str | None = None,
+                 randomization=None, frame_skip: int = 25, render_mode: str | None = None,
                  width: int = 480, height: int = 480, camera_name: str = "closeup") -> None:
         self.objects = [get_object(o) for o in objects]
         if not self.objects:
@@ -294,16 +319,20 @@ class AasEnv(gym.Env):
             out["waveform"] = spaces.Box(-np.inf, np.inf, (self.n_samples,), np.float32)
         return out
 
-    def _proprio(self) -> dict:
+    def _proprio(self, extra: int = 0) -> tuple[dict, np.ndarray]:
         """TCP pose/velocity, and gripper opening [m], opening speed [m/s], motor force [N]
-        (what the real hand reports; no contact sensing needed)."""
-        sc, d = self._scene, self._scene.data
-        return {
-            "tcp": d.qpos[sc.hand.tcp_qpos].astype(np.float32),
-            "tcp_velocity": d.qvel[sc.hand.tcp_qvel].astype(np.float32),
-            "gripper": np.array([d.qpos[sc.hand.finger_qpos].sum(), d.qvel[sc.hand.finger_qvel].sum(),
-                                 -d.actuator_force[sc.hand.gripper_actuator]], dtype=np.float32),
-        }
+        (what the real hand reports; no contact sensing needed). Filled into one fresh
+        float32 buffer (this runs every step); its last ``extra`` entries are returned for
+        the caller to fill."""
+        sc = self._scene
+        qpos, qvel = sc.qpos, sc.qvel
+        buf = np.empty(11 + extra, np.float32)
+        buf[0:4] = qpos[sc.tcp_slice]
+        buf[4:8] = qvel[sc.tcpv_slice]
+        buf[8] = qpos[sc.f0] + qpos[sc.f1]
+        buf[9] = qvel[sc.v0] + qvel[sc.v1]
+        buf[10] = -sc.actuator_force[sc.gripper]
+        return {"tcp": buf[0:4], "tcp_velocity": buf[4:8], "gripper": buf[8:11]}, buf[11:]
 
     def _sense(self, excitation=None) -> tuple[dict, object]:
         """Record through the current grasp: observation entries and the AcousticObservation."""
@@ -323,15 +352,18 @@ class AasEnv(gym.Env):
             out["waveform"] = np.zeros(self.n_samples, np.float32)
         return out
 
-    def _is_grasped(self, index: int = 0) -> bool:
-        """Both sensor fingertips touch object ``index`` (vectorized over the contact list)."""
-        d, sc = self.data, self._scene
-        if d.ncon == 0:
+    def _is_grasped(self) -> bool:
+        """Both sensor fingertips touch the target (table lookup: this runs every step)."""
+        sc = self._scene
+        if sc.qpos[sc.f0] + sc.qpos[sc.f1] < 5e-4:  # nothing between the fingertips
             return False
-        g = np.asarray(d.contact.geom)[:d.ncon]
-        obj = np.isin(g, sc.body_geoms[index])
-        other = np.where(obj[:, 0], g[:, 1], np.where(obj[:, 1], g[:, 0], -1))
-        return bool(np.isin(sc.act_geoms, other).any() and np.isin(sc.mic_geoms, other).any())
+        d = sc.data
+        n = d.ncon
+        if n == 0:
+            return False
+        g = d.contact.geom[:n]
+        roles = sc.pair_role[g[:, 0], g[:, 1]]
+        return int(np.bitwise_or.reduce(roles)) == 3
 
     def _ground_truth(self, contacts: bool = True) -> dict:
         sc = self._scene

@@ -1,0 +1,167 @@
+"""Environment throughput and the cost of an acoustic observation.
+
+    python benchmarks/env.py [--chunks 15] [--repeats 5]
+
+1. Physics: ``aas_gym/AcousticGrasp-v0`` without acoustic observations (``sense_mode="never"``,
+   created with ``gymnasium.make``, wrappers included) against the same compiled MuJoCo model
+   stepped bare with the same controls from the same states. Timed in interleaved chunks so
+   that load from other processes hits both alike; the ratio is the median over chunks
+   (goal >= 0.9: a scene pays only for what it uses).
+2. Acoustics: one 1 s observation of a grasped object with warm caches (modal model built
+   once beforehand), per excitation and object, as a real-time factor = 1 s / wall time
+   (goal >= 20x). The cold first call (modal model built or loaded from the disk cache) is
+   reported separately.
+
+Prints a Markdown table and writes ``docs/benchmarks/env.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import statistics
+import time
+from pathlib import Path
+
+import aas_gym  # noqa: F401  (registers the envs)
+import gymnasium as gym
+import mujoco
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def physics_ratio(chunks: int, steps: int) -> dict:
+    env = gym.make("aas_gym/AcousticGrasp-v0", sense_mode="never", max_episode_steps=10**9)
+    env.reset(seed=0)
+    u = env.unwrapped
+    model, skip = u.model, u.frame_skip
+    rng = np.random.default_rng(0)
+    # Small random actions: the hand wanders above the table, gripper opens and closes.
+    actions = [(rng.uniform(-1, 1, 6) * [0.3, 0.3, 0.3, 0.3, 1, -1]).astype(np.float32) for _ in range(steps)]
+    bare = mujoco.MjData(model)
+    start = mujoco.MjData(model)
+    ctrls = np.empty((steps, model.nu))
+    env_rates, bare_rates, ratios = [], [], []
+    for chunk in range(chunks):
+        mujoco.mj_copyData(start, model, u.data)
+        for i, a in enumerate(actions):  # untimed pass: the controls the env applies
+            env.step(a)
+            ctrls[i] = u.data.ctrl
+        end_state = u.data.qpos.copy()
+
+        def run_env():
+            mujoco.mj_copyData(u.data, model, start)
+            t0 = time.perf_counter()
+            for a in actions:
+                env.step(a)
+            return time.perf_counter() - t0
+
+        def run_bare():
+            mujoco.mj_copyData(bare, model, start)
+            t0 = time.perf_counter()
+            for i in range(steps):
+                bare.ctrl[:] = ctrls[i]
+                mujoco.mj_step(model, bare, nstep=skip)
+            return time.perf_counter() - t0
+
+        # Alternate the order so that caches and clock changes favour neither.
+        if chunk % 2:
+            t_bare, t_env = run_bare(), run_env()
+        else:
+            t_env, t_bare = run_env(), run_bare()
+        assert np.allclose(bare.qpos, end_state) and np.allclose(u.data.qpos, end_state), "replay diverged"
+        env_rates.append(steps * skip / t_env)
+        bare_rates.append(steps * skip / t_bare)
+        ratios.append(t_bare / t_env)
+        if abs(u.data.qpos[2] - 0.3) > 0.25:  # keep the hand in its workspace
+            env.reset(seed=chunk)
+    env.close()
+    return {"env_steps_s": statistics.median(env_rates), "bare_steps_s": statistics.median(bare_rates),
+            "ratio": statistics.median(ratios), "env_dt_s": u.dt, "frame_skip": skip}
+
+
+def acoustic_cost(objects: list[str], excitations: list[str], repeats: int) -> list[dict]:
+    from aas_gym.grasp import planar_grasp
+    from aas_gym.scene import build_scene
+    from aas_gym.sim_sensor import SimAcousticSensor
+    from sensors import Excitation
+
+    rows = []
+    for name in objects:
+        model = build_scene([name])
+        data = mujoco.MjData(model)
+        planar_grasp(model, data, name, 0.03, 40.0)
+        sensor = SimAcousticSensor(model, data, rng=np.random.default_rng(0))
+        t0 = time.perf_counter()
+        modal = sensor.modal_model(name)
+        cold = time.perf_counter() - t0
+        for ex_name in excitations:
+            ex = Excitation.by_name(ex_name)
+            sensor.sense(ex, 1.0)  # warm-up (compilation caches of the synthesis)
+            times = []
+            for _ in range(repeats):
+                t0 = time.perf_counter()
+                sensor.sense(ex, 1.0)
+                times.append(time.perf_counter() - t0)
+            best, med = min(times), statistics.median(times)
+            rows.append({"object": name, "excitation": ex.name, "modes": len(modal.frequencies_hz),
+                         "cold_s": cold, "median_s": med, "rtf_median": 1.0 / med, "rtf_best": 1.0 / best})
+            cold = float("nan")  # report the modal-model cost once per object
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--chunks", type=int, default=40)
+    parser.add_argument("--steps", type=int, default=50, help="env steps per chunk")
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--objects", nargs="+", default=["aluminium_bar", "aluminium_tube", "wood_bar"])
+    parser.add_argument("--excitations", nargs="+", default=["impulse", "linear", "exponential"])
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "benchmarks" / "env.md")
+    args = parser.parse_args()
+
+    phys = physics_ratio(args.chunks, args.steps)
+    acoustic = acoustic_cost(args.objects, args.excitations, args.repeats)
+
+    lines = [
+        "# Environment benchmark",
+        "",
+        f"`python benchmarks/env.py` on {platform.node() or 'this machine'} ({os.cpu_count()} CPUs, "
+        f"shared), Python {platform.python_version()}, MuJoCo {mujoco.__version__}, "
+        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.",
+        "",
+        "## Physics throughput without acoustic observations",
+        "",
+        f"`aas_gym/AcousticGrasp-v0`, `sense_mode=\"never\"`, via `gymnasium.make` (wrappers included), "
+        f"frame_skip {phys['frame_skip']} (env dt {phys['env_dt_s']:.3f} s); bare = the same compiled model "
+        f"stepped with the same controls from the same states; median of {args.chunks} interleaved chunks "
+        f"of {args.steps} env steps.",
+        "",
+        "| MuJoCo steps/s (env) | MuJoCo steps/s (bare) | ratio env/bare | goal |",
+        "|---:|---:|---:|---:|",
+        f"| {phys['env_steps_s']:.0f} | {phys['bare_steps_s']:.0f} | {phys['ratio']:.3f} | >= 0.9 |",
+        "",
+        "## One 1 s acoustic observation (warm caches)",
+        "",
+        "Real-time factor = 1 s of recording / wall time of `SimAcousticSensor.sense` (contacts, "
+        "fingertip model, synthesis, features not included); grasp at 30 mm, 40 N. "
+        f"Median and best of {args.repeats}. Cold = building or loading the modal model once.",
+        "",
+        "| object | modes | excitation | wall time [s] | real-time factor (median) | (best) | cold [s] | goal |",
+        "|---|---:|---|---:|---:|---:|---:|---:|",
+    ]
+    for r in acoustic:
+        cold = "" if np.isnan(r["cold_s"]) else f"{r['cold_s']:.2f}"
+        lines.append(f"| {r['object']} | {r['modes']} | {r['excitation']} | {r['median_s']:.4f} | "
+                     f"{r['rtf_median']:.1f}x | {r['rtf_best']:.1f}x | {cold} | >= 20x |")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(text)
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
