@@ -173,9 +173,10 @@ def _force(force_n) -> np.ndarray:
 
 
 def modal_state_energy(x: np.ndarray) -> np.ndarray:
-    """Modal energy per unit... of a scaled state x = [w q; q'] (last axis): |x|^2 / 2 [J/kg-modal].
+    """Modal energy |x|^2 / 2 [J] of a scaled state x = [w q; q'] (along the last axis).
 
-    With mass-normalised modes this is kinetic + strain energy of the object in joules.
+    With mass-normalised modes (U^T M U = I) this is the object's kinetic plus strain energy
+    in the kept modes.
     """
     x = np.asarray(x)
     return 0.5 * np.sum(x * x, axis=-1)
