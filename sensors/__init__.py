@@ -14,3 +14,4 @@ from .synthesis import ModalSystem, modal_response, periodic_response
 from .fingertip import FingertipModel
 from .leak import LeakRecording, align_leak, load_leak, save_leak
 from .recording import simulate_recording
+from .modal_estimation import ModalEstimate, estimate_modes, estimate_modes_from_observation, transfer_function

@@ -1,0 +1,610 @@
+"""Calibrate a material (stiffness and damping) from recordings of a grasped object.
+
+What is fitted, and from what:
+
+- **Young's modulus**: with geometry, density and Poisson's ratio fixed, the stiffness matrix
+  is proportional to E and the mass matrix does not depend on it, so every modal frequency
+  scales with sqrt(E) and the mass-normalised mode shapes do not change. The scale
+  ``s = sqrt(E / E_base)`` is found by matching measured frequencies to the model's
+  observable modes with a robust score (missing and extra modes cost nothing but a lost
+  vote), then refined by a weighted mean of log frequency ratios over the matched pairs.
+- **Rayleigh alpha, beta and contact gamma** in one weighted linear least squares: a
+  measured mode matched to model mode (or cluster of near-repeated modes) ``c`` in a
+  recording with contacts P obeys, to first order in the damping,
+  ``sigma = (alpha + beta w^2 + gamma G_cc) / 2`` with ``G = sum_p c_p U_p^T (mu I +
+  (1 - mu) n n^T) U_p`` the contact damping per unit gamma of that recording's contacts
+  (:func:`sensors.damping.contact_damping_matrix`). gamma is identifiable when the
+  recordings differ in grip force or contact set; otherwise it is held at the base value.
+  Weights come from each decay rate's standard deviation plus a relative floor for model
+  error; uncertainties from the covariance (scaled by the reduced chi-square when the
+  scatter exceeds the error bars) and from a bootstrap over modes.
+
+The calibrated :class:`sensors.Material` is written as JSON by :func:`save_material` and read
+back by :func:`load_material`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+import scipy.optimize
+
+from .contact import Contact
+from .damping import contact_damping_matrix
+from .materials import Material, get_material
+from .modal_estimation import ModalEstimate, estimate_modes_from_observation
+from .observation import AcousticObservation
+
+__all__ = [
+    "MATERIAL_FILE_FORMAT",
+    "save_material",
+    "load_material",
+    "ScaledModalModel",
+    "with_material",
+    "RecordingSetup",
+    "StiffnessFit",
+    "DampingFit",
+    "CalibrationResult",
+    "mode_clusters",
+    "observability",
+    "fit_stiffness",
+    "fit_damping",
+    "calibrate",
+]
+
+MATERIAL_FILE_FORMAT = "aas-gym material"
+
+
+# -- material files ---------------------------------------------------------------------------
+
+
+def save_material(path: str | os.PathLike, material: Material, *, calibration: dict[str, Any] | None = None) -> Path:
+    """Write ``material`` as JSON (atomically), optionally with a calibration report.
+
+    The file holds ``{"format": "aas-gym material", "version": 1, "material": {...},
+    "calibration": {...}}``; :func:`load_material` reads it back.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    doc = {"format": MATERIAL_FILE_FORMAT, "version": 1, "material": material.to_dict()}
+    if calibration is not None:
+        doc["calibration"] = calibration
+    text = json.dumps(doc, indent=2, default=_json_default)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text + "\n")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def _json_default(obj):
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (np.floating, np.integer)):
+        return obj.item()
+    raise TypeError(f"not JSON-serialisable: {type(obj).__name__}")
+
+
+def load_material(path: str | os.PathLike) -> Material:
+    """Read a material file written by :func:`save_material` (or a bare ``Material.to_dict()``
+    JSON object) as a :class:`sensors.Material`."""
+    with open(path) as fh:
+        doc = json.load(fh)
+    if isinstance(doc, dict) and doc.get("format") == MATERIAL_FILE_FORMAT:
+        if int(doc.get("version", 1)) != 1:
+            raise ValueError(f"{path}: unsupported material file version {doc.get('version')!r}")
+        doc = doc["material"]
+    if not isinstance(doc, dict):
+        raise ValueError(f"{path}: not a material file")
+    try:
+        return Material.from_dict(doc)
+    except KeyError as exc:
+        raise ValueError(f"{path}: material lacks field {exc.args[0]!r}") from None
+
+
+# -- models with another material ---------------------------------------------------------------
+
+
+class ScaledModalModel:
+    """A modal model re-used with another material of the same density and Poisson ratio.
+
+    K is proportional to E and M to the density; with the density kept, the frequencies
+    scale with sqrt(E / E_base) and the mass-normalised mode shapes are unchanged, so no
+    eigen-solve is needed. Damping comes from the new material. Everything else (mode
+    shapes, surface distance, mass) is delegated to the base model.
+    """
+
+    def __init__(self, base, material: Material):
+        base_mat = base.material
+        if not math.isclose(material.density_kg_m3, base_mat.density_kg_m3, rel_tol=1e-9) or \
+                not math.isclose(material.poisson_ratio, base_mat.poisson_ratio, rel_tol=1e-9):
+            raise ValueError("ScaledModalModel only changes E and damping; density and Poisson ratio must match")
+        self._base = base
+        self.material = material
+        self.frequency_scale = math.sqrt(material.youngs_modulus_pa / base_mat.youngs_modulus_pa)
+        self.angular_frequencies_rad_s = np.asarray(base.angular_frequencies_rad_s, float) * self.frequency_scale
+        self.frequencies_hz = self.angular_frequencies_rad_s / (2 * np.pi)
+
+    @property
+    def decay_rates(self) -> np.ndarray:
+        """Rayleigh decay rates (alpha + beta w^2) / 2 [1/s] of the new material."""
+        return 0.5 * (self.material.alpha + self.material.beta * self.angular_frequencies_rad_s**2)
+
+    def __getattr__(self, name: str):
+        return getattr(self._base, name)
+
+
+def with_material(model, material: Material):
+    """``model`` with ``material``: the model's own ``with_material`` if it has one, else a
+    :class:`ScaledModalModel` (exact for a change of E and damping)."""
+    own = getattr(type(model), "with_material", None)
+    if callable(own):
+        return model.with_material(material)
+    return ScaledModalModel(model, material)
+
+
+# -- recordings and their contacts ---------------------------------------------------------------
+
+
+@dataclass
+class RecordingSetup:
+    """A recording and the contacts it was made with (object frame).
+
+    ``actuator`` and ``mic`` are the two fingertip contacts; ``others`` any further contacts
+    (table, other objects). All of them damp the object.
+    """
+
+    observation: AcousticObservation
+    actuator: Contact
+    mic: Contact
+    others: tuple[Contact, ...] = ()
+
+    @property
+    def contacts(self) -> list[Contact]:
+        """Every contact on the object in this recording."""
+        return [self.actuator, self.mic, *self.others]
+
+    @classmethod
+    def from_observation(cls, observation: AcousticObservation, actuator: Contact | None = None,
+                         mic: Contact | None = None, others: Sequence[Contact] | None = None) -> RecordingSetup:
+        """Contacts from the arguments, else from ``metadata["contacts"]`` as the simulator
+        (and the rig, when it knows the grasp) writes them."""
+        meta = (observation.metadata or {}).get("contacts") or {}
+
+        def from_meta(key):
+            d = meta.get(key)
+            return None if d is None else Contact.from_dict(d)
+
+        actuator = actuator if actuator is not None else from_meta("actuator")
+        mic = mic if mic is not None else from_meta("mic")
+        if others is None:
+            others = [Contact.from_dict(d) for d in meta.get("other", [])]
+        if actuator is None or mic is None:
+            raise ValueError("the recording has no contacts in its metadata; pass actuator and mic contacts")
+        return cls(observation, actuator, mic, tuple(others))
+
+
+# -- mode bookkeeping -----------------------------------------------------------------------------
+
+
+def mode_clusters(frequencies_hz: np.ndarray, rtol: float = 2e-3) -> list[np.ndarray]:
+    """Groups of consecutive modes within ``rtol`` of each other in frequency.
+
+    Symmetric objects have near-repeated pairs whose basis is arbitrary; only sums over a
+    cluster (trace of a damping block, total observability) are meaningful.
+    """
+    f = np.asarray(frequencies_hz, float)
+    order = np.argsort(f)
+    groups: list[list[int]] = []
+    for i in order:
+        if groups and f[i] <= f[groups[-1][-1]] * (1 + rtol):
+            groups[-1].append(int(i))
+        else:
+            groups.append([int(i)])
+    return [np.asarray(g) for g in groups]
+
+
+def observability(model, actuator: Contact, mic: Contact) -> np.ndarray:
+    """Relative displacement response of each mode from the actuator to the microphone,
+    ``|(n_a . U_a)(n_m . U_m)| / w^2`` (the static modal flexibility; 0 = at a node)."""
+    U = np.asarray(model.mode_shapes_at(np.array([actuator.position_m, mic.position_m])), float)
+    b = np.asarray(actuator.normal) @ U[0]
+    o = np.asarray(mic.normal) @ U[1]
+    w = np.asarray(model.angular_frequencies_rad_s, float)
+    return np.abs(b * o) / w**2
+
+
+# -- Young's modulus -------------------------------------------------------------------------------
+
+
+@dataclass
+class StiffnessFit:
+    """Result of :func:`fit_stiffness`.
+
+    Attributes:
+        scale: frequency scale s = sqrt(E / E_base).
+        scale_std: its standard deviation.
+        matches: per recording, ``(measured index, cluster index)`` pairs.
+        n_measured: measured modes offered per recording.
+        rms_log_misfit: RMS of log(f_measured / (s f_model)) over matched pairs.
+    """
+
+    scale: float
+    scale_std: float
+    matches: list[list[tuple[int, int]]]
+    n_measured: list[int]
+    rms_log_misfit: float
+
+    @property
+    def youngs_modulus_factor(self) -> float:
+        """E / E_base = s^2."""
+        return self.scale**2
+
+    @property
+    def youngs_modulus_factor_std(self) -> float:
+        """Standard deviation of E / E_base (2 s std(s))."""
+        return 2 * self.scale * self.scale_std
+
+    @property
+    def n_matched(self) -> int:
+        return sum(len(m) for m in self.matches)
+
+
+def _match(log_f: np.ndarray, log_c: np.ndarray, sizes: np.ndarray, log_s: float, tol: float) -> list[tuple[int, int]]:
+    """One-to-one assignment of measured modes to clusters (a cluster of n modes takes up to
+    n measured modes) minimising the log-frequency distance, pairs farther than 3 tol dropped."""
+    if log_f.size == 0 or log_c.size == 0:
+        return []
+    cols = np.repeat(np.arange(log_c.size), sizes)
+    d = np.abs(log_f[:, None] - (log_s + log_c[cols])[None, :])
+    big = 1e6
+    cost = np.where(d <= 3 * tol, (d / tol) ** 2, big)
+    rows, cc = scipy.optimize.linear_sum_assignment(cost)
+    return [(int(r), int(cols[c])) for r, c in zip(rows, cc) if cost[r, c] < big]
+
+
+def fit_stiffness(
+    measured: Sequence[ModalEstimate],
+    cluster_frequencies_hz: Sequence[np.ndarray],
+    cluster_sizes: Sequence[np.ndarray] | None = None,
+    *,
+    factor_range: tuple[float, float] = (1 / 3, 3.0),
+    rel_tol: float = 0.01,
+) -> StiffnessFit:
+    """Frequency scale s = sqrt(E / E_base) from measured modes of one or more recordings.
+
+    Args:
+        measured: one modal estimate per recording.
+        cluster_frequencies_hz: per recording, the model's observable mode (cluster)
+            frequencies at E_base [Hz].
+        cluster_sizes: modes per cluster (default 1).
+        factor_range: search range of E / E_base.
+        rel_tol: relative frequency tolerance of a match (the model's own accuracy).
+
+    The score of a scale is the number of measured modes that have a model mode within
+    ``rel_tol`` (Gaussian-weighted), summed over recordings: missing modes (nodes, outside
+    the band) and extra ones (fingertip, leak) lower the score of every scale alike.
+    """
+    if len(measured) != len(cluster_frequencies_hz):
+        raise ValueError("one list of model frequencies per modal estimate")
+    if cluster_sizes is None:
+        cluster_sizes = [np.ones(len(c), int) for c in cluster_frequencies_hz]
+    log_fs = [np.log(np.asarray(m.frequencies_hz, float)) for m in measured]
+    log_cs = [np.log(np.asarray(c, float)) for c in cluster_frequencies_hz]
+    lo, hi = 0.5 * math.log(factor_range[0]), 0.5 * math.log(factor_range[1])
+    grid = np.arange(lo, hi + rel_tol / 8, rel_tol / 8)
+    coarse_tol = 2 * rel_tol
+    score = np.zeros(grid.size)
+    for lf, lc in zip(log_fs, log_cs):
+        if lf.size == 0 or lc.size == 0:
+            continue
+        d = lf[None, :, None] - grid[:, None, None] - lc[None, None, :]
+        score += np.exp(-0.5 * (d / coarse_tol) ** 2).max(axis=2).sum(axis=1)
+    if not np.any(score > 0):
+        raise ValueError("no measured modes to match")
+    log_s = float(grid[np.argmax(score)])
+    for tol in (coarse_tol, rel_tol, rel_tol):
+        matches = [_match(lf, lc, np.asarray(sz), log_s, tol) for lf, lc, sz in zip(log_fs, log_cs, cluster_sizes)]
+        ratios, weights = [], []
+        for m, lf, lc, est in zip(matches, log_fs, log_cs, measured):
+            for i, c in m:
+                ratios.append(lf[i] - lc[c])
+                # relative frequency error: measurement std plus the tolerance as model error
+                rel_sd = math.hypot(est.frequency_std_hz[i] / est.frequencies_hz[i], 0.25 * rel_tol)
+                weights.append(1.0 / rel_sd**2)
+        if not ratios:
+            raise ValueError("no measured mode matches a model mode at the best scale")
+        ratios_a, w = np.asarray(ratios), np.asarray(weights)
+        log_s = float(np.sum(w * ratios_a) / np.sum(w))
+    resid = ratios_a - log_s
+    n = ratios_a.size
+    # standard error of the weighted mean, inflated by the scatter when it exceeds the weights
+    chi2 = float(np.sum(w * resid**2) / max(n - 1, 1))
+    log_s_std = math.sqrt(max(chi2, 1.0) / np.sum(w))
+    s = math.exp(log_s)
+    return StiffnessFit(s, s * log_s_std, matches, [lf.size for lf in log_fs], float(np.sqrt(np.mean(resid**2))))
+
+
+# -- damping -----------------------------------------------------------------------------------------
+
+
+@dataclass
+class DampingFit:
+    """Result of :func:`fit_damping`.
+
+    Attributes:
+        alpha, beta, gamma: fitted Rayleigh alpha [1/s], beta [s] and contact gamma [s/m].
+        covariance: 3x3 covariance of (alpha, beta, gamma) (row/column of a held gamma is 0).
+        bootstrap_std: standard deviations of (alpha, beta, gamma) over a bootstrap of modes.
+        gamma_fitted: False when gamma was held at its given value.
+        n_modes: rows used (after outlier rejection); n_rejected: rows dropped as outliers.
+        chi2_reduced: weighted residual sum of squares per degree of freedom.
+        frequencies_hz, decay_rates, predicted: the rows used and the fit's prediction.
+    """
+
+    alpha: float
+    beta: float
+    gamma: float
+    covariance: np.ndarray
+    bootstrap_std: np.ndarray
+    gamma_fitted: bool
+    n_modes: int
+    n_rejected: int
+    chi2_reduced: float
+    frequencies_hz: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    decay_rates: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    predicted: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+
+    @property
+    def std(self) -> np.ndarray:
+        """Standard deviations of (alpha, beta, gamma) from the covariance."""
+        return np.sqrt(np.clip(np.diag(self.covariance), 0, None))
+
+
+def fit_damping(
+    frequencies_hz: np.ndarray,
+    decay_rates: np.ndarray,
+    decay_rate_std: np.ndarray | None = None,
+    contact_terms: np.ndarray | None = None,
+    *,
+    gamma: float | None = None,
+    rel_floor: float = 0.02,
+    outlier_sigma: float = 4.0,
+    n_bootstrap: int = 200,
+    rng: int | np.random.Generator | None = 0,
+) -> DampingFit:
+    """Weighted least squares of ``sigma = (alpha + beta w^2 + gamma g) / 2``.
+
+    Args:
+        frequencies_hz: modal frequencies [Hz] (w = 2 pi f).
+        decay_rates: measured decay rates sigma [1/s].
+        decay_rate_std: their standard deviations [1/s] (default: only the floor).
+        contact_terms: g per row, the diagonal of the contact damping matrix per unit gamma
+            [N/kg = m/s^2, so gamma g is in 1/s]; ``None`` means no contact damping term.
+        gamma: hold gamma at this value instead of fitting it (needs ``contact_terms``).
+        rel_floor: relative error added in quadrature to every decay rate: Rayleigh damping
+            is a model, and a real object's decay rates scatter around it by a few per cent.
+        outlier_sigma: rows whose residual exceeds this many standard deviations (scaled by
+            the median absolute residual when that is larger) are dropped one at a time,
+            worst first, refitting in between (mis-matched or badly estimated modes).
+        n_bootstrap: bootstrap resamples of the rows for ``bootstrap_std`` (0 = skip).
+
+    alpha, beta and gamma are constrained to be >= 0.
+    """
+    f = np.asarray(frequencies_hz, float)
+    sig = np.asarray(decay_rates, float)
+    if f.shape != sig.shape or f.ndim != 1:
+        raise ValueError("frequencies_hz and decay_rates must be 1-D arrays of the same length")
+    sd = np.zeros_like(sig) if decay_rate_std is None else np.asarray(decay_rate_std, float)
+    sd = np.sqrt(np.where(np.isfinite(sd), sd, np.inf) ** 2 + (rel_floor * np.abs(sig)) ** 2)
+    w2 = (2 * np.pi * f) ** 2
+    g = None if contact_terms is None else np.asarray(contact_terms, float)
+    fit_gamma = g is not None and gamma is None
+    target = sig.copy()
+    if g is not None and gamma is not None:
+        target = target - 0.5 * gamma * g
+    cols = [0.5 * np.ones_like(sig), 0.5 * w2] + ([0.5 * g] if fit_gamma else [])
+    A = np.stack(cols, axis=1)
+    # column scaling: beta * w^2 ~ 1e2 while beta ~ 1e-7; solve for scaled unknowns
+    col_scale = np.maximum(np.abs(A).max(axis=0), 1e-300)
+    need = A.shape[1]
+    keep = np.isfinite(sd) & np.isfinite(target)
+    if keep.sum() < need:
+        raise ValueError(f"need at least {need} modes with finite decay rates, got {int(keep.sum())}")
+
+    def solve(rows: np.ndarray) -> np.ndarray:
+        Aw = A[rows] / col_scale / sd[rows, None]
+        res = scipy.optimize.lsq_linear(Aw, target[rows] / sd[rows], bounds=(0.0, np.inf), method="bvls")
+        return res.x / col_scale
+
+    rejected = 0
+    for _ in range(max(3, sig.size // 5)):
+        x = solve(keep)
+        r = (target - A @ x) / sd
+        dof = max(int(keep.sum()) - need, 1)
+        chi2 = float(np.sum(r[keep] ** 2) / dof)
+        # robust scale (median absolute deviation): outliers must not hide by inflating chi2
+        scale = max(1.4826 * float(np.median(np.abs(r[keep]))), 1.0)
+        bad = keep & (np.abs(r) > outlier_sigma * scale)
+        if not bad.any() or keep.sum() - 1 < need + 1:
+            break
+        # drop the worst one at a time: one bad row inflates every residual
+        worst = np.flatnonzero(keep)[np.argmax(np.abs(r[keep]))]
+        keep[worst] = False
+        rejected += 1
+    Aw = A[keep] / col_scale / sd[keep, None]  # scaled columns: A^T A spans ~20 decades otherwise
+    cov_small = np.linalg.pinv(Aw.T @ Aw) / np.outer(col_scale, col_scale) * max(chi2, 1.0)
+    boot = np.zeros(need)
+    if n_bootstrap > 0:
+        gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        idx = np.flatnonzero(keep)
+        samples = []
+        for _ in range(n_bootstrap):
+            pick = gen.choice(idx, idx.size, replace=True)
+            if np.unique(pick).size < need:
+                continue
+            samples.append(solve(pick))  # a row drawn k times weighs k times
+        if samples:
+            boot = np.std(np.asarray(samples), axis=0, ddof=1)
+    cov = np.zeros((3, 3))
+    cov[:need, :need] = cov_small
+    boot3 = np.zeros(3)
+    boot3[:need] = boot
+    gamma_val = float(x[2]) if fit_gamma else float(gamma if gamma is not None else 0.0)
+    return DampingFit(float(x[0]), float(x[1]), gamma_val, cov, boot3, fit_gamma, int(keep.sum()), rejected, chi2,
+                      f[keep], sig[keep], (A @ x)[keep] + (sig - target)[keep])
+
+
+# -- the whole calibration ------------------------------------------------------------------------------
+
+
+@dataclass
+class CalibrationResult:
+    """Everything :func:`calibrate` found.
+
+    Attributes:
+        material: the calibrated material.
+        base_material: the material it started from.
+        stiffness: the Young's modulus fit (``None`` if E was not fitted).
+        damping: the alpha / beta / gamma fit.
+        estimates: the modal estimate of each recording.
+    """
+
+    material: Material
+    base_material: Material
+    stiffness: StiffnessFit | None
+    damping: DampingFit
+    estimates: list[ModalEstimate]
+
+    def report(self) -> dict[str, Any]:
+        """JSON-friendly summary with uncertainties (stored in the material file)."""
+        d = self.damping
+        std = d.std
+        out: dict[str, Any] = {
+            "base_material": self.base_material.to_dict(),
+            "alpha": {"value": d.alpha, "std": std[0], "bootstrap_std": d.bootstrap_std[0]},
+            "beta": {"value": d.beta, "std": std[1], "bootstrap_std": d.bootstrap_std[1]},
+            "gamma": {"value": d.gamma, "std": std[2], "bootstrap_std": d.bootstrap_std[2], "fitted": d.gamma_fitted},
+            "damping_modes_used": d.n_modes,
+            "damping_modes_rejected": d.n_rejected,
+            "damping_chi2_reduced": d.chi2_reduced,
+            "modes_found_per_recording": [len(e) for e in self.estimates],
+        }
+        if self.stiffness is not None:
+            s = self.stiffness
+            out["youngs_modulus_pa"] = {
+                "value": self.material.youngs_modulus_pa,
+                "std": self.base_material.youngs_modulus_pa * s.youngs_modulus_factor_std,
+                "factor_to_base": s.youngs_modulus_factor,
+            }
+            out["modes_matched"] = s.n_matched
+            out["frequency_rms_relative_misfit"] = s.rms_log_misfit
+        return out
+
+
+def calibrate(
+    model,
+    recordings: Sequence[RecordingSetup | AcousticObservation],
+    base_material: Material | str | None = None,
+    *,
+    fit_youngs_modulus: bool = True,
+    fit_gamma: bool | str = "auto",
+    factor_range: tuple[float, float] = (1 / 3, 3.0),
+    rel_tol: float = 0.01,
+    min_observability: float = 1e-3,
+    name: str | None = None,
+    estimates: Sequence[ModalEstimate] | None = None,
+    **estimate_kwargs: Any,
+) -> CalibrationResult:
+    """Fit E, alpha, beta and gamma of ``model``'s material to recordings of the object.
+
+    Args:
+        model: the object's modal model built with ``base_material`` (``sensors.ModalModel``
+            or compatible: ``angular_frequencies_rad_s``, ``mode_shapes_at``, ``material``).
+        recordings: :class:`RecordingSetup` (or observations with contacts in their metadata).
+        base_material: starting material (default: the model's).
+        fit_youngs_modulus: fit the E scale (else match at the base E).
+        fit_gamma: True, False, or ``"auto"``: fit gamma when the recordings' contact damping
+            differs between recordings (grip forces, contact sets) enough to separate it
+            from alpha and beta; else hold it at the base value.
+        factor_range: search range for E / E_base.
+        rel_tol: relative frequency tolerance of the model (mode matching).
+        min_observability: model modes (clusters) whose actuator-to-mic response is below this
+            fraction of the strongest are not expected in the recording and not matched.
+        name: name of the calibrated material (default ``"<base>-calibrated"``).
+        estimates: modal estimates already made (skips estimation).
+        **estimate_kwargs: passed to :func:`sensors.modal_estimation.estimate_modes_from_observation`.
+    """
+    base = get_material(base_material) if base_material is not None else model.material
+    if not isinstance(base, Material):
+        base = Material.from_dict(dataclasses.asdict(base)) if dataclasses.is_dataclass(base) else base
+    setups = [r if isinstance(r, RecordingSetup) else RecordingSetup.from_observation(r) for r in recordings]
+    if not setups:
+        raise ValueError("no recordings")
+    if estimates is None:
+        estimates = [estimate_modes_from_observation(s.observation, **estimate_kwargs) for s in setups]
+    estimates = list(estimates)
+    w_model = np.asarray(model.angular_frequencies_rad_s, float)
+    # the model may have been built with another E than the base material's
+    model_E = float(model.material.youngs_modulus_pa)
+    f_base = w_model / (2 * np.pi) * math.sqrt(base.youngs_modulus_pa / model_E)
+    clusters = mode_clusters(f_base)
+    cluster_f = np.array([f_base[c].mean() for c in clusters])
+    cluster_n = np.array([c.size for c in clusters])
+
+    per_rec_cf, per_rec_sizes, per_rec_ids = [], [], []
+    for s in setups:
+        obs = observability(model, s.actuator, s.mic)
+        obs_c = np.array([math.sqrt(np.sum(obs[c] ** 2)) for c in clusters])
+        visible = obs_c >= min_observability * obs_c.max() if obs_c.max() > 0 else np.zeros(len(clusters), bool)
+        ids = np.flatnonzero(visible)
+        per_rec_ids.append(ids)
+        per_rec_cf.append(cluster_f[ids])
+        per_rec_sizes.append(cluster_n[ids])
+
+    if fit_youngs_modulus:
+        stiff = fit_stiffness(estimates, per_rec_cf, per_rec_sizes, factor_range=factor_range, rel_tol=rel_tol)
+        scale = stiff.scale
+        matches = stiff.matches
+    else:
+        stiff = None
+        scale = 1.0
+        matches = [_match(np.log(e.frequencies_hz), np.log(cf), sz, 0.0, rel_tol)
+                   for e, cf, sz in zip(estimates, per_rec_cf, per_rec_sizes)]
+
+    rows_f, rows_sig, rows_sd, rows_g, rec_of_row = [], [], [], [], []
+    for r, (s, est, m, ids) in enumerate(zip(setups, estimates, matches, per_rec_ids)):
+        G = contact_damping_matrix(model, s.contacts)
+        for i, c_local in m:
+            c = clusters[ids[c_local]]
+            rows_f.append(est.frequencies_hz[i])
+            rows_sig.append(est.decay_rates[i])
+            rows_sd.append(est.decay_rate_std[i])
+            rows_g.append(float(np.trace(G[np.ix_(c, c)]) / c.size))
+            rec_of_row.append(r)
+    g = np.asarray(rows_g)
+    if fit_gamma == "auto":
+        # gamma separates from alpha + beta w^2 only if g varies between recordings for the
+        # same modes; require the per-recording mean contact term to differ by 10 %
+        rec = np.asarray(rec_of_row)
+        means = [g[rec == r].mean() for r in np.unique(rec)] if g.size else []
+        fit_gamma = len(means) >= 2 and (max(means) - min(means)) > 0.1 * max(max(means), 1e-300)
+    damping = fit_damping(np.asarray(rows_f), np.asarray(rows_sig), np.asarray(rows_sd), g,
+                          gamma=None if fit_gamma else base.gamma)
+    material = dataclasses.replace(
+        base, name=name or f"{base.name}-calibrated", youngs_modulus_pa=base.youngs_modulus_pa * scale**2,
+        alpha=damping.alpha, beta=damping.beta, gamma=damping.gamma)
+    return CalibrationResult(material, base, stiff, damping, estimates)

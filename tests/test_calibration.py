@@ -1,0 +1,187 @@
+"""Calibration of E, alpha, beta, gamma against known parameters.
+
+The object is an analytic free-free bar (``calibration_fakes.AnalyticBar``), recorded through
+the project's own chain (``sensors.simulate_recording``: fingertip drive, exact modal damping
+with contact damping, leak, sensor noise). The "real" object has perturbed parameters; the
+calibration starts from the table material and must recover the perturbed ones.
+"""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from calibration_fakes import AnalyticBar
+from sensors import Excitation, LeakRecording, simulate_recording
+from sensors.calibration import (
+    RecordingSetup, ScaledModalModel, calibrate, fit_damping, fit_stiffness, load_material, save_material, with_material,
+)
+from sensors.materials import Material, get_material
+from sensors.modal_estimation import ModalEstimate
+
+SNR_DB = 30.0
+DURATION_S = 5.0  # the paper records 5 s
+GRASPS = [(0.03, 10.0), (0.03, 40.0), (0.055, 10.0), (0.055, 40.0)]  # (x [m], grip force [N])
+
+
+def true_material(base: Material) -> Material:
+    return dataclasses.replace(base, name="real", youngs_modulus_pa=base.youngs_modulus_pa * 1.2,
+                               alpha=base.alpha * 1.5, beta=base.beta * 0.8, gamma=base.gamma * 1.3)
+
+
+def gripper_leak(exc: Excitation, level: float) -> LeakRecording:
+    """An idle-gripper recording: the excitation through two damped body modes of the hand."""
+    y = np.zeros(int(2.5 * exc.fs))
+    x = exc.loop(2.5)
+    for f, s in ((1800.0, 150.0), (4600.0, 250.0)):
+        z = np.exp((-s + 2j * np.pi * f) / exc.fs)
+        y += lfilter([1.0, -z.real], [1.0, -2 * z.real, abs(z) ** 2], x)
+    return LeakRecording((level * y / np.sqrt(np.mean(y**2))).astype(np.float32), exc.fs, exc)
+
+
+def record(model, exc, grasps, snr_db=SNR_DB, leak_db=-20.0, seed=0, duration_s=DURATION_S):
+    """Recordings of ``model`` at each grasp, noise at ``snr_db`` below the signal RMS, a leak
+    ``leak_db`` below it. Returns the setups and the (leak, noise_std) used for each."""
+    out, settings = [], []
+    for k, (x, force) in enumerate(grasps):
+        a, m = model.grasp(x, force)
+        clean = simulate_recording(model, exc, duration_s, a, m)
+        rms = float(np.sqrt(np.mean(clean.waveform.astype(float) ** 2)))
+        leak = gripper_leak(exc, rms * 10 ** (leak_db / 20)) if leak_db is not None else None
+        noise_std = rms * 10 ** (-snr_db / 20) if snr_db is not None else 0.0
+        obs = simulate_recording(model, exc, duration_s, a, m, leak=leak, noise_std=noise_std, rng=seed + k)
+        out.append(RecordingSetup.from_observation(obs))
+        settings.append((leak, noise_std))
+    return out, settings
+
+
+@pytest.fixture(scope="module")
+def abs_case():
+    base = get_material("abs")
+    bar = AnalyticBar(0.2, 0.02, 0.01, base)
+    real = with_material(bar, true_material(base))
+    exc = Excitation.linear_sweep()
+    setups, settings = record(real, exc, GRASPS)
+    return bar, base, real, exc, setups, settings, calibrate(bar, setups, base)
+
+
+def test_recovers_e_alpha_beta_gamma_within_5_percent(abs_case):
+    _, base, _, _, _, _, result = abs_case
+    truth = true_material(base)
+    got = result.material
+    for name in ("youngs_modulus_pa", "alpha", "beta", "gamma"):
+        assert getattr(got, name) == pytest.approx(getattr(truth, name), rel=0.05), name
+    # and not by luck: the table values were 20-50 % away
+    assert abs(base.alpha / truth.alpha - 1) > 0.3 and abs(base.beta / truth.beta - 1) > 0.2
+    d = result.damping
+    assert d.gamma_fitted
+    # the stated uncertainties cover the actual errors (3 sigma) and are not absurdly wide
+    err = np.array([got.alpha - truth.alpha, got.beta - truth.beta, got.gamma - truth.gamma])
+    assert np.all(np.abs(err) <= 3 * d.std)
+    assert np.all(d.std < 0.2 * np.array([truth.alpha, truth.beta, truth.gamma]))
+    assert np.all(d.bootstrap_std > 0)
+    assert result.stiffness.youngs_modulus_factor == pytest.approx(1.2, rel=0.005)
+
+
+def test_calibrated_simulation_matches_the_recordings_better_than_the_table(abs_case):
+    bar, base, _, exc, setups, settings, result = abs_case
+
+    def log_spectrum_error_db(material):
+        # the simulation carries the rig's leak and sensor noise (another noise draw)
+        errs = []
+        for k, (s, (leak, noise_std)) in enumerate(zip(setups, settings)):
+            sim = simulate_recording(with_material(bar, material), exc, DURATION_S, s.actuator, s.mic,
+                                     leak=leak, noise_std=noise_std, rng=100 + k)
+            f, real_a = s.observation.spectrum()
+            _, sim_a = sim.spectrum()
+            band = (f >= 200) & (f <= 9800)
+            errs.append(np.sqrt(np.mean((20 * np.log10(sim_a[band] / real_a[band])) ** 2)))
+        return float(np.mean(errs))
+
+    table_db = log_spectrum_error_db(base)
+    calibrated_db = log_spectrum_error_db(result.material)
+    print(f"log-spectral error vs the 'real' recordings: table {table_db:.2f} dB, calibrated {calibrated_db:.2f} dB")
+    assert calibrated_db < 0.5 * table_db
+
+
+def test_material_file_round_trip(tmp_path, abs_case):
+    result = abs_case[-1]
+    path = save_material(tmp_path / "m" / "abs.json", result.material, calibration=result.report())
+    assert load_material(path) == result.material
+    doc = json.loads(path.read_text())
+    assert doc["calibration"]["gamma"]["fitted"] is True
+    # a bare Material dict loads too; junk does not
+    (tmp_path / "bare.json").write_text(json.dumps(get_material("steel").to_dict()))
+    assert load_material(tmp_path / "bare.json") == get_material("steel")
+    (tmp_path / "bad.json").write_text(json.dumps({"name": "x"}))
+    with pytest.raises(ValueError):
+        load_material(tmp_path / "bad.json")
+
+
+def test_fit_damping_exact_rows_and_outliers():
+    rng = np.random.default_rng(0)
+    f = np.linspace(300, 9000, 30)
+    g = rng.uniform(0, 2000, f.size)
+    alpha, beta, gamma = 7.0, 2e-7, 0.03
+    sigma = 0.5 * (alpha + beta * (2 * np.pi * f) ** 2 + gamma * g)
+    fit = fit_damping(f, sigma, None, g, rel_floor=1e-3)
+    assert (fit.alpha, fit.beta, fit.gamma) == pytest.approx((alpha, beta, gamma), rel=1e-6)
+    bad = sigma.copy()
+    bad[[3, 17]] *= 3.0  # two mismatched modes
+    fit = fit_damping(f, bad, None, g)
+    assert fit.n_rejected == 2
+    assert (fit.alpha, fit.beta, fit.gamma) == pytest.approx((alpha, beta, gamma), rel=1e-3)
+    held = fit_damping(f, sigma, None, g, gamma=gamma)
+    assert not held.gamma_fitted and held.beta == pytest.approx(beta, rel=1e-6)
+
+
+def test_fit_damping_uncertainty_matches_scatter():
+    # noisy decay rates with known errors: the covariance must predict the spread of fits
+    rng = np.random.default_rng(1)
+    f = np.linspace(400, 8000, 20)
+    g = rng.uniform(0, 1500, f.size)
+    truth = np.array([5.0, 3e-7, 0.04])
+    sigma = 0.5 * (truth[0] + truth[1] * (2 * np.pi * f) ** 2 + truth[2] * g)
+    sd = 0.03 * sigma
+    fits = [fit_damping(f, sigma + sd * rng.standard_normal(f.size), sd, g, rel_floor=0.0, n_bootstrap=0)
+            for _ in range(60)]
+    spread = np.std([[d.alpha, d.beta, d.gamma] for d in fits], axis=0)
+    predicted = np.mean([d.std for d in fits], axis=0)
+    np.testing.assert_allclose(predicted, spread, rtol=0.4)
+
+
+def _estimate(freqs):
+    n = len(freqs)
+    return ModalEstimate(np.asarray(freqs, float), np.ones(n), np.ones(n, complex), 0.01 * np.ones(n), np.ones(n),
+                         np.full(n, 40.0))
+
+
+def test_fit_stiffness_with_missing_and_extra_modes():
+    model = np.array([395.0, 1089.0, 2135.0, 3529.0, 5272.0, 7364.0, 9804.0])
+    s = np.sqrt(1.37)
+    measured = model * s * (1 + np.array([1e-3, -2e-3, 0.0, 1e-3, -1e-3, 0.0, 2e-3]))
+    # mode 3 missing (a node at the grasp), two extra (fingertip, leak), one more missing
+    meas = np.sort(np.concatenate([np.delete(measured, [2, 6]), [257.0, 1800.0]]))
+    fit = fit_stiffness([_estimate(meas)], [model], factor_range=(0.3, 3.0))
+    assert fit.youngs_modulus_factor == pytest.approx(1.37, rel=0.005)
+    assert fit.n_matched == 5
+    # two recordings share one scale
+    fit2 = fit_stiffness([_estimate(meas), _estimate(measured[2:])], [model, model])
+    assert fit2.n_matched == 10 and fit2.youngs_modulus_factor == pytest.approx(1.37, rel=0.005)
+
+
+def test_scaled_model_is_exact_for_a_change_of_e():
+    base = get_material("aluminium")
+    stiff = dataclasses.replace(base, youngs_modulus_pa=base.youngs_modulus_pa * 1.44, alpha=3.0)
+    bar = AnalyticBar(0.2, 0.02, 0.02, base)
+    scaled = with_material(bar, stiff)
+    assert isinstance(scaled, ScaledModalModel)
+    rebuilt = AnalyticBar(0.2, 0.02, 0.02, stiff, f_max_hz=1.2 * 12000.0)
+    np.testing.assert_allclose(scaled.frequencies_hz, rebuilt.frequencies_hz[:len(scaled.frequencies_hz)], rtol=1e-12)
+    p = np.array([[0.05, 0.0, 0.01]])
+    np.testing.assert_allclose(scaled.mode_shapes_at(p), bar.mode_shapes_at(p))
+    assert scaled.material.alpha == 3.0 and scaled.mass_kg == bar.mass_kg
+    with pytest.raises(ValueError):
+        with_material(bar, dataclasses.replace(base, density_kg_m3=1000.0))
