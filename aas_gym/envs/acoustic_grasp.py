@@ -50,7 +50,8 @@ class AcousticGraspEnv(AasEnv):
         extra[0:3] = sc.xpos[sc.target_body]
         extra[3:7] = sc.xquat[sc.target_body]
         obs["object"] = extra
-        obs.update({k: v.copy() for k, v in self._last_acoustic.items()})
+        for key, value in self._last_acoustic.items():
+            obs[key] = value.copy()
         return obs
 
     def reset(self, *, seed=None, options=None):
