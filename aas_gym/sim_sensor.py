@@ -51,7 +51,9 @@ class SimAcousticSensor:
             microphone records with nothing in the hand (leak and noise only).
 
     Domain randomization hooks (set by the environments per episode): ``damping_scale``
-    multiplies the material's Rayleigh and contact damping, ``leak_scale`` the leak.
+    multiplies the material's Rayleigh and contact damping, ``modulus_scale`` and
+    ``density_scale`` its Young's modulus and density (modes rescaled exactly, no new FEM
+    solve), ``leak_scale`` the leak.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData,
@@ -96,7 +98,10 @@ class SimAcousticSensor:
         self.on_no_grasp = on_no_grasp
         self.stream = ContactStream(model, list(self._specs), actuator_site, mic_site)
         self.damping_scale = 1.0
+        self.modulus_scale = 1.0
+        self.density_scale = 1.0
         self.leak_scale = 1.0
+        self._scaled: dict[tuple, Any] = {}
 
     @property
     def bodies(self) -> list[str]:
@@ -218,30 +223,52 @@ class SimAcousticSensor:
         return leak
 
     def _scaled_model(self, body: str):
-        """The modal model of ``body`` with its damping scaled by ``damping_scale``."""
+        """The modal model of ``body`` with the randomized material (memoized, so the
+        synthesis' per-grasp cache recognizes it across excitations)."""
         model = self.modal_model(body)
-        if self.damping_scale == 1.0:
+        scales = (self.damping_scale, self.modulus_scale, self.density_scale)
+        if scales == (1.0, 1.0, 1.0):
             return model
-        return scale_damping(model, self.damping_scale)
+        key = (body, *scales)
+        if key not in self._scaled:
+            if len(self._scaled) > 16:
+                self._scaled.clear()
+            self._scaled[key] = ScaledMaterialModel(model, *scales)
+        return self._scaled[key]
 
 
-def scale_damping(model, factor: float):
-    """``model`` seen with its material damping (alpha, beta, gamma) ``factor`` times larger:
-    same modes, different decay and contact damping (the synthesis reads ``model.material``)."""
-    import dataclasses
+class ScaledMaterialModel:
+    """A modal model seen with a scaled material, exactly and without a new FEM solve.
 
-    material = model.material
-    scaled = dataclasses.replace(material, alpha=material.alpha * factor, beta=material.beta * factor,
-                                 gamma=material.gamma * factor)
-    return _WithMaterial(model, scaled)
+    Scaling Young's modulus by ``s_e`` and the density by ``s_rho`` scales K by ``s_e`` and M
+    by ``s_rho``: eigenvalues by ``s_e / s_rho`` with the same shapes, mass-normalized by
+    ``1 / sqrt(s_rho)``. Damping (alpha, beta, gamma) is scaled by ``damping_scale``.
+    Everything else is delegated to the wrapped model.
+    """
 
+    def __init__(self, model, damping_scale: float = 1.0, modulus_scale: float = 1.0,
+                 density_scale: float = 1.0) -> None:
+        import dataclasses
 
-class _WithMaterial:
-    """Delegates everything to a modal model except ``material``."""
-
-    def __init__(self, model, material) -> None:
+        for name, v in (("damping_scale", damping_scale), ("modulus_scale", modulus_scale),
+                        ("density_scale", density_scale)):
+            if not (np.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be > 0, got {v!r}")
         self._model = model
-        self.material = material
+        m = model.material
+        self.material = dataclasses.replace(
+            m, alpha=m.alpha * damping_scale, beta=m.beta * damping_scale, gamma=m.gamma * damping_scale,
+            youngs_modulus_pa=m.youngs_modulus_pa * modulus_scale, density_kg_m3=m.density_kg_m3 * density_scale)
+        self._freq_scale = float(np.sqrt(modulus_scale / density_scale))
+        self._shape_scale = float(1.0 / np.sqrt(density_scale))
+        self.frequencies_hz = np.asarray(model.frequencies_hz) * self._freq_scale
+        self.angular_frequencies_rad_s = np.asarray(model.angular_frequencies_rad_s) * self._freq_scale
+        mass = getattr(model, "mass_kg", None)
+        if mass is not None:
+            self.mass_kg = mass * density_scale
+
+    def mode_shapes_at(self, points_m):
+        return self._model.mode_shapes_at(points_m) * self._shape_scale
 
     def __getattr__(self, name: str):
         return getattr(self._model, name)

@@ -39,8 +39,10 @@ class DomainRandomization:
         position_noise_m: std of the grasp point's error along the object axis.
         placement_m: object centre drawn uniformly in ``+- placement_m`` on the table (x, y).
         yaw_rad: object yaw drawn uniformly in ``+- yaw_rad``.
-        material_rel: Rayleigh and contact damping (alpha, beta, gamma) scaled by
-            ``1 +- material_rel`` per episode.
+        damping_rel: Rayleigh and contact damping (alpha, beta, gamma) scaled by
+            ``1 +- damping_rel`` per episode.
+        modulus_rel, density_rel: Young's modulus and density scaled by ``1 +- x`` per
+            episode (modal frequencies move by sqrt(E / rho)).
         sensor_noise_std: std of additive microphone noise (units of the waveform).
         leak_scale: leak recording scaled uniformly in this range (if a leak is given).
     """
@@ -49,14 +51,16 @@ class DomainRandomization:
     position_noise_m: float = 0.0005
     placement_m: float = 0.02
     yaw_rad: float = 0.3
-    material_rel: float = 0.05
+    damping_rel: float = 0.05
+    modulus_rel: float = 0.02
+    density_rel: float = 0.01
     sensor_noise_std: float = 0.0
     leak_scale: tuple[float, float] = (1.0, 1.0)
 
     @classmethod
     def off(cls) -> "DomainRandomization":
         """No randomization at all (every reset gives the same scene)."""
-        return cls(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, (1.0, 1.0))
+        return cls(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, (1.0, 1.0))
 
     @classmethod
     def coerce(cls, value) -> "DomainRandomization":
@@ -144,7 +148,20 @@ class _Scene:
 
 
 class AasEnv(gym.Env):
-    """Base class: not registered. Subclasses define spaces, ``reset`` and ``step``."""
+    """Base class: not registered. Subclasses define spaces, ``reset`` and ``step``.
+
+    Common keyword arguments:
+        objects: candidate target objects (names ``<material>_<shape>`` or ``ObjectSpec``).
+        scene: ``"single"`` (the target alone on the table) or ``"multi"`` (one or two
+            ``distractors`` leaning across the target's ends: random object contacts).
+        excitation: ``sensors.Excitation`` or name (impulse / linear / exponential).
+        duration_s: length of each recording (the paper uses 1 s).
+        grip_force_n: nominal grip force (paper: 40 N).
+        include_waveform: add the raw recording under ``waveform``.
+        randomization: ``DomainRandomization`` (or a dict of its knobs, or ``False`` for none).
+        leak, fingertip: passed to ``SimAcousticSensor``.
+        frame_skip, render_mode, width, height, camera_name: as in Gymnasium's MuJoCo envs.
+    """
 
     # 20 Hz control (timestep 2 ms x frame_skip 25), like Gymnasium's Ant and HalfCheetah.
     metadata = {"render_modes": ["human", "rgb_array", "depth_array"], "render_fps": 20}
@@ -157,7 +174,8 @@ class AasEnv(gym.Env):
                  excitation="linear_sweep", duration_s: float = 1.0,
                  grip_force_n: float = DEFAULT_GRIP_FORCE_N, include_waveform: bool = False,
                  randomization=None, frame_skip: int = 25, render_mode: str | None = None,
-                 width: int = 480, height: int = 480, camera_name: str = "closeup") -> None:
+                 width: int = 480, height: int = 480, camera_name: str = "closeup",
+                 leak=None, fingertip=None) -> None:
         self.objects = [get_object(o) for o in objects]
         if not self.objects:
             raise ValueError("objects must name at least one object")
@@ -181,6 +199,8 @@ class AasEnv(gym.Env):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
         self.width, self.height, self.camera_name = int(width), int(height), camera_name
+        self.leak, self.fingertip = leak, fingertip
+        self._material_scales: dict = {}
         self._scenes: OrderedDict[tuple, _Scene] = OrderedDict()
         self._renderer = None
         self._viewer = None
@@ -195,6 +215,8 @@ class AasEnv(gym.Env):
             self._scenes.move_to_end(objects)
         else:
             self._scenes[objects] = _Scene(objects)
+            self._scenes[objects].sensor.leak = self.leak
+            self._scenes[objects].sensor.fingertip = self.fingertip
             while len(self._scenes) > self.MAX_CACHED_SCENES:
                 self._scenes.popitem(last=False)
         scene = self._scenes[objects]
@@ -283,16 +305,21 @@ class AasEnv(gym.Env):
         return float(np.clip(f, 1.0, 140.0))
 
     def _randomize_sensor(self) -> None:
-        """Per-episode sensor randomization (noise, leak scale, damping scale)."""
-        r = self.randomization
-        sensor = self.sensor
-        sensor.rng = self.np_random
+        """Per-episode sensor randomization (noise, leak scale, material scales)."""
+        r, rng, sensor = self.randomization, self.np_random, self.sensor
+
+        def scale(rel: float) -> float:
+            return float(rng.uniform(1 - rel, 1 + rel)) if rel > 0 else 1.0
+
+        sensor.rng = rng
         sensor.noise_std = r.sensor_noise_std
-        self._damping_scale = (float(self.np_random.uniform(1 - r.material_rel, 1 + r.material_rel))
-                               if r.material_rel > 0 else 1.0)
-        sensor.damping_scale = self._damping_scale
+        sensor.damping_scale = scale(r.damping_rel)
+        sensor.modulus_scale = scale(r.modulus_rel)
+        sensor.density_scale = scale(r.density_rel)
         lo, hi = r.leak_scale
-        sensor.leak_scale = float(self.np_random.uniform(lo, hi)) if hi > lo else float(lo)
+        sensor.leak_scale = float(rng.uniform(lo, hi)) if hi > lo else float(lo)
+        self._material_scales = {"damping_scale": sensor.damping_scale, "modulus_scale": sensor.modulus_scale,
+                                 "density_scale": sensor.density_scale, "leak_scale": sensor.leak_scale}
 
     def _grasp(self, position_m: float, grip_force_n: float) -> dict:
         """Scripted planar grasp of the target at ``position_m`` (+ noise) along its axis."""
@@ -372,6 +399,8 @@ class AasEnv(gym.Env):
                 "object_body": sc.bodies[0], "objects": [o.label for o in sc.objects],
                 "object_pose": np.concatenate([self.data.xpos[sc.body_ids[0]],
                                                self.data.xquat[sc.body_ids[0]]]).astype(np.float64)}
+        if self._material_scales:
+            info["randomization"] = dict(self._material_scales)
         if contacts:
             info["contacts"] = {b: c.as_dict() for b, c in sc.stream.read(self.data).items()}
         return info
