@@ -137,3 +137,16 @@ def test_periodic_steady_state_per_harmonic():
         W = 2 * np.pi * 100 * k
         ref = ref + (m.s**2 * a / (w * w - W * W + 2j * 0.01 * w * W) * np.exp(1j * W * t)).real
     assert np.max(np.abs(y - ref)) <= 1e-5 * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("zeta", REGIMES)
+def test_periodic_equals_late_time_domain_all_regimes(zeta):
+    """Dense (critical) and complex-mode paths: the steady state is what the time-domain
+    response settles to."""
+    fs, P = 44100, 441
+    m = OneMode(800.0, zeta)
+    u = np.random.default_rng(3).normal(size=P)
+    y_p = periodic_response(m, u, fs, *DRIVE, *MIC)
+    n_per = 400 if zeta < 1 else 60
+    y_t = modal_response(m, np.tile(u, n_per), fs, *DRIVE, *MIC)
+    assert np.max(np.abs(y_t[-P:] - y_p)) <= 1e-9 * np.max(np.abs(y_p))
