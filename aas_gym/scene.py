@@ -177,16 +177,17 @@ class ObjectSpec:
         kwargs = {k: (v if k in ("shape", "material") else float(v)) for k, v in fields.items()}
         return cls(**kwargs)
 
-    def modal_model(self):
-        """Build (or load from the disk cache) the ``sensors.ModalModel`` of this object."""
-        from sensors import ModalModel
+    def modal_model(self, **options):
+        """Build (or load from the disk cache) the ``sensors.ModalModel`` of this object;
+        ``options`` go to ``ModalModel.bar/tube/rod`` (e.g. ``max_frequency_hz``)."""
+        from sensors.modal_model import ModalModel
 
         material = _material(self.material)
         if self.shape == "bar":
-            return ModalModel.bar(self.length_m, self.width_m, self.height_m, material)
+            return ModalModel.bar(self.length_m, self.width_m, self.height_m, material, **options)
         if self.shape == "tube":
-            return ModalModel.tube(self.length_m, self.outer_radius_m, self.inner_radius_m, material)
-        return ModalModel.rod(self.length_m, self.outer_radius_m, material)
+            return ModalModel.tube(self.length_m, self.outer_radius_m, self.inner_radius_m, material, **options)
+        return ModalModel.rod(self.length_m, self.outer_radius_m, material, **options)
 
 
 def get_object(name: str | ObjectSpec) -> ObjectSpec:

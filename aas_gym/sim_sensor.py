@@ -23,6 +23,23 @@ from aas_gym.contacts import ContactStream, ObjectContacts
 from aas_gym.scene import ObjectSpec, get_object, object_specs_from_model
 
 
+_MODAL_MEMO: dict[tuple, Any] = {}
+_MODAL_MEMO_SIZE = 32
+
+
+def shared_modal_model(spec: ObjectSpec, **options):
+    """``spec.modal_model(**options)``, memoized in this process (scenes and envs that hold
+    the same object share one model; the disk cache in ``sensors`` serves new processes)."""
+    key = (spec, tuple(sorted(options.items())))
+    model = _MODAL_MEMO.get(key)
+    if model is None:
+        model = spec.modal_model(**options)
+        if len(_MODAL_MEMO) >= _MODAL_MEMO_SIZE:
+            _MODAL_MEMO.pop(next(iter(_MODAL_MEMO)))
+        _MODAL_MEMO[key] = model
+    return model
+
+
 class SensorSitesError(ValueError):
     """The model lacks the sensor's sites."""
 
@@ -49,6 +66,8 @@ class SimAcousticSensor:
         min_force_n: contacts carrying less force are ignored (resting, touching-only).
         on_no_grasp: ``"raise"`` (``NoGraspError``) or ``"silence"``: return what the
             microphone records with nothing in the hand (leak and noise only).
+        modal_options: options for ``sensors.ModalModel.bar/tube/rod`` (e.g.
+            ``max_frequency_hz``); models are shared in-process between sensors.
 
     Domain randomization hooks (set by the environments per episode): ``damping_scale``
     multiplies the material's Rayleigh and contact damping, ``modulus_scale`` and
@@ -60,7 +79,8 @@ class SimAcousticSensor:
                  objects: Mapping[str, Any] | None = None, *, actuator_site: str = "aas_actuator",
                  mic_site: str = "aas_mic", fingertip=None, leak=None, noise_std: float = 0.0,
                  seed: int | None = None, rng: np.random.Generator | None = None,
-                 min_force_n: float = 1e-3, on_no_grasp: str = "raise") -> None:
+                 min_force_n: float = 1e-3, on_no_grasp: str = "raise",
+                 modal_options: Mapping[str, Any] | None = None) -> None:
         missing = [s for s in (actuator_site, mic_site)
                    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, s) < 0]
         if missing:
@@ -96,6 +116,7 @@ class SimAcousticSensor:
         self.rng = rng if rng is not None else np.random.default_rng(seed)
         self.min_force_n = float(min_force_n)
         self.on_no_grasp = on_no_grasp
+        self.modal_options = dict(modal_options or {})
         self.stream = ContactStream(model, list(self._specs), actuator_site, mic_site)
         self.damping_scale = 1.0
         self.modulus_scale = 1.0
@@ -118,7 +139,7 @@ class SimAcousticSensor:
             spec = self._specs.get(body)
             if spec is None:
                 raise KeyError(f"{body!r} is not an object of this sensor; known: {self.bodies}")
-            self._modal[body] = spec.modal_model()
+            self._modal[body] = shared_modal_model(spec, **self.modal_options)
         return self._modal[body]
 
     def contacts(self) -> dict[str, ObjectContacts]:

@@ -95,6 +95,9 @@ class AcousticGraspEnv(AasEnv):
             self._last_acoustic = acoustic
             info.update(self._ground_truth(contacts=True))
             info["recording_grasped"] = bool(rec.metadata.get("grasped", False))
+            # Where along the object's main axis the TCP is (the grasp position when grasped).
+            rot = sc.data.xmat[sc.target_body].reshape(3, 3)
+            info["grasp_position_m"] = float((rot.T @ (sc.site_xpos[sc.tcp_site] - sc.xpos[sc.target_body]))[0])
             if grasped and info["recording_grasped"] and self.sense_mode == "action":
                 reward += 10.0
                 terminated = True
