@@ -353,6 +353,9 @@ class DampingFit:
         n_modes: rows used (after outlier rejection); n_rejected: rows dropped as outliers.
         chi2_reduced: weighted residual sum of squares per degree of freedom.
         frequencies_hz, decay_rates, predicted: the rows used and the fit's prediction.
+        used: mask over the input rows of those used.
+        damping_model: ``"diagonal"`` (first order: sigma = C_cc / 2) or ``"exact"`` (the
+            eigenvalues of the full damped system, see :func:`calibrate`).
     """
 
     alpha: float
@@ -367,6 +370,8 @@ class DampingFit:
     frequencies_hz: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
     decay_rates: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
     predicted: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    used: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0, bool))
+    damping_model: str = "diagonal"
 
     @property
     def std(self) -> np.ndarray:
@@ -465,7 +470,64 @@ def fit_damping(
     boot3[:need] = boot
     gamma_val = float(x[2]) if fit_gamma else float(gamma if gamma is not None else 0.0)
     return DampingFit(float(x[0]), float(x[1]), gamma_val, cov, boot3, fit_gamma, int(keep.sum()), rejected, chi2,
-                      f[keep], sig[keep], (A @ x)[keep] + (sig - target)[keep])
+                      f[keep], sig[keep], (A @ x)[keep] + (sig - target)[keep], keep.copy())
+
+
+def _exact_decay_rates(w: np.ndarray, C: np.ndarray) -> np.ndarray:
+    """Decay rate of each mode of ``q'' + C q' + diag(w^2) q = 0``: -Re of the state-space
+    eigenvalue assigned to that mode (by damped frequency) [1/s]."""
+    r = w.size
+    A = np.zeros((2 * r, 2 * r))
+    A[:r, r:] = np.eye(r)
+    A[r:, :r] = -np.diag(w**2)
+    A[r:, r:] = -C
+    lam = np.linalg.eigvals(A)
+    lam = lam[lam.imag >= 0]
+    # an overdamped mode gives two real eigenvalues; its slower one is what a fit would see
+    cost = np.abs(lam.imag[:, None] - w[None, :]) + np.abs(lam.real[:, None]) * 1e-9
+    rows, cols = scipy.optimize.linear_sum_assignment(cost)
+    sigma = np.full(r, np.nan)
+    sigma[cols] = -lam.real[rows]
+    return sigma
+
+
+def _refine_exact(fit: DampingFit, w_model: np.ndarray, G_list: list[np.ndarray], row_rec: np.ndarray,
+                  row_members: list[np.ndarray], sigma: np.ndarray, sd: np.ndarray, gamma_held: float | None) -> DampingFit:
+    """Refit alpha, beta (and gamma) to the exact eigenvalues of the damped modal system of
+    each recording, starting from the first-order (diagonal) fit; rows as that fit kept them."""
+    used = fit.used
+    x0 = np.array([fit.alpha, fit.beta] + ([fit.gamma] if gamma_held is None else []))
+    scale = np.maximum(np.abs(x0), [1e-3, 1e-12, 1e-6][:x0.size])
+    recs = np.unique(row_rec[used])
+
+    def predict(x):
+        alpha, beta = x[0], x[1]
+        gamma = x[2] if gamma_held is None else gamma_held
+        out = np.empty(used.sum())
+        idx = np.flatnonzero(used)
+        for r in recs:
+            C = np.diag(alpha + beta * w_model**2) + gamma * G_list[r]
+            s_modes = _exact_decay_rates(w_model, C)
+            for k, i in enumerate(idx):
+                if row_rec[i] == r:
+                    out[k] = np.nanmean(s_modes[row_members[i]])
+        return out
+
+    def resid(xs):
+        return (sigma[used] - predict(xs * scale)) / sd[used]
+
+    sol = scipy.optimize.least_squares(resid, x0 / scale, bounds=(0.0, np.inf), method="trf", x_scale=1.0)
+    x = sol.x * scale
+    r = sol.fun
+    n_par = x.size
+    chi2 = float(np.sum(r**2) / max(r.size - n_par, 1))
+    J = sol.jac / scale[None, :]
+    cov_small = np.linalg.pinv((J * scale).T @ (J * scale)) * np.outer(scale, scale) * max(chi2, 1.0)
+    cov = np.zeros((3, 3))
+    cov[:n_par, :n_par] = cov_small
+    return dataclasses.replace(
+        fit, alpha=float(x[0]), beta=float(x[1]), gamma=float(x[2]) if gamma_held is None else float(gamma_held),
+        covariance=cov, chi2_reduced=chi2, predicted=predict(x), damping_model="exact")
 
 
 # -- the whole calibration ------------------------------------------------------------------------------
@@ -527,6 +589,8 @@ def calibrate(
     min_observability: float = 1e-3,
     name: str | None = None,
     estimates: Sequence[ModalEstimate] | None = None,
+    damping_model: str = "exact",
+    rel_floor: float = 0.02,
     **estimate_kwargs: Any,
 ) -> CalibrationResult:
     """Fit E, alpha, beta and gamma of ``model``'s material to recordings of the object.
@@ -546,6 +610,12 @@ def calibrate(
             fraction of the strongest are not expected in the recording and not matched.
         name: name of the calibrated material (default ``"<base>-calibrated"``).
         estimates: modal estimates already made (skips estimation).
+        damping_model: ``"diagonal"``: sigma = C_cc / 2 (first order, linear least squares);
+            ``"exact"`` (default): then refine by nonlinear least squares on the eigenvalues
+            of the full damped system of each recording, since contact damping couples
+            modes and the diagonal is biased when modes are close or contact damping is
+            strong (the damped system is 2r x 2r; r is a few hundred at most).
+        rel_floor: relative model error of a decay rate (see :func:`fit_damping`).
         **estimate_kwargs: passed to :func:`sensors.modal_estimation.estimate_modes_from_observation`.
     """
     base = get_material(base_material) if base_material is not None else model.material
@@ -585,9 +655,13 @@ def calibrate(
         matches = [_match(np.log(e.frequencies_hz), np.log(cf), sz, 0.0, rel_tol)
                    for e, cf, sz in zip(estimates, per_rec_cf, per_rec_sizes)]
 
-    rows_f, rows_sig, rows_sd, rows_g, rec_of_row = [], [], [], [], []
+    if damping_model not in ("exact", "diagonal"):
+        raise ValueError(f"damping_model must be 'exact' or 'diagonal', got {damping_model!r}")
+    rows_f, rows_sig, rows_sd, rows_g, rec_of_row, members = [], [], [], [], [], []
+    G_list = []
     for r, (s, est, m, ids) in enumerate(zip(setups, estimates, matches, per_rec_ids)):
         G = contact_damping_matrix(model, s.contacts)
+        G_list.append(G)
         for i, c_local in m:
             c = clusters[ids[c_local]]
             rows_f.append(est.frequencies_hz[i])
@@ -595,6 +669,7 @@ def calibrate(
             rows_sd.append(est.decay_rate_std[i])
             rows_g.append(float(np.trace(G[np.ix_(c, c)]) / c.size))
             rec_of_row.append(r)
+            members.append(c)
     g = np.asarray(rows_g)
     if fit_gamma == "auto":
         # gamma separates from alpha + beta w^2 only if g varies between recordings for the
@@ -603,7 +678,12 @@ def calibrate(
         means = [g[rec == r].mean() for r in np.unique(rec)] if g.size else []
         fit_gamma = len(means) >= 2 and (max(means) - min(means)) > 0.1 * max(max(means), 1e-300)
     damping = fit_damping(np.asarray(rows_f), np.asarray(rows_sig), np.asarray(rows_sd), g,
-                          gamma=None if fit_gamma else base.gamma)
+                          gamma=None if fit_gamma else base.gamma, rel_floor=rel_floor)
+    if damping_model == "exact":
+        sd = np.sqrt(np.asarray(rows_sd) ** 2 + (rel_floor * np.asarray(rows_sig)) ** 2)
+        damping = _refine_exact(damping, w_model * math.sqrt(base.youngs_modulus_pa / model_E) * scale, G_list,
+                                np.asarray(rec_of_row), members, np.asarray(rows_sig), sd,
+                                None if fit_gamma else base.gamma)
     material = dataclasses.replace(
         base, name=name or f"{base.name}-calibrated", youngs_modulus_pa=base.youngs_modulus_pa * scale**2,
         alpha=damping.alpha, beta=damping.beta, gamma=damping.gamma)
