@@ -102,8 +102,12 @@ def run_calibrate(args: argparse.Namespace) -> int:
         kwargs["f_min_hz"] = args.f_min
     if args.f_max is not None:
         kwargs["f_max_hz"] = args.f_max
-    result = calibrate(model, setups, base, fit_youngs_modulus=not args.fixed_e, fit_gamma=fit_gamma,
-                       factor_range=(args.e_range[0], args.e_range[1]), name=args.name, **kwargs)
+    try:
+        result = calibrate(model, setups, base, fit_youngs_modulus=not args.fixed_e, fit_gamma=fit_gamma,
+                           factor_range=(args.e_range[0], args.e_range[1]), name=args.name, **kwargs)
+    except ValueError as exc:  # too few modes found or matched: say so, no traceback
+        print(f"aas calibrate: {exc}", file=sys.stderr)
+        return 1
     report = result.report()
     report["recordings"] = [str(p) for p in args.recordings]
     path = save_material(args.out, result.material, calibration=report)
@@ -119,9 +123,12 @@ def run_calibrate(args: argparse.Namespace) -> int:
     print(f"  beta   {_fmt(m.beta, std[1])} s     (table {base.beta:g})")
     print(f"  gamma  {_fmt(m.gamma, std[2])} s/m   (table {base.gamma:g}{'' if d.gamma_fitted else '; held, not fitted'})")
     print(f"  damping fit: {d.n_modes} modes, {d.n_rejected} rejected, reduced chi2 {d.chi2_reduced:.2f}")
-    bad = [b for e in result.estimates for b in e.bands if not b.fit_ok]
+    bands = [b for e in result.estimates for b in e.bands]
+    bad = [b for b in bands if not b.fit_ok]
     if bad:
-        print(f"  note: {len(bad)} sub-band fit(s) left more residual than the noise explains "
+        # leak, fingertip and nonlinearity leave non-modal residue; many such bands mean
+        # the modal estimates (and so the fit) deserve a look
+        print(f"  note: {len(bad)} of {len(bands)} sub-band fits left more residual than the noise explains "
               f"(e.g. {bad[0].f_lo_hz:.0f}-{bad[0].f_hi_hz:.0f} Hz)")
     print(f"wrote {path}")
     if args.json:
