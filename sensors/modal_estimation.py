@@ -487,11 +487,14 @@ def _estimate_modes(tf, f_min_hz, f_max_hz, band_hz, max_order, skip_samples, ma
 
 def estimate_modes_from_observation(observation, **kwargs: Any) -> ModalEstimate:
     """:func:`transfer_function` then :func:`estimate_modes` on a
-    :class:`sensors.AcousticObservation`. Keyword arguments go to either function."""
+    :class:`sensors.AcousticObservation`. Keyword arguments go to either function;
+    ``f_max_hz`` defaults to 98 % of a sweep's end frequency, or 10 kHz for an impulse."""
     tf_keys = {"skip_periods", "regularization"}
     tf_kwargs = {k: kwargs.pop(k) for k in list(kwargs) if k in tf_keys}
     tf = transfer_function(observation.waveform, observation.excitation, start_s=observation.start_time_s, **tf_kwargs)
-    if "f_max_hz" not in kwargs and observation.excitation.f1_hz is not None:
-        # the last few per cent of a sweep carry little energy and no fade-out
-        kwargs["f_max_hz"] = 0.98 * observation.excitation.f1_hz
+    if "f_max_hz" not in kwargs:
+        f1 = observation.excitation.f1_hz
+        # the last few per cent of a sweep carry little energy and no fade-out; an impulse
+        # covers everything, but the paper's band ends at 10 kHz and higher modes are weak
+        kwargs["f_max_hz"] = 0.98 * f1 if f1 is not None else min(10_000.0, 0.45 * observation.sample_rate_hz)
     return estimate_modes(tf, **kwargs)
