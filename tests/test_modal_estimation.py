@@ -135,3 +135,25 @@ def test_start_offset_and_skip_periods():
         transfer_function(y, exc, skip_periods=3)
     with pytest.raises(ValueError):
         estimate_modes(transfer_function(y, exc), band_hz=50.0)
+
+
+def test_many_modes_across_the_band():
+    # 24 modes, 150 to 9000 Hz, some within 40 Hz of each other: every sub-band fit is small
+    rng = np.random.default_rng(5)
+    f = np.sort(np.concatenate([np.linspace(150, 9000, 20), [2240.0, 4460.0, 6660.0, 8040.0]]))
+    modes = rayleigh_modes(f, alpha=3.0, beta=1.5e-7, seed=7)
+    modes = (modes[0], modes[1], rng.uniform(0.5, 1.5, f.size), modes[3])
+    exc = Excitation.linear_sweep()
+    est = estimate_modes_from_observation(AcousticObservation(recording(exc, modes, snr_db=40.0), FS, exc),
+                                          f_max_hz=9500.0)
+    i = match(est, f)
+    assert len(set(i)) == f.size
+    # within 5 % of each mode's half-power bandwidth sigma / pi (the 6660 / 6671 Hz pair overlaps
+    # four times over), and within 4 stated standard deviations
+    assert np.all(np.abs(est.frequencies_hz[i] - f) < 0.05 * modes[1] / np.pi + 0.05)
+    assert np.all(np.abs(est.frequencies_hz[i] - f) < 4 * est.frequency_std_hz[i] + 0.05)
+    gap = np.minimum(np.diff(f, prepend=-np.inf), np.diff(f, append=np.inf))
+    overlapping = gap < modes[1] / np.pi
+    assert overlapping.sum() == 4  # 6660 / 6671 and 8040 / 8068 Hz
+    np.testing.assert_allclose(est.decay_rates[i][~overlapping], modes[1][~overlapping], rtol=0.05)
+    np.testing.assert_allclose(est.decay_rates[i][overlapping], modes[1][overlapping], rtol=0.10)
