@@ -123,6 +123,19 @@ def _captured_stderr() -> Iterator[list[str]]:
             lines.extend(tmp.read().decode(errors="replace").splitlines())
 
 
+_NOISE = ("ALSA lib", "Expression '", "jack", "Jack", "Cannot connect to server", "JackShm")
+
+
+@contextlib.contextmanager
+def _quiet_stderr() -> Iterator[None]:
+    """Like :func:`_captured_stderr`, then writes back what is not PortAudio/ALSA noise."""
+    with _captured_stderr() as lines:
+        yield
+    keep = [ln for ln in lines if not any(n in ln for n in _NOISE)]
+    if keep:
+        os.write(2, ("\n".join(keep) + "\n").encode())
+
+
 def _alsa_hint(lines: list[str], n: int = 3) -> str:
     useful = [ln for ln in lines if ln.strip() and "jack" not in ln.lower()]
     return (" [" + " | ".join(useful[-n:]) + "]") if useful else ""
@@ -549,14 +562,15 @@ class PyAudioRig:
     # -- recording ------------------------------------------------------------------------
 
     def record(self, excitation: Excitation, duration_s: float, *, save_path: str | os.PathLike | None = None,
-               labels: dict[str, Any] | None = None) -> RigRecording:
+               labels: dict[str, Any] | None = None, on_progress=None) -> RigRecording:
         """Play ``excitation`` looping and record until ``duration_s`` seconds of microphone
         signal after the first excitation period are in.
 
         With ``save_path`` the input streams to a clearly named partial file while recording;
         it is removed on success (saving the final file is the caller's:
         :meth:`RigRecording.to_observation` then ``.save``) and turned into
-        ``<name>.partial.npz`` on failure.
+        ``<name>.partial.npz`` on failure. ``on_progress(frames_recorded)`` is called from
+        this thread about every 20 ms while recording.
 
         Raises:
             NoAudioDeviceError, DeviceNotFoundError, UnsupportedSampleRateError: before recording.
@@ -573,7 +587,11 @@ class PyAudioRig:
         with _portaudio() as pa:
             din, dout = self._resolve(pa)
             self.input_device, self.output_device = din, dout
-            return _Session(self, pa, din, dout, excitation, duration_s, save_path, labels).run()
+            session = _Session(self, pa, din, dout, excitation, duration_s, save_path, labels, on_progress)
+            # PortAudio's threads print ALSA/PulseAudio diagnostics on fd 2 while streaming
+            # (many when a device vanishes): keep them out of the terminal, pass on the rest.
+            with _quiet_stderr():
+                return session.run()
 
 
 class _Session:
@@ -583,8 +601,9 @@ class _Session:
     DETECT_EVERY_S = 0.1
 
     def __init__(self, rig: PyAudioRig, pa, din: AudioDevice, dout: AudioDevice, excitation: Excitation,
-                 duration_s: float, save_path, labels) -> None:
+                 duration_s: float, save_path, labels, on_progress=None) -> None:
         self.rig, self.pa, self.din, self.dout = rig, pa, din, dout
+        self.on_progress = on_progress
         self.excitation, self.duration_s = excitation, duration_s
         self.labels = labels
         self.n_target = int(round(duration_s * rig.fs))
@@ -760,6 +779,8 @@ class _Session:
             while True:
                 time.sleep(self.POLL_S)
                 total += self._drain(parts)
+                if self.on_progress is not None:
+                    self.on_progress(total)
                 self._check_alive()
                 now = time.monotonic()
                 if target is None and total >= self.P and now >= next_detect:
@@ -782,6 +803,8 @@ class _Session:
         except BaseException as exc:
             self._stop()
             total += self._drain(parts)
+            if parts:  # align what there is, so the partial recording is usable as is
+                latency = find_latency(np.concatenate(parts)[:, rig.mic_channel], self.excitation)
             rec = self._recording(parts, latency, reported, complete=False,
                                   error=f"{type(exc).__name__}: {exc}")
             path = self._save_partial(rec)
