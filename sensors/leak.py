@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -65,8 +66,16 @@ def save_leak(path: str | os.PathLike, waveform, sample_rate_hz: int, excitation
     if path.suffix != ".npz":
         path = path.with_suffix(".npz")
     path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez(path, waveform=rec.waveform, sample_rate_hz=np.int64(rec.sample_rate_hz),
-             excitation=np.array(json.dumps(rec.excitation)), metadata=np.array(json.dumps(rec.metadata)))
+    # write to a temporary name and rename: an interruption never leaves a half-written file
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".npz")
+    os.close(fd)
+    try:
+        np.savez(tmp, waveform=rec.waveform, sample_rate_hz=np.int64(rec.sample_rate_hz),
+                 excitation=np.array(json.dumps(rec.excitation)), metadata=np.array(json.dumps(rec.metadata)))
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
     return path
 
 
