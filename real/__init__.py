@@ -3,6 +3,8 @@
 - :class:`PyAudioRig`, :func:`list_devices`: the actuator output and contact-microphone input.
 - :class:`RealAcousticSensor`: ``sense(excitation, duration_s) -> sensors.AcousticObservation``.
 - :func:`record_leaks`: the rig's leak per excitation, in the file format the simulator loads.
+- :class:`RealGraspEnv`, :class:`RobotInterface`, :class:`MujocoRobot`: the AcousticGrasp task on
+  a real robot, same spaces as the simulated env.
 - :mod:`real.loopback`: a PulseAudio null-sink loopback to run all this without hardware.
 
 PyAudio is imported lazily by the rig; ``import real`` works without it.
@@ -25,3 +27,4 @@ from .rig import (
     recover_partial,
 )
 from .sensor import RealAcousticSensor, record_leaks
+from .env import MujocoRobot, RealGraspEnv, RobotInterface, RobotState
