@@ -101,10 +101,8 @@ def cmd_record(args) -> int:
     except KeyboardInterrupt:
         print(f"aas record: interrupted; what was recorded is in {out.with_suffix('')}.partial.npz", file=sys.stderr)
         return 130
-    obs = rec.to_observation(trim=not args.keep_preroll, labels=_labels(args.label),
-                             extra_metadata={"kind": "recording"})
-    path = obs.save(out)
-    print(f"{path}: {obs.duration_s:.2f} s at {obs.sample_rate_hz} Hz, first period at {rec.latency_s * 1e3:.1f} ms into the recording, "
+    path = rec.save(out, trim=not args.keep_preroll, labels=_labels(args.label), extra_metadata={"kind": "recording"})
+    print(f"{path}: {rec.duration_s:.2f} s at {rec.sample_rate_hz} Hz, first period at {rec.latency_s * 1e3:.1f} ms into the recording, "
           f"input {rec.input_device.name!r}, output {rec.output_device.name!r}, "
           f"xruns {sum(v for k, v in rec.flag_counts().items() if k != 'priming_output')}, "
           f"drift {rec.drift_samples} samples")

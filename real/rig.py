@@ -308,8 +308,23 @@ class RigRecording:
     problems: list[str] = field(default_factory=list)
     error: str | None = None
     lead_in_samples: int = 0
+    _writer: Any = field(default=None, repr=False, compare=False)
 
     CLIP_LEVEL = 0.999
+
+    def save(self, path: str | os.PathLike, *, trim: bool = True, labels: dict[str, Any] | None = None,
+             extra_metadata: dict[str, Any] | None = None) -> Path:
+        """Save :meth:`to_observation` atomically to ``path`` (.npz), then remove the partial
+        files streamed while recording."""
+        out = self.to_observation(trim=trim, labels=labels, extra_metadata=extra_metadata).save(path)
+        self.discard_partial()
+        return out
+
+    def discard_partial(self) -> None:
+        """Remove the partial files streamed while recording (once the final file is safe)."""
+        if self._writer is not None:
+            self._writer.discard()
+            self._writer = None
 
     @property
     def mic(self) -> np.ndarray:
@@ -567,9 +582,9 @@ class PyAudioRig:
         signal after the first excitation period are in.
 
         With ``save_path`` the input streams to a clearly named partial file while recording;
-        it is removed on success (saving the final file is the caller's:
-        :meth:`RigRecording.to_observation` then ``.save``) and turned into
-        ``<name>.partial.npz`` on failure. ``on_progress(frames_recorded)`` is called from
+        on success it stays until the caller saves the final file with
+        :meth:`RigRecording.save` (or drops it with :meth:`RigRecording.discard_partial`); on
+        failure it becomes ``<name>.partial.npz``. ``on_progress(frames_recorded)`` is called from
         this thread about every 20 ms while recording.
 
         Raises:
@@ -831,8 +846,9 @@ class _Session:
         if rec.clipped and rig.xrun_policy != "ignore":
             warnings.warn(f"input {self.din} reached full scale (clipping?): lower the output gain or the "
                           "microphone gain", RigWarning, stacklevel=3)
-        if self.writer is not None:
-            self.writer.discard()
+        # The streamed partial files stay until the caller has saved the final file
+        # (RigRecording.save), so there is no moment with neither on disk.
+        rec._writer = self.writer
         return rec
 
     def _recording(self, parts, latency, reported, *, complete: bool, error: str | None) -> RigRecording:

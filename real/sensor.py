@@ -88,6 +88,7 @@ class RealAcousticSensor:
         obs = rec.to_observation(trim=self.trim_preroll, labels=all_labels, extra_metadata={"kind": "recording"})
         if path is not None:
             self.last_path = obs.save(path)
+            rec.discard_partial()
         return obs
 
     def record_leak(self, excitation: Excitation | str, path: str | os.PathLike, duration_s: float = 2.0, *,
@@ -119,6 +120,7 @@ class RealAcousticSensor:
         except BaseException:
             Path(tmp).unlink(missing_ok=True)
             raise
+        rec.discard_partial()
         return path
 
 

@@ -323,3 +323,24 @@ def test_xrun_policy_on_a_drifting_full_duplex_stream(audio_loopback):
     # a recording that is not sample-exact is reported; an exact one is not
     assert rig_warned == (not exact) == bool(rec.problems)
     assert rec.complete and rec.stream_mode == "duplex"
+
+
+def test_cli_record_and_record_leak(audio_loopback, tmp_path, capsys):
+    from real import cli
+
+    assert cli.main(["audio-devices"]) == 0
+    assert "default" in capsys.readouterr().out
+    out = tmp_path / "take.npz"
+    assert cli.main(["record", "-e", "impulse", "-s", "0.5", "--gain", "0.5", "-o", str(out),
+                     "--label", "object=none"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["take.npz"]
+    obs = sensors.AcousticObservation.load(out)
+    assert obs.waveform.size == 22050 and obs.metadata["labels"] == {"object": "none"}
+    assert obs.metadata["kind"] == "recording"
+    assert cli.main(["record-leak", "-o", str(tmp_path / "leaks"), "--excitations", "linear", "-s", "0.5",
+                     "--gain", "0.5"]) == 0
+    from sensors.leak import load_leak
+
+    assert load_leak(tmp_path / "leaks" / "leak_linear.npz").matches(sensors.Excitation.by_name("linear"))
+    assert cli.main(["record", "--input", "no-such-card", "-o", str(tmp_path / "x.npz")]) == 1
+    assert "no input device named like 'no-such-card'" in capsys.readouterr().err
