@@ -344,3 +344,32 @@ def test_cli_record_and_record_leak(audio_loopback, tmp_path, capsys):
     assert load_leak(tmp_path / "leaks" / "leak_linear.npz").matches(sensors.Excitation.by_name("linear"))
     assert cli.main(["record", "--input", "no-such-card", "-o", str(tmp_path / "x.npz")]) == 1
     assert "no input device named like 'no-such-card'" in capsys.readouterr().err
+
+
+def test_output_underrun_is_detected_and_raised(audio_loopback, tmp_path):
+    """Starve PortAudio's callback thread of the GIL for 0.4 s mid-recording: the output
+    underruns. The flag and the broken sample synchronization are both reported, and the
+    recording is kept (in the error and as a partial file)."""
+    rig = real.PyAudioRig(output_gain=GAIN, xrun_policy="raise")
+    ex = sensors.Excitation.by_name("linear")
+    done = []
+
+    def hog_the_gil(frames):
+        if frames >= 0.7 * ex.fs and not done:
+            done.append(True)
+            old = sys.getswitchinterval()
+            sys.setswitchinterval(1.0)  # no other Python thread (the callbacks) runs meanwhile
+            try:
+                t = time.perf_counter()
+                while time.perf_counter() - t < 0.4:
+                    pass
+            finally:
+                sys.setswitchinterval(old)
+
+    with pytest.raises(real.XrunError, match="'default'.*synchronization lost|'default'.*underflow") as info:
+        rig.record(ex, 2.0, save_path=tmp_path / "u.npz", on_progress=hog_the_gil)
+    rec = info.value.recording
+    assert rec.drift_samples > 0 or rec.flag_counts()["output_underflow"] > 0
+    assert rec.input.shape[0] >= 2.0 * ex.fs and rec.problems
+    part = sensors.AcousticObservation.load(info.value.partial_path)
+    assert part.metadata["partial"] and part.metadata["problems"] == rec.problems
