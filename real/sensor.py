@@ -108,8 +108,8 @@ class RealAcousticSensor:
         obs = rec.to_observation(trim=True, labels=meta_labels)
         meta = {**obs.metadata, "kind": "leak"}
         path.parent.mkdir(parents=True, exist_ok=True)
-        # sensors.leak.save_leak writes in place; write it to a temporary name and rename so
-        # an interruption never leaves a half-written leak file under the final name.
+        # Write under a temporary name, fsync, rename: the final name only ever holds a whole
+        # file, and it survives a power cut once this returns.
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".npz")
         os.close(fd)
         try:
