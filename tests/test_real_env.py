@@ -111,3 +111,10 @@ def test_robot_state_fields(robot):
     assert isinstance(s, RobotState)
     assert s.tcp.shape == (4,) and s.object_pose.shape == (7,) and not s.grasped
     assert s.gripper_opening_m == pytest.approx(0.08, abs=1e-3)
+
+
+def test_check_env_control_only(robot):
+    from gymnasium.utils.env_checker import check_env
+
+    env = RealGraspEnv(robot, _Recorder(), sense_mode="never")
+    check_env(env)
