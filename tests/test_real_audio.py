@@ -39,9 +39,13 @@ DURATION_S = 1.0
 
 @pytest.fixture(scope="session")
 def audio_loopback():
-    """The PulseAudio null-sink loopback, started once (reused if already running)."""
+    """The PulseAudio null-sink loopback, started once (reused if already running, and then
+    left running; stopped at the end if this session started it)."""
+    was_running = loopback.is_running()
     lb = loopback.start_loopback()
     yield lb
+    if not was_running:
+        loopback.stop_loopback(lb.runtime_dir)
 
 
 def _restore(lb) -> None:

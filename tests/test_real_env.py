@@ -87,12 +87,20 @@ def test_episode_logic_without_audio(robot):
     assert env.observation_space.contains(obs)
 
 
-@pytest.mark.audio
-def test_grasp_and_sense_through_the_real_audio_path(robot):
+@pytest.fixture
+def audio_loopback():
     pytest.importorskip("pyaudio")
     from real import loopback
 
-    loopback.start_loopback()
+    was_running = loopback.is_running()
+    lb = loopback.start_loopback()
+    yield lb
+    if not was_running:
+        loopback.stop_loopback(lb.runtime_dir)
+
+
+@pytest.mark.audio
+def test_grasp_and_sense_through_the_real_audio_path(robot, audio_loopback):
     sensor = real.RealAcousticSensor(real.PyAudioRig(output_gain=0.5))
     env = RealGraspEnv(robot, sensor, excitation="linear", duration_s=1.0)
     obs, _ = env.reset(seed=1)
