@@ -31,7 +31,9 @@ import real  # noqa: E402
 import sensors  # noqa: E402
 from real import loopback  # noqa: E402
 
-pytestmark = pytest.mark.audio
+# One PulseAudio server, which some tests kill and restart: keep these tests on one xdist
+# worker (pytest -n N --dist loadgroup).
+pytestmark = [pytest.mark.audio, pytest.mark.xdist_group("real_audio")]
 EXCITATIONS = ["impulse", "linear", "exponential"]
 GAIN = 0.5  # headroom: a full-scale loopback reads exactly 1.0, which the rig flags as clipping
 DURATION_S = 1.0

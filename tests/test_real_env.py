@@ -100,6 +100,7 @@ def audio_loopback():
 
 
 @pytest.mark.audio
+@pytest.mark.xdist_group("real_audio")
 def test_grasp_and_sense_through_the_real_audio_path(robot, audio_loopback):
     sensor = real.RealAcousticSensor(real.PyAudioRig(output_gain=0.5))
     env = RealGraspEnv(robot, sensor, excitation="linear", duration_s=1.0)
