@@ -1,0 +1,109 @@
+"""Content-addressed on-disk cache for tet meshes and modal models.
+
+A key is the SHA-256 of everything the result depends on (geometry, material, options) plus
+:data:`CODE_VERSION`, a hash of the source of the modules that compute it, so editing the
+solver invalidates old entries instead of silently serving stale modes. Entries are ``.npz``
+files written atomically (temp file + rename), safe with several processes sharing a cache.
+
+Directory: ``$AAS_GYM_CACHE`` if set, else ``~/.cache/aas_gym``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["CODE_VERSION", "default_cache_dir", "content_key", "load_arrays", "save_arrays", "entry_path"]
+
+log = logging.getLogger(__name__)
+
+_SOURCES = ("meshing.py", "fem.py", "eigen.py", "modal_model.py", "materials.py", "cache.py")
+
+
+def _code_version() -> str:
+    h = hashlib.sha256()
+    here = Path(__file__).resolve().parent
+    for name in _SOURCES:
+        try:
+            h.update((here / name).read_bytes())
+        except OSError:
+            h.update(name.encode())
+    return h.hexdigest()[:16]
+
+
+#: Hash of the source files that produce cached results.
+CODE_VERSION = _code_version()
+
+
+def default_cache_dir() -> Path:
+    """``$AAS_GYM_CACHE`` or ``~/.cache/aas_gym``."""
+    env = os.environ.get("AAS_GYM_CACHE")
+    return Path(env).expanduser() if env else Path.home() / ".cache" / "aas_gym"
+
+
+def _feed(h, obj) -> None:
+    if isinstance(obj, np.ndarray):
+        a = np.ascontiguousarray(obj)
+        h.update(f"nd{a.dtype.str}{a.shape}".encode())
+        h.update(a.tobytes())
+    elif isinstance(obj, (list, tuple)):
+        h.update(f"seq{len(obj)}".encode())
+        for item in obj:
+            _feed(h, item)
+    elif isinstance(obj, dict):
+        h.update(json.dumps(obj, sort_keys=True, default=repr).encode())
+    else:
+        h.update(repr(obj).encode())
+    h.update(b"|")
+
+
+def content_key(*parts) -> str:
+    """SHA-256 hex key of ``parts`` (arrays, numbers, strings, dicts) and the code version."""
+    h = hashlib.sha256()
+    _feed(h, CODE_VERSION)
+    for part in parts:
+        _feed(h, part)
+    return h.hexdigest()
+
+
+def entry_path(key: str, cache_dir=None) -> Path:
+    """Path of the cache entry for ``key``."""
+    return Path(cache_dir) if cache_dir is not None else default_cache_dir()
+
+
+def _file(key: str, cache_dir) -> Path:
+    return entry_path(key, cache_dir) / f"{key}.npz"
+
+
+def load_arrays(key: str, cache_dir=None) -> dict | None:
+    """The arrays stored under ``key``, or None (missing or unreadable entries are misses)."""
+    path = _file(key, cache_dir)
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {name: data[name] for name in data.files}
+    except Exception as exc:  # a truncated or foreign file: treat as a miss, it will be rewritten
+        log.warning("ignoring unreadable cache entry %s: %s", path, exc)
+        return None
+
+
+def save_arrays(key: str, arrays: dict, cache_dir=None) -> Path | None:
+    """Store ``arrays`` under ``key`` atomically; returns the path (None if not writable)."""
+    path = _file(key, cache_dir)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, **arrays)
+        os.replace(tmp, path)
+        return path
+    except OSError as exc:
+        log.warning("could not write cache entry %s: %s", path, exc)
+        return None

@@ -1,0 +1,192 @@
+"""Generalized eigenproblem K u = lambda M u for the elastic modes of a free body.
+
+* The six rigid-body modes are known in closed form; they are projected out of the
+  shift-invert operator instead of being computed and thrown away, so a zero eigenvalue
+  (which shift-invert near 0 resolves poorly) never has to be found.
+* The shift is negative (K - sigma M is then positive definite) and scaled to the problem:
+  an SI problem has K/M ~ 1e12..1e14, where a shift of -1 vanishes in round-off and silently
+  returns wrong modes.
+* Every returned mode is Rayleigh-Ritz refined (exactly mass-orthonormal) and its residual
+  ||K u - lambda M u|| / ||K u|| checked; the mode set is extended past the band limit
+  until it does not cut a cluster of near-repeated eigenvalues (symmetric objects have
+  pairs whose basis is arbitrary).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse
+import scipy.sparse.linalg
+
+__all__ = ["EigenSolveError", "rigid_body_modes", "solve_modes", "mode_residuals"]
+
+log = logging.getLogger(__name__)
+
+#: Below this many dofs a dense solve is both faster and more robust than ARPACK.
+DENSE_MAX_DOF = 1200
+
+
+class EigenSolveError(RuntimeError):
+    """The eigen-solve failed or produced modes that do not satisfy K u = lambda M u."""
+
+
+def rigid_body_modes(nodes_m: np.ndarray) -> np.ndarray:
+    """(3 n, 6) translations x, y, z and rotations about x, y, z (about the centroid)."""
+    n = len(nodes_m)
+    x, y, z = (nodes_m - nodes_m.mean(axis=0)).T
+    R = np.zeros((3 * n, 6))
+    for i in range(3):
+        R[i::3, i] = 1.0
+    R[1::3, 3], R[2::3, 3] = -z, y
+    R[0::3, 4], R[2::3, 4] = z, -x
+    R[0::3, 5], R[1::3, 5] = -y, x
+    return R
+
+
+def _m_orthonormalize(V: np.ndarray, M) -> np.ndarray:
+    G = V.T @ (M @ V)
+    L = np.linalg.cholesky(0.5 * (G + G.T))
+    return np.linalg.solve(L, V.T).T
+
+
+def mode_residuals(K, M, lambdas: np.ndarray, U: np.ndarray) -> np.ndarray:
+    """Relative residual ||K u - lambda M u|| / ||K u|| of every column of U."""
+    KU = K @ U
+    return np.linalg.norm(KU - (M @ U) * lambdas, axis=0) / np.maximum(np.linalg.norm(KU, axis=0), 1e-300)
+
+
+def _rayleigh_ritz(K, M, V):
+    Kr = V.T @ (K @ V)
+    Mr = V.T @ (M @ V)
+    lam, Q = scipy.linalg.eigh(0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T))
+    return lam, V @ Q
+
+
+def _cut(lam: np.ndarray, lam_max: float, cluster_rtol: float) -> int | None:
+    """Number of modes to keep: all with lam <= lam_max plus the rest of a cluster at the cut.
+
+    Returns None if the computed set ends inside the band or inside the cluster (need more).
+    """
+    n = int(np.searchsorted(lam, lam_max, side="right"))
+    # Eigenvalue ratio tolerance is twice the frequency one.
+    while n < len(lam) and n > 0 and lam[n] <= lam[n - 1] * (1.0 + 2.0 * cluster_rtol):
+        n += 1
+    if n >= len(lam):
+        return None
+    return n
+
+
+def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_rtol: float = 2e-3,
+                residual_tol: float = 1e-6, max_modes: int | None = None, progress=None):
+    """Elastic modes of a free body with frequency up to ``max_frequency_hz``.
+
+    Args:
+        K, M: Sparse stiffness and mass (3 n_nodes square, node-major dofs).
+        nodes_m: (n_nodes, 3) node coordinates (for the rigid-body modes).
+        max_frequency_hz: Band limit; the set may extend past it to complete a cluster.
+        cluster_rtol: Modes whose frequencies differ by less than this (relative) count as one
+            cluster, which is never cut.
+        residual_tol: Largest accepted ||K u - lambda M u|| / ||K u||.
+        max_modes: Safety cap on the number of modes (default: no cap below the dof count).
+        progress: Optional callable(str) for status messages.
+
+    Returns:
+        (lambdas (r,) ascending [rad^2/s^2], U (3 n_nodes, r) with U^T M U = I).
+
+    Raises:
+        EigenSolveError: spurious zero-energy modes, failed convergence, or residuals above
+            ``residual_tol``.
+    """
+    if not (math.isfinite(max_frequency_hz) and max_frequency_hz > 0):
+        raise ValueError(f"max_frequency_hz must be a positive number, got {max_frequency_hz!r}")
+    K = scipy.sparse.csr_matrix(K)
+    M = scipy.sparse.csr_matrix(M)
+    n_dof = K.shape[0]
+    if not (np.all(np.isfinite(K.data)) and np.all(np.isfinite(M.data))):
+        raise EigenSolveError("stiffness or mass matrix has non-finite entries")
+    lam_max = (2.0 * math.pi * max_frequency_hz) ** 2
+    d_k, d_m = K.diagonal(), M.diagonal()
+    if np.any(d_m <= 0) or np.any(d_k <= 0):
+        raise EigenSolveError("stiffness or mass matrix has non-positive diagonal entries (unused nodes?)")
+    lam_scale = float(np.median(d_k / d_m))  # ~ (highest mesh frequency)^2
+    R = _m_orthonormalize(rigid_body_modes(nodes_m), M)
+    n_elastic = n_dof - 6
+    cap = n_elastic if max_modes is None else min(max_modes, n_elastic)
+    say = progress or (lambda msg: None)
+
+    if n_dof <= DENSE_MAX_DOF:
+        say("dense eigensolve")
+        MR = M @ R
+        shift = 10.0 * lam_scale  # move the rigid modes far above the band
+        Kd = K.toarray() + shift * (MR @ MR.T)
+        lam, U = scipy.linalg.eigh(Kd, M.toarray())
+        keep = np.abs(lam - shift) > 1e-6 * shift
+        lam, U = lam[keep], U[:, keep]
+    else:
+        # Negative shift scaled to the band, bounded so K - sigma M stays well conditioned.
+        sigma = -min(max(1e-3 * lam_max, 1e-10 * lam_scale), 1e-3 * lam_scale)
+        say("factorizing")
+        A = (K - sigma * M).tocsc()
+        try:
+            lu = scipy.sparse.linalg.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                          options={"SymmetricMode": True})
+        except RuntimeError as exc:
+            raise EigenSolveError(f"factorization of K - sigma M failed ({exc}); is the mesh valid?") from exc
+
+        def op(x):
+            y = lu.solve(np.asarray(x, dtype=np.float64))
+            return y - R @ (R.T @ (M @ y))  # M-orthogonal projection: no rigid-body component
+
+        OPinv = scipy.sparse.linalg.LinearOperator((n_dof, n_dof), matvec=op, dtype=np.float64)
+        rng = np.random.default_rng(12345)  # deterministic start vector -> reproducible modes
+        v0 = op(M @ rng.standard_normal(n_dof))
+        # First guess of the mode count; doubled until the band (and its last cluster) is covered.
+        k = min(cap, max(24, int(12 * max_frequency_hz / 5000.0)))
+        lam = U = None
+        while True:
+            k = min(k, cap, n_dof - 8)
+            say(f"eigensolve k={k}")
+            try:
+                vals, vecs = scipy.sparse.linalg.eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=OPinv,
+                                                       v0=v0, ncv=min(n_dof - 7, max(2 * k + 1, k + 32)))
+            except scipy.sparse.linalg.ArpackError as exc:
+                raise EigenSolveError(f"ARPACK failed: {exc}") from exc
+            order = np.argsort(vals)
+            lam, U = vals[order], vecs[:, order]
+            if _cut(lam, lam_max, cluster_rtol) is not None or k >= min(cap, n_dof - 8):
+                break
+            k *= 2
+        lam, U = _rayleigh_ritz(K, M, U)
+
+    if len(lam) and lam[0] <= 1e-9 * lam_scale:
+        raise EigenSolveError(
+            f"found a zero-energy elastic mode (lambda = {lam[0]:.3g}, scale {lam_scale:.3g}): the mesh has a "
+            "mechanism or a disconnected part"
+        )
+    n = _cut(lam, lam_max, cluster_rtol)
+    if n is None:
+        n = len(lam)
+        if n < cap:
+            raise EigenSolveError(f"could not compute all modes below {max_frequency_hz} Hz (got {n}); "
+                                  "raise max_modes or lower max_frequency_hz")
+    lam, U = lam[:n], U[:, :n]
+    res = mode_residuals(K, M, lam, U)
+    if np.any(res > residual_tol) and n_dof > DENSE_MAX_DOF:
+        # One step of subspace iteration with the factorization sharpens loose ARPACK vectors.
+        say("refining")
+        V = np.column_stack([op(M @ U[:, j]) for j in range(U.shape[1])])
+        lam, U = _rayleigh_ritz(K, M, V)
+        res = mode_residuals(K, M, lam, U)
+    bad = np.flatnonzero(~(res <= residual_tol))
+    if len(bad):
+        raise EigenSolveError(
+            f"{len(bad)} of {n} modes fail the residual check ||K u - lambda M u|| / ||K u|| <= {residual_tol:g} "
+            f"(worst {np.nanmax(res):.3g} at {math.sqrt(max(lam[bad[0]], 0)) / (2 * math.pi):.4g} Hz)"
+        )
+    if not np.all(np.isfinite(U)):
+        raise EigenSolveError("eigenvectors contain non-finite values")
+    return lam, U
