@@ -15,3 +15,5 @@ from .fingertip import FingertipModel
 from .leak import LeakRecording, align_leak, load_leak, save_leak
 from .recording import simulate_recording
 from .modal_estimation import ModalEstimate, estimate_modes, estimate_modes_from_observation, transfer_function
+from .materials import Material, MATERIALS, get_material
+from .modal_model import ModalModel
