@@ -104,7 +104,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
         kwargs["f_max_hz"] = args.f_max
     try:
         result = calibrate(model, setups, base, fit_youngs_modulus=not args.fixed_e, fit_gamma=fit_gamma,
-                           factor_range=(args.e_range[0], args.e_range[1]), name=args.name, **kwargs)
+                           factor_range=(args.e_range[0], args.e_range[1]), name=args.name,
+                           leak=args.leak or None, **kwargs)
     except ValueError as exc:  # too few modes found or matched: say so, no traceback
         print(f"aas calibrate: {exc}", file=sys.stderr)
         return 1
@@ -151,6 +152,8 @@ def add_subcommands(sub) -> None:
     p.add_argument("--grasp-x", type=float, help="grasp position along the main axis [m] (recordings without contacts)")
     p.add_argument("--grip-force", type=float, nargs="+", metavar="N", help="grip force(s) [N], one or one per recording")
     p.add_argument("--friction", type=float, default=0.5, help="friction coefficient of the grasp contacts (default 0.5)")
+    p.add_argument("--leak", nargs="+", metavar="NPZ",
+                   help="idle leak recording(s) of the rig (sensors.leak format), one per excitation: removed first")
     p.add_argument("--fit-gamma", choices=("auto", "yes", "no"), default="auto",
                    help="fit gamma (auto: when grip forces / contact sets differ between recordings)")
     p.add_argument("--fixed-e", action="store_true", help="keep the base Young's modulus")

@@ -577,6 +577,15 @@ class CalibrationResult:
         return out
 
 
+def _as_leaks(leak) -> list:
+    from .leak import LeakRecording, load_leak
+
+    if leak is None:
+        return []
+    items = leak if isinstance(leak, (list, tuple)) else [leak]
+    return [lk if isinstance(lk, LeakRecording) else load_leak(lk) for lk in items]
+
+
 def calibrate(
     model,
     recordings: Sequence[RecordingSetup | AcousticObservation],
@@ -591,6 +600,7 @@ def calibrate(
     estimates: Sequence[ModalEstimate] | None = None,
     damping_model: str = "exact",
     rel_floor: float = 0.02,
+    leak=None,
     **estimate_kwargs: Any,
 ) -> CalibrationResult:
     """Fit E, alpha, beta and gamma of ``model``'s material to recordings of the object.
@@ -616,6 +626,9 @@ def calibrate(
             modes and the diagonal is biased when modes are close or contact damping is
             strong (the damped system is 2r x 2r; r is a few hundred at most).
         rel_floor: relative model error of a decay rate (see :func:`fit_damping`).
+        leak: the rig's idle leak recording(s) (``sensors.LeakRecording``, a path to one, or
+            a sequence of them, one per excitation): removed from each recording made with
+            the matching excitation before its modes are estimated.
         **estimate_kwargs: passed to :func:`sensors.modal_estimation.estimate_modes_from_observation`.
     """
     base = get_material(base_material) if base_material is not None else model.material
@@ -625,7 +638,16 @@ def calibrate(
     if not setups:
         raise ValueError("no recordings")
     if estimates is None:
-        estimates = [estimate_modes_from_observation(s.observation, **estimate_kwargs) for s in setups]
+        leaks = _as_leaks(leak)
+        estimates = []
+        for s in setups:
+            kw = dict(estimate_kwargs)
+            if leaks:
+                match = [lk for lk in leaks if lk.matches(s.observation.excitation)]
+                if not match:
+                    raise ValueError(f"no leak recording for the {s.observation.excitation.name} excitation")
+                kw["leak"] = match[0]
+            estimates.append(estimate_modes_from_observation(s.observation, **kw))
     estimates = list(estimates)
     w_model = np.asarray(model.angular_frequencies_rad_s, float)
     # the model may have been built with another E than the base material's

@@ -64,6 +64,9 @@ class TransferFunction:
         period_s: loop period (the length of the circular impulse response).
         n_periods: number of periods averaged.
         valid: bins where the excitation had enough energy to be trusted.
+        top_hz: upper edge of the excitation's band (power within 30 dB of its peak): a
+            sweep's end. Sub-bands are kept below it, since the transfer function drops to
+            zero there and a sharp edge rings for a long time in a sub-band signal.
     """
 
     frequencies_hz: np.ndarray
@@ -72,6 +75,7 @@ class TransferFunction:
     period_s: float
     n_periods: int
     valid: np.ndarray
+    top_hz: float = math.inf
 
     @property
     def bin_hz(self) -> float:
@@ -91,6 +95,8 @@ def transfer_function(
     start_s: float = 0.0,
     skip_periods: int | str = "auto",
     regularization: float = 1e-9,
+    leak=None,
+    leak_delay_samples: int = 0,
 ) -> TransferFunction:
     """Deconvolve a recording by its looping excitation, over one loop period.
 
@@ -104,6 +110,15 @@ def transfer_function(
             exponentials.
         regularization: Tikhonov weight relative to the excitation's peak power spectrum;
             bins with ``|X|^2`` below 100 times it are marked invalid.
+        leak: the rig's idle recording for this excitation (``sensors.LeakRecording`` or a
+            waveform at ``fs``), to be removed: its transfer function is deconvolved the same
+            way, delayed by ``leak_delay_samples`` and subtracted (recorded at the same gain).
+            A leak that starts after the excitation is not a sum of decaying modes from
+            t = 0 (it switches on later) and would bias the modes under it.
+        leak_delay_samples: where the leak sits in the recording relative to its own file.
+            0 for the rig, whose leak files and recordings both start at the first
+            excitation period; the simulator's shift is in the recording's metadata (see
+            :func:`estimate_modes_from_observation`).
     """
     fs = excitation.fs
     windows = segment(waveform, fs, excitation.period_s, start_s)
@@ -120,11 +135,35 @@ def transfer_function(
     lam = regularization * power.max()
     inverse = np.conj(X) / (power + lam)
     response = Y.mean(axis=0) * inverse
+    if leak is not None:
+        response = _remove_leak(response, leak, excitation, inverse, leak_delay_samples)
     noise_var = None
     if Y.shape[0] >= 2:
         noise_var = np.var(Y, axis=0, ddof=1) / Y.shape[0] * np.abs(inverse) ** 2
     freqs = np.fft.rfftfreq(windows.shape[1], 1.0 / fs)
-    return TransferFunction(freqs, response, noise_var, excitation.period_s, Y.shape[0], power > 100 * lam)
+    strong = np.flatnonzero(power >= 1e-3 * power.max())
+    top_hz = float(freqs[strong[-1]]) if strong[-1] < freqs.size - 1 else math.inf
+    return TransferFunction(freqs, response, noise_var, excitation.period_s, Y.shape[0], power > 100 * lam, top_hz)
+
+
+def _remove_leak(response: np.ndarray, leak, excitation: Excitation, inverse: np.ndarray,
+                 delay: int) -> np.ndarray:
+    w = np.asarray(getattr(leak, "waveform", leak), dtype=float)
+    rate = getattr(leak, "sample_rate_hz", excitation.fs)
+    if rate != excitation.fs:
+        raise ValueError(f"leak recorded at {rate} Hz, the recording at {excitation.fs} Hz")
+    # the leak is periodic too: any whole periods of it will do, transient-free ones best
+    windows = segment(w, excitation.fs, excitation.period_s, 0.0)
+    if windows.shape[0] >= 2:
+        windows = windows[1:]
+    H_leak = np.fft.rfft(windows, axis=1).mean(axis=0) * inverse
+    n = excitation.period_samples
+    # circular cross-correlation of the two impulse responses: the leak's lag in the recording
+    lag = int(delay) % n
+    # unit gain: the leak path does not change with the grasp (a least-squares gain would be
+    # pulled by the object's response, which correlates with the leak)
+    k = np.arange(response.size)
+    return response - H_leak * np.exp(-2j * np.pi * k * lag / n)
 
 
 # -- ESPRIT -----------------------------------------------------------------------------------
@@ -404,9 +443,17 @@ def _estimate_modes(tf, f_min_hz, f_max_hz, band_hz, max_order, skip_samples, ma
         raise ValueError(f"band_hz={band_hz} spans {k_min} bins of {df:g} Hz; need at least 64")
     k_max = n_period // 2
 
+    k_edge = int(math.floor(tf.top_hz / df)) if math.isfinite(tf.top_hz) else None
+
     def fit(k_lo_keep: int, k_hi_keep: int, K: int):
         k_centre = (k_lo_keep + k_hi_keep) // 2
         k0 = k_centre - K // 2
+        if k_edge is not None and k0 + K > k_edge:
+            # slide the sub-band below the excitation's band edge (and above its mirror
+            # image at -edge); modes near the edge then sit on the taper's flank, and are
+            # dropped if it is too low
+            k0 = max(k_edge - K, -k_edge)
+            K = min(K, 2 * k_edge)
         w = _taper(K)
         bins = np.take(full, np.arange(k0, k0 + K), mode="wrap") * w
         g = np.fft.ifft(bins) * K  # the sub-band's time signal, heterodyned by f(k0)
@@ -488,9 +535,23 @@ def _estimate_modes(tf, f_min_hz, f_max_hz, band_hz, max_order, skip_samples, ma
 def estimate_modes_from_observation(observation, **kwargs: Any) -> ModalEstimate:
     """:func:`transfer_function` then :func:`estimate_modes` on a
     :class:`sensors.AcousticObservation`. Keyword arguments go to either function;
-    ``f_max_hz`` defaults to 98 % of a sweep's end frequency, or 10 kHz for an impulse."""
-    tf_keys = {"skip_periods", "regularization"}
+    ``f_max_hz`` defaults to 98 % of a sweep's end frequency, or 10 kHz for an impulse.
+    With ``leak=``, a simulated recording's ``leak_target_lag`` metadata places the leak
+    exactly; otherwise it is taken to start with the recording (the rig's layout)."""
+    tf_keys = {"skip_periods", "regularization", "leak"}
     tf_kwargs = {k: kwargs.pop(k) for k in list(kwargs) if k in tf_keys}
+    leak = tf_kwargs.get("leak")
+    target = (observation.metadata or {}).get("leak_target_lag")
+    if leak is not None and target is not None and "leak_delay_samples" not in kwargs:
+        # the simulator shifted the leak so its excitation peak falls at target (sensors.leak)
+        from .leak import excitation_lag
+
+        w = np.asarray(getattr(leak, "waveform", leak), dtype=float)
+        P = observation.excitation.period_samples
+        own = excitation_lag(w, observation.excitation.signal, max_lag=min(P - 1, w.size - P))
+        tf_kwargs["leak_delay_samples"] = int(target) - own
+    elif "leak_delay_samples" in kwargs:
+        tf_kwargs["leak_delay_samples"] = kwargs.pop("leak_delay_samples")
     tf = transfer_function(observation.waveform, observation.excitation, start_s=observation.start_time_s, **tf_kwargs)
     if "f_max_hz" not in kwargs:
         f1 = observation.excitation.f1_hz

@@ -14,7 +14,7 @@ import pytest
 from scipy.signal import lfilter
 
 from calibration_fakes import AnalyticBar
-from sensors import Contact, Excitation, LeakRecording, simulate_recording
+from sensors import Contact, Excitation, LeakRecording, save_leak, simulate_recording
 from sensors.calibration import (
     RecordingSetup, ScaledModalModel, calibrate, fit_damping, fit_stiffness, load_material, save_material, with_material,
 )
@@ -33,23 +33,26 @@ def true_material(base: Material) -> Material:
 
 def gripper_leak(exc: Excitation, level: float) -> LeakRecording:
     """An idle-gripper recording: the excitation through two damped body modes of the hand."""
-    y = np.zeros(int(2.5 * exc.fs))
-    x = exc.loop(2.5)
+    x = exc.loop(3.0)
+    y = np.zeros(x.size)
     for f, s in ((1800.0, 150.0), (4600.0, 250.0)):
         z = np.exp((-s + 2j * np.pi * f) / exc.fs)
         y += lfilter([1.0, -z.real], [1.0, -2 * z.real, abs(z) ** 2], x)
+    y = y[exc.period_samples:]  # the rig records the leak in steady state: drop the start-up
     return LeakRecording((level * y / np.sqrt(np.mean(y**2))).astype(np.float32), exc.fs, exc)
 
 
 def record(model, exc, grasps, snr_db=SNR_DB, leak_db=-20.0, seed=0, duration_s=DURATION_S):
     """Recordings of ``model`` at each grasp, noise at ``snr_db`` below the signal RMS, a leak
-    ``leak_db`` below it. Returns the setups and the (leak, noise_std) used for each."""
+    ``leak_db`` below the first one's. Returns the setups and the (leak, noise_std) of each."""
     out, settings = [], []
+    leak = None
     for k, (x, force) in enumerate(grasps):
         a, m = model.grasp(x, force)
         clean = simulate_recording(model, exc, duration_s, a, m)
         rms = float(np.sqrt(np.mean(clean.waveform.astype(float) ** 2)))
-        leak = gripper_leak(exc, rms * 10 ** (leak_db / 20)) if leak_db is not None else None
+        if leak is None and leak_db is not None:  # one leak recording per excitation, as on the rig
+            leak = gripper_leak(exc, rms * 10 ** (leak_db / 20))
         noise_std = rms * 10 ** (-snr_db / 20) if snr_db is not None else 0.0
         obs = simulate_recording(model, exc, duration_s, a, m, leak=leak, noise_std=noise_std, rng=seed + k)
         out.append(RecordingSetup.from_observation(obs))
@@ -64,7 +67,8 @@ def abs_case():
     real = with_material(bar, true_material(base))
     exc = Excitation.linear_sweep()
     setups, settings = record(real, exc, GRASPS)
-    return bar, base, real, exc, setups, settings, calibrate(bar, setups, base)
+    # the rig records its leak once per excitation; the calibration removes it
+    return bar, base, real, exc, setups, settings, calibrate(bar, setups, base, leak=settings[0][0])
 
 
 def test_recovers_e_alpha_beta_gamma_within_5_percent(abs_case):
@@ -191,13 +195,15 @@ def test_cli_writes_a_loadable_material(tmp_path, monkeypatch, capsys, abs_case)
     import aas_gym.calibration_cli as cli
     from aas_gym.cli import main
 
-    bar, base, _, _, setups, _, result = abs_case
+    bar, base, _, exc, setups, settings, result = abs_case
     paths = [str(s.observation.save(tmp_path / f"rec{k}.npz")) for k, s in enumerate(setups)]
     # the CLI builds sensors.ModalModel.bar; the analytic bar stands in for it here
     monkeypatch.setattr(cli, "_build_model", lambda args, material: AnalyticBar(*args.dims, material))
     out = tmp_path / "abs-cal.json"
+    lk = settings[0][0]
+    leaks = [str(save_leak(tmp_path / "leak.npz", lk.waveform, lk.sample_rate_hz, exc))]
     assert main(["calibrate", *paths, "--material", "abs", "--shape", "bar", "--dims", "0.2", "0.02", "0.01",
-                 "--out", str(out)]) == 0
+                 "--leak", *leaks, "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "alpha" in printed and str(out) in printed
     loaded = load_material(out)

@@ -157,3 +157,21 @@ def test_many_modes_across_the_band():
     assert overlapping.sum() == 4  # 6660 / 6671 and 8040 / 8068 Hz
     np.testing.assert_allclose(est.decay_rates[i][~overlapping], modes[1][~overlapping], rtol=0.05)
     np.testing.assert_allclose(est.decay_rates[i][overlapping], modes[1][overlapping], rtol=0.10)
+
+
+def test_leak_is_removed_at_its_delay():
+    exc = Excitation.linear_sweep()
+    y = recording(exc, rayleigh_modes([900.0, 2500.0, 6000.0]), periods=4)
+    # the leak: the excitation through a damped gripper mode, steady state, delayed by 37
+    leak = recording(exc, ([4100.0], [300.0], [0.3], [0.0]), periods=5)[exc.period_samples:]
+    delay = 37
+    with_leak = y + np.roll(leak[:y.size], delay)
+    clean = transfer_function(y, exc)
+    band = (clean.frequencies_hz > 100) & (clean.frequencies_hz < 9800)
+
+    def err(tf):
+        return np.linalg.norm((tf.response - clean.response)[band]) / np.linalg.norm(clean.response[band])
+
+    assert err(transfer_function(with_leak, exc)) > 0.01
+    assert err(transfer_function(with_leak, exc, leak=leak, leak_delay_samples=delay)) < 1e-6
+    assert err(transfer_function(with_leak, exc, leak=leak, leak_delay_samples=delay + 1)) > 1e-3
