@@ -17,3 +17,4 @@ from .recording import simulate_recording
 from .modal_estimation import ModalEstimate, estimate_modes, estimate_modes_from_observation, transfer_function
 from .materials import Material, MATERIALS, get_material
 from .modal_model import ModalModel
+from .calibration import CalibrationResult, RecordingSetup, calibrate, load_material, save_material

@@ -143,6 +143,24 @@ class ScaledModalModel:
         """Rayleigh decay rates (alpha + beta w^2) / 2 [1/s] of the new material."""
         return 0.5 * (self.material.alpha + self.material.beta * self.angular_frequencies_rad_s**2)
 
+    @property
+    def eigenvalues(self) -> np.ndarray:
+        """w^2 [rad^2/s^2]."""
+        return self.angular_frequencies_rad_s**2
+
+    @property
+    def n_modes(self) -> int:
+        return int(self.angular_frequencies_rad_s.size)
+
+    def damping_matrix(self, contacts=()) -> np.ndarray:
+        """C_m of the new material (see :func:`sensors.damping.modal_damping_matrix`)."""
+        from .damping import modal_damping_matrix
+
+        return modal_damping_matrix(self, contacts)
+
+    def __repr__(self) -> str:
+        return f"ScaledModalModel({self._base!r}, material={self.material.name!r})"
+
     def __getattr__(self, name: str):
         return getattr(self._base, name)
 
