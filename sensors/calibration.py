@@ -651,7 +651,7 @@ def calibrate(
     """
     base = get_material(base_material) if base_material is not None else model.material
     if not isinstance(base, Material):
-        base = Material.from_dict(dataclasses.asdict(base)) if dataclasses.is_dataclass(base) else base
+        raise TypeError(f"base material must be a sensors.Material or a table name, got {type(base).__name__}")
     setups = [r if isinstance(r, RecordingSetup) else RecordingSetup.from_observation(r) for r in recordings]
     if not setups:
         raise ValueError("no recordings")

@@ -492,7 +492,7 @@ def _estimate_modes(tf, f_min_hz, f_max_hz, band_hz, max_order, skip_samples, ma
             real_amps = 2.0 * amps0 / (n_period * gain) * (1.0 - np.exp(s * tf.period_s))
         keep = ((f_hz >= k_lo_keep * df) & (f_hz < k_hi_keep * df) & (f_hz >= f_bottom) & (f_hz < f_top)
                 & (sigma > 0) & (snr_db >= min_snr_db) & (gain > 0.05))
-        modes = [(f_hz[i], sigma[i], real_amps[i], sd_w[i] / (2 * np.pi), sd_sigma[i], snr_db[i], K / dt / K)
+        modes = [(f_hz[i], sigma[i], real_amps[i], sd_w[i] / (2 * np.pi), sd_sigma[i], snr_db[i])
                  for i in np.flatnonzero(keep)]
         return band, modes
 
@@ -521,11 +521,10 @@ def _estimate_modes(tf, f_min_hz, f_max_hz, band_hz, max_order, skip_samples, ma
         results = _merge_levels(results, level)
         if K >= k_max:
             break
-        # stop climbing when no mode seen at this width asked for a wider one
         k_lower = K
         K = min(2 * K, k_max)
     if results:
-        f, sig, a, sdf, sds, snr = (np.asarray(v) for v in list(zip(*sorted(results, key=lambda r: r[0])))[:6])
+        f, sig, a, sdf, sds, snr = (np.asarray(v) for v in zip(*sorted(results, key=lambda r: r[0])))
     else:
         f = sig = sdf = sds = snr = np.zeros(0)
         a = np.zeros(0, complex)
