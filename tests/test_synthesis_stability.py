@@ -14,6 +14,22 @@ SETTINGS = settings(max_examples=12, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.too_slow])
 
 
+_FEM = {}
+
+
+def make_model(material, seed, fem):
+    """A 24-mode hand-made model, or the FEM bar (200 x 20 x 20 mm, P2) of the material."""
+    if not fem:
+        rng = np.random.default_rng(seed)
+        return BoxModel(np.sort(rng.uniform(300, 20000, 24)), material, seed=seed)
+    if material not in _FEM:
+        from sensors import ModalModel
+        m = ModalModel.bar(0.2, 0.02, 0.02, material, cache=False, progress=False)
+        m.L, m.a = 0.2, 0.02  # box dimensions for box_points / grasp
+        _FEM[material] = m
+    return _FEM[material]
+
+
 def random_contacts(model, seed, n, fmax=1000.0, mumax=1.5):
     rng = np.random.default_rng(seed)
     pts, nrm = box_points(model, n, rng)
@@ -22,12 +38,13 @@ def random_contacts(model, seed, n, fmax=1000.0, mumax=1.5):
 
 @SETTINGS
 @given(material=st.sampled_from(sorted(TABLE)), n_contacts=st.integers(0, 50),
-       seed=st.integers(0, 2**31 - 1), method=st.sampled_from(["exact", "diagonal"]))
-@example(material="aluminium", n_contacts=50, seed=1, method="exact")
-@example(material="aluminium", n_contacts=0, seed=2, method="exact")
-def test_random_contacts_60s_finite_float32(material, n_contacts, seed, method):
+       seed=st.integers(0, 2**31 - 1), method=st.sampled_from(["exact", "diagonal"]), fem=st.booleans())
+@example(material="aluminium", n_contacts=50, seed=1, method="exact", fem=True)
+@example(material="aluminium", n_contacts=50, seed=1, method="exact", fem=False)
+@example(material="aluminium", n_contacts=0, seed=2, method="exact", fem=True)
+def test_random_contacts_60s_finite_float32(material, n_contacts, seed, method, fem):
     rng = np.random.default_rng(seed)
-    model = BoxModel(np.sort(rng.uniform(300, 20000, 24)), material, seed=seed)
+    model = make_model(material, seed, fem)
     dp, dn, mp, mn = grasp(model)
     contacts = random_contacts(model, seed, n_contacts)
     sysm = ModalSystem.build(model, FS, dp, dn, mp, mn, contacts, method=method)
@@ -40,11 +57,12 @@ def test_random_contacts_60s_finite_float32(material, n_contacts, seed, method):
 
 @SETTINGS
 @given(material=st.sampled_from(sorted(TABLE)), n_contacts=st.integers(0, 50),
-       seed=st.integers(0, 2**31 - 1), method=st.sampled_from(["exact", "diagonal"]))
-@example(material="wood", n_contacts=50, seed=3, method="exact")
-def test_zero_force_energy_never_increases(material, n_contacts, seed, method):
+       seed=st.integers(0, 2**31 - 1), method=st.sampled_from(["exact", "diagonal"]), fem=st.booleans())
+@example(material="wood", n_contacts=50, seed=3, method="exact", fem=True)
+@example(material="steel", n_contacts=50, seed=4, method="exact", fem=False)
+def test_zero_force_energy_never_increases(material, n_contacts, seed, method, fem):
     rng = np.random.default_rng(seed)
-    model = BoxModel(np.sort(rng.uniform(300, 20000, 24)), material, seed=seed)
+    model = make_model(material, seed, fem)
     dp, dn, mp, mn = grasp(model)
     contacts = random_contacts(model, seed, n_contacts)
     sysm = ModalSystem.build(model, FS, dp, dn, mp, mn, contacts, method=method,
