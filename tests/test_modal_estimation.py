@@ -175,3 +175,9 @@ def test_leak_is_removed_at_its_delay():
     assert err(transfer_function(with_leak, exc)) > 0.01
     assert err(transfer_function(with_leak, exc, leak=leak, leak_delay_samples=delay)) < 1e-6
     assert err(transfer_function(with_leak, exc, leak=leak, leak_delay_samples=delay + 1)) > 1e-3
+
+
+def test_silence_and_pure_noise_give_no_modes():
+    exc = Excitation.impulse()
+    for w in (np.zeros(2 * FS), np.random.default_rng(0).standard_normal(2 * FS)):
+        assert len(estimate_modes_from_observation(AcousticObservation(w, FS, exc))) == 0
