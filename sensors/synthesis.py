@@ -604,14 +604,20 @@ def _build_parts(su: _Setup, method: str, output: str, T: float, hold: str):
         su = _Setup(su.w, np.diag(np.diag(su.C)), su.b, su.o)
         return _diagonal_parts(su, output, T, hold)
     A, B, Cout, D = _state_matrices(su, output)
-    return _lti_parts(A, B, Cout, D, T, hold)
+    return _lti_parts(A, B, Cout, D, T, hold, passive=True)
 
 
-def _lti_parts(A, B, Cout, D, T, hold):
+def _lti_parts(A, B, Cout, D, T, hold, passive=False):
     """Complex-mode part of x' = A x + B u, y = Cout x + D u, or the dense part if the
-    eigenvector matrix is ill-conditioned (defective or nearly repeated eigenvalues)."""
+    eigenvector matrix is ill-conditioned (defective or nearly repeated eigenvalues).
+
+    ``passive``: the system cannot gain energy (C_m >= 0), so a positive real part of an
+    eigenvalue can only be rounding (undamped modes: +-1e-16 |lambda|); it is set to 0 so that
+    60 s of free ringing cannot grow."""
     idx = np.arange(A.shape[0])
     lam, V = sla.eig(A, check_finite=False, overwrite_a=False)
+    if passive:
+        lam = np.minimum(lam.real, 0.0) + 1j * lam.imag
     V = V / np.linalg.norm(V, axis=0)
     lu, piv = sla.lu_factor(V, check_finite=False)
     gecon = sla.get_lapack_funcs("gecon", (lu,))

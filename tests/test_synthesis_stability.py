@@ -83,3 +83,13 @@ def test_zero_force_energy_never_increases(material, n_contacts, seed, method, f
     e = np.array(e)
     assert np.all(np.isfinite(e))
     assert np.all(np.diff(e) <= 1e-10 * e[0])
+
+
+def test_undamped_energy_conserved_over_60s():
+    """No damping at all: the exact map conserves the modal energy (no drift, no growth)."""
+    model = BoxModel(np.linspace(500, 20000, 30), (0.0, 0.0, 0.0))
+    dp, dn, mp, mn = grasp(model)
+    sysm = ModalSystem.build(model, FS, dp, dn, mp, mn, keep_unobservable=True)
+    x0 = np.random.default_rng(0).normal(size=60)
+    x = sysm.final_state(np.zeros(60 * FS + 1), x0)
+    assert abs(modal_state_energy(x) / modal_state_energy(x0) - 1) < 1e-9
