@@ -5,8 +5,8 @@
 Recordings are ``sensors.AcousticObservation`` files (the rig's or the simulator's). Their
 contacts come from the recording metadata when present (the simulator writes them); for rig
 recordings give the grasp: ``--grasp-x`` (position along the main axis) and ``--grip-force``
-(one value, or one per recording), an antipodal grasp across the object's height (bars: the
-+-z faces; tubes and rods: the top and bottom of the section). The written file loads back
+(one value, or one per recording), an antipodal grasp along ``--grasp-axis`` (default z,
+the height: actuator on the + face, microphone on the - face). The written file loads back
 with ``sensors.calibration.load_material``.
 """
 
@@ -52,15 +52,16 @@ def _build_model(args, material):
 def _grasp_contacts(args, force_n: float):
     from sensors import Contact
 
+    axis = 1 if args.grasp_axis == "y" else 2
     if args.shape == "bar":
-        half = args.dims[2] / 2
+        half = args.dims[axis] / 2
     elif args.shape in ("tube", "rod"):
         half = args.dims[1]
     else:
         raise SystemExit("aas calibrate: --grasp-x needs --shape and --dims")
-    x = args.grasp_x
-    return (Contact([x, 0.0, half], [0.0, 0.0, 1.0], force_n, args.friction),
-            Contact([x, 0.0, -half], [0.0, 0.0, -1.0], force_n, args.friction))
+    point, normal = np.zeros(3), np.zeros(3)
+    point[0], point[axis], normal[axis] = args.grasp_x, half, 1.0
+    return (Contact(point, normal, force_n, args.friction), Contact(point * [1, -1, -1], -normal, force_n, args.friction))
 
 
 def _setups(args):
@@ -151,6 +152,8 @@ def add_subcommands(sub) -> None:
     p.add_argument("--name", help="name of the calibrated material (default <base>-calibrated)")
     p.add_argument("--grasp-x", type=float, help="grasp position along the main axis [m] (recordings without contacts)")
     p.add_argument("--grip-force", type=float, nargs="+", metavar="N", help="grip force(s) [N], one or one per recording")
+    p.add_argument("--grasp-axis", choices=("y", "z"), default="z",
+                   help="the grasp presses along this axis: actuator on +axis, microphone on -axis (default z)")
     p.add_argument("--friction", type=float, default=0.5, help="friction coefficient of the grasp contacts (default 0.5)")
     p.add_argument("--leak", nargs="+", metavar="NPZ",
                    help="idle leak recording(s) of the rig (sensors.leak format), one per excitation: removed first")
