@@ -4,11 +4,13 @@
 import numpy as np
 import pytest
 import scipy.signal as ss
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sensors.contact import Contact
 from sensors.damping import modal_damping_matrix
 from sensors.synthesis import ModalSystem, modal_response
-from synthesis_fakes import BoxModel, grasp, lsim_reference
+from synthesis_fakes import BoxModel, box_points, grasp, lsim_reference
 
 FS = 44100
 
@@ -150,3 +152,32 @@ class _Sub:
 
     def mode_shapes_at(self, p):
         return self.m.mode_shapes_at(p)[..., self.keep]
+
+
+@settings(max_examples=10, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**31 - 1), n_switch=st.integers(1, 5),
+       method=st.sampled_from(["exact", "diagonal"]), output=st.sampled_from(["displacement", "velocity"]))
+def test_random_contact_schedules_match_piecewise_lsim(seed, n_switch, method, output):
+    rng = np.random.default_rng(seed)
+    m = BoxModel(np.sort(rng.uniform(500, 15000, 8)), "abs", seed=seed)
+    g = grasp(m)
+    n = 2500
+    starts = np.concatenate([[0], np.sort(rng.choice(np.arange(50, n - 50), n_switch, replace=False))])
+    sets = []
+    for _ in starts:
+        pts, nrm = box_points(m, int(rng.integers(0, 6)), rng)
+        sets.append([Contact(p, q, rng.uniform(0, 200), rng.uniform(0, 1.5)) for p, q in zip(pts, nrm)])
+    u = rng.normal(size=n)
+    y = modal_response(m, u, FS, *g, [(s / FS, c) for s, c in zip(starts, sets)], method=method, output=output)
+    bounds = list(starts) + [n]
+    ref = np.zeros(n)
+    x = None
+    for i, c in enumerate(sets):
+        s, e = bounds[i], bounds[i + 1]
+        C = modal_damping_matrix(m, c)
+        if method == "diagonal":
+            C = np.diag(np.diag(C))
+        yy, xx = lsim_reference(m, C, u[s:min(e + 1, n)], FS, *g, output=output, x0=x)
+        ref[s:e] = yy[: e - s]
+        x = xx[-1]
+    assert rel_err(y, ref) <= 1e-6
