@@ -57,6 +57,15 @@ class Contact:
         object.__setattr__(self, "force_n", f)
         object.__setattr__(self, "friction", mu)
 
+    def _key(self) -> tuple:
+        return (*self.position_m.tolist(), *self.normal.tolist(), self.force_n, self.friction)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, Contact) and self._key() == other._key()
+
+    def __hash__(self) -> int:
+        return hash(self._key())
+
     def to_dict(self) -> dict:
         """Plain-Python form (JSON-serialisable)."""
         return {

@@ -28,6 +28,9 @@ def test_contact_validation():
         Contact([0, 0, 0], [0, 0, 1], np.inf, 0.5)
     with pytest.raises(ValueError, match="3-vectors"):
         Contact([0, 0], [0, 0, 1], 1.0, 0.5)
+    a = Contact([0.1, 0, 0], [0, 0, 1], 2.0, 0.5)
+    assert a == Contact.from_dict(a.to_dict()) and hash(a) == hash(Contact.from_dict(a.to_dict()))
+    assert a != Contact([0.1, 0, 0], [0, 0, 1], 2.5, 0.5)
 
 
 def test_nan_force_raises(model):
