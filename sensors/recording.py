@@ -20,6 +20,7 @@ lower its gain).
 
 from __future__ import annotations
 
+import json
 import os
 from collections import OrderedDict
 from typing import Sequence
@@ -113,7 +114,7 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
             force_p, info = _periodic_fingertip_force(fingertip, excitation)
             y = np.resize(sysm.periodic_response(force_p), n)
         else:
-            force, info = fingertip.contact_force(e, fs, return_info=True)
+            force, info = _cached_force(fingertip, excitation, e)
             y = sysm.response(force)
         meta["fingertip_separated"] = info["separated"]
         meta["fingertip"] = {k: float(v) for k, v in fingertip.__dict__.items()}
@@ -151,6 +152,25 @@ def _cached_system(model, fs, geom, contacts, method, output) -> ModalSystem:
     while len(_CACHE) > _CACHE_SIZE:
         _CACHE.popitem(last=False)
     return sysm
+
+
+_FORCE_CACHE: "OrderedDict[tuple, tuple]" = OrderedDict()
+
+
+def _cached_force(fingertip: FingertipModel, excitation: Excitation, e: np.ndarray):
+    """The drive force depends on the fingertip model and the excitation only, not on the
+    grasp: computed once per (fingertip, excitation, length)."""
+    key = (fingertip, json.dumps(excitation.to_dict(), sort_keys=True), len(e))
+    hit = _FORCE_CACHE.get(key)
+    if hit is not None:
+        _FORCE_CACHE.move_to_end(key)
+        return hit
+    force, info = fingertip.contact_force(e, excitation.fs, return_info=True)
+    force.setflags(write=False)
+    _FORCE_CACHE[key] = (force, info)
+    while len(_FORCE_CACHE) > _CACHE_SIZE:
+        _FORCE_CACHE.popitem(last=False)
+    return force, info
 
 
 def _periodic_fingertip_force(fingertip: FingertipModel, excitation: Excitation):
