@@ -467,6 +467,9 @@ class ModalSystem:
         """Output for the sampled force [N] (one sample per force sample), float64.
 
         ``initial_state`` (2 r_model,) is the scaled state at the first sample (default 0).
+        Modes dropped at build time (unreachable or unobservable) are not simulated: build
+        with the same ``initial_state`` (and ``keep_unobservable``) to keep modes that only
+        the initial state excites.
         """
         u = _force(force_n)
         n = len(u)
