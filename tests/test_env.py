@@ -95,3 +95,37 @@ def test_unknown_names_raise_clear_errors():
         gym.make("aas_gym/AcousticGrasp-v0", randomization={"gravity": 1.0})
     with pytest.raises(ValueError, match="scene"):
         gym.make("aas_gym/AcousticGrasp-v0", scene="cluttered")
+
+
+def test_same_seed_same_acoustic_observation():
+    env = gym.make("aas_gym/GraspPosition-v0", duration_s=0.5,
+                   randomization=DomainRandomization(sensor_noise_std=1e-4))
+    a, info_a = env.reset(seed=4)
+    b, info_b = env.reset(seed=4)
+    c, _ = env.reset(seed=5)
+    np.testing.assert_array_equal(a["acoustic"], b["acoustic"])
+    assert info_a["grasp_position_m"] == info_b["grasp_position_m"]
+    assert not np.array_equal(a["acoustic"], c["acoustic"])
+    assert a["acoustic"].shape == (140,) and a["acoustic"].max() > 0
+
+
+def test_grasp_position_info_and_reward():
+    env = gym.make("aas_gym/GraspPosition-v0", duration_s=0.5, randomization=DomainRandomization.off())
+    obs, info = env.reset(seed=0, options={"position_index": 4})
+    assert info["grasp_position_m"] == pytest.approx(0.02) and info["grasp_success"]
+    assert info["label"] == "wood_bar" and info["material"] == "wood" and info["shape"] == "bar"
+    _, reward, terminated, _, step_info = env.step(np.array([0.025], np.float32))
+    assert terminated and reward == pytest.approx(-0.005, abs=1e-6)
+
+
+def test_recognition_probe_then_answer():
+    env = gym.make("aas_gym/ObjectRecognition-v0", objects=["aluminium_bar", "aluminium_tube"], duration_s=0.5)
+    obs, info = env.reset(seed=1)
+    assert obs["n_probes"][0] == 0 and not obs["acoustic"].any()
+    probe = {"command": 0, "position": np.array([0.4], np.float32), "excitation": 2, "label": 0}
+    obs, reward, terminated, _, pinfo = env.step(probe)
+    assert reward == pytest.approx(-0.01) and not terminated and obs["acoustic"].max() > 0
+    assert pinfo["grasp_success"] and pinfo["excitation"] == "exponential_sweep"
+    answer = dict(probe, command=1, label=info["label_index"])
+    _, reward, terminated, _, ainfo = env.step(answer)
+    assert terminated and reward == 1.0 and ainfo["is_success"]
