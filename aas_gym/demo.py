@@ -46,9 +46,6 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def add_subcommands(sub) -> None:
-    p = sub.add_parser("run", help="the main job on the shipped default scene (writes outputs/)")
-    p.add_argument("--out", default="outputs", help="output folder (default: outputs)")
-    p.set_defaults(func=_run)
     p = sub.add_parser("signals", help="plot the paper's excitations and their spectral features")
     p.add_argument("--out", default="outputs", help="output folder (default: outputs)")
     p.set_defaults(func=_run)

@@ -1,0 +1,102 @@
+"""``aas run`` (the main job), ``aas generate`` and ``aas report``."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+from aas_gym.experiments.config import EXCITATIONS, SCENES, DatasetConfig
+
+#: A small configuration for smoke runs and CI (``--quick``).
+QUICK = dict(single_grasps=6, multi_grasps=3, positions=7, position_repeats=3)
+
+
+def _config(args: argparse.Namespace) -> DatasetConfig:
+    kw = dict(QUICK) if getattr(args, "quick", False) else {}
+    for name in ("single_grasps", "multi_grasps", "positions", "position_repeats", "seed", "shard_size"):
+        value = getattr(args, name, None)
+        if value is not None:
+            kw[name] = value
+    if getattr(args, "objects", None):
+        kw["objects"] = tuple(args.objects.split(","))
+    if getattr(args, "excitations", None):
+        kw["excitations"] = tuple(args.excitations.split(","))
+    if getattr(args, "scenes", None):
+        kw["scenes"] = tuple(args.scenes.split(","))
+    if getattr(args, "waveforms", False):
+        kw["store_waveforms"] = True
+    return DatasetConfig(**kw)
+
+
+def _add_config_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--quick", action="store_true", help="a small configuration (minutes less, noisier numbers)")
+    p.add_argument("--objects", help="comma-separated object names (default: the paper's seven)")
+    p.add_argument("--excitations", help=f"comma-separated subset of {','.join(EXCITATIONS)}")
+    p.add_argument("--scenes", help=f"comma-separated subset of {','.join(SCENES)}")
+    p.add_argument("--single-grasps", type=int, help="grasps per object, single-object scenes (paper: 20)")
+    p.add_argument("--multi-grasps", type=int, help="grasps per object, multi-object scenes (paper: 10)")
+    p.add_argument("--positions", type=int, help="grasp positions 5 mm apart (paper: 13)")
+    p.add_argument("--position-repeats", type=int, help="recordings per position (paper: 5)")
+    p.add_argument("--seed", type=int, help="root seed (default 0)")
+    p.add_argument("--shard-size", type=int, help="grasps per output file (default 16)")
+    p.add_argument("--waveforms", action="store_true", help="also store raw waveforms")
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="local worker processes")
+    p.add_argument("--ray-address", help="run on Ray: 'local' starts a local instance, or a cluster address")
+    p.add_argument("--overwrite", action="store_true", help="replace a dataset with another configuration")
+
+
+def _generate(args: argparse.Namespace, out: Path) -> Path:
+    from aas_gym.experiments.generate import generate_dataset
+
+    config = _config(args)
+    print(f"dataset: {len(config.tasks())} grasps x {len(config.excitations)} excitations -> {out}")
+    return generate_dataset(config, out, workers=args.workers, ray_address=args.ray_address,
+                            overwrite=args.overwrite)
+
+
+def _cmd_generate(args: argparse.Namespace) -> int:
+    t0 = time.perf_counter()
+    out = _generate(args, Path(args.out))
+    print(f"done in {time.perf_counter() - t0:.1f} s: {out}")
+    return 0
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from aas_gym.experiments.run import report_dataset
+
+    path = report_dataset(Path(args.dataset), Path(args.out) if args.out else Path(args.dataset) / "report")
+    print(path.read_text())
+    print(f"wrote {path}")
+    return 0
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from aas_gym.experiments.run import report_dataset
+
+    t0 = time.perf_counter()
+    out = Path(args.out)
+    dataset = _generate(args, out / "dataset")
+    path = report_dataset(dataset, out / "report")
+    print(path.read_text())
+    print(f"wrote {path} ({time.perf_counter() - t0:.0f} s)")
+    return 0
+
+
+def add_subcommands(sub) -> None:
+    p = sub.add_parser("run", help="the main job: simulate the paper's experiments on the default objects "
+                                   "and write the report (outputs/report/report.md)")
+    p.add_argument("--out", default="outputs", help="output folder (default: outputs)")
+    _add_config_options(p)
+    p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("generate", help="generate a sharded, resumable dataset (Parquet)")
+    p.add_argument("out", help="output folder (resumed if it holds the same configuration)")
+    _add_config_options(p)
+    p.set_defaults(func=_cmd_generate)
+
+    p = sub.add_parser("report", help="run the paper's protocols on a generated dataset")
+    p.add_argument("dataset", help="dataset folder")
+    p.add_argument("--out", help="report folder (default: DATASET/report)")
+    p.set_defaults(func=_cmd_report)

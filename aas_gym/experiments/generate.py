@@ -1,0 +1,210 @@
+"""Sharded, resumable, deterministic dataset generation on processes or a Ray cluster.
+
+Output folder::
+
+    dataset.json          config, its fingerprint, shard count (written first)
+    shard-00000.parquet   one Parquet file per shard, written atomically
+    ...
+
+Each shard is computed by a worker (a local process or a Ray task) and returned as Parquet
+bytes; only the driver writes, by write-to-temporary-then-rename, so an interrupted run
+leaves whole shards only, and a rerun computes just the missing ones. A shard's bytes depend
+only on the config, never on the backend or the worker count. Read the result with
+:func:`load_dataset` (pandas), ``pandas.read_parquet(folder)`` or Hugging Face
+``datasets.load_dataset("parquet", data_dir=folder)``.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import tempfile
+from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from aas_gym.experiments.config import DatasetConfig
+
+FORMAT = "aas-gym-dataset/1"
+MANIFEST = "dataset.json"
+
+
+def shard_path(out_dir: Path, index: int) -> Path:
+    return out_dir / f"shard-{index:05d}.parquet"
+
+
+def compute_shard(config_dict: dict[str, Any], shard_index: int) -> bytes:
+    """Simulate one shard and return it as Parquet bytes (runs in a worker)."""
+    from aas_gym.experiments.simulate import run_task
+
+    config = DatasetConfig.from_dict(config_dict)
+    tasks = config.shards()[shard_index]
+    rows: list[dict[str, Any]] = []
+    for task in tasks:
+        rows += run_task(task, config)
+    return rows_to_parquet(rows, config)
+
+
+def rows_to_parquet(rows: list[dict[str, Any]], config: DatasetConfig) -> bytes:
+    """Rows (dicts of scalars and 1-D arrays) -> deterministic Parquet bytes."""
+    columns: dict[str, pa.Array] = {}
+    for key in rows[0]:
+        values = [r[key] for r in rows]
+        if isinstance(values[0], np.ndarray):
+            flat = np.stack(values).astype(np.float32)
+            columns[key] = pa.FixedSizeListArray.from_arrays(pa.array(flat.ravel()), flat.shape[1])
+        else:
+            columns[key] = pa.array(values)
+    table = pa.table(columns, metadata={"aas_gym_format": FORMAT, "config_fingerprint": config.fingerprint()})
+    buf = io.BytesIO()
+    pq.write_table(table, buf, compression="zstd")
+    return buf.getvalue()
+
+
+def _atomic_write(path: Path, data: bytes) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _prepare(out_dir: Path, config: DatasetConfig, overwrite: bool) -> list[int]:
+    """Write or check the manifest; return the shard indices still to compute."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    manifest_path = out_dir / MANIFEST
+    n_shards = len(config.shards())
+    manifest = {"format": FORMAT, "fingerprint": config.fingerprint(), "n_shards": n_shards,
+                "n_tasks": len(config.tasks()), "config": config.to_dict()}
+    if manifest_path.exists() and not overwrite:
+        old = json.loads(manifest_path.read_text())
+        if old.get("fingerprint") != manifest["fingerprint"]:
+            raise FileExistsError(
+                f"{out_dir} holds a dataset with another configuration (fingerprint {old.get('fingerprint')} "
+                f"!= {manifest['fingerprint']}); choose another folder or pass overwrite=True (--overwrite)"
+            )
+    else:
+        for stale in out_dir.glob("shard-*.parquet"):
+            stale.unlink()
+        _atomic_write(manifest_path, json.dumps(manifest, indent=2, sort_keys=True).encode())
+    for tmp in out_dir.glob(".shard-*.tmp"):  # left by a killed run; never renamed, never whole
+        tmp.unlink()
+    todo = []
+    for i in range(n_shards):
+        path = shard_path(out_dir, i)
+        if path.exists():
+            try:
+                pq.read_metadata(path)
+                continue
+            except Exception:  # unreadable: compute again
+                path.unlink()
+        todo.append(i)
+    return todo
+
+
+def _local_results(config: DatasetConfig, todo: list[int], workers: int) -> Iterator[tuple[int, bytes]]:
+    cfg = config.to_dict()
+    if workers <= 1:
+        for i in todo:
+            yield i, compute_shard(cfg, i)
+        return
+    # spawn: BLAS, numba and MuJoCo threads do not survive fork reliably.
+    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
+        pending = {pool.submit(compute_shard, cfg, i): i for i in todo}
+        try:
+            while pending:
+                done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    yield pending.pop(fut), fut.result()
+        except BaseException:
+            for fut in pending:
+                fut.cancel()
+            raise
+
+
+def _ray_results(config: DatasetConfig, todo: list[int], address: str | None) -> Iterator[tuple[int, bytes]]:
+    import ray
+
+    started_here = not ray.is_initialized()
+    if started_here:
+        ray.init(address=None if address == "local" else address, include_dashboard=False, log_to_driver=False)
+    try:
+        remote = ray.remote(num_cpus=1)(compute_shard)
+        cfg = ray.put(config.to_dict())
+        refs = {remote.remote(cfg, i): i for i in todo}
+        while refs:
+            done, _ = ray.wait(list(refs), num_returns=1)
+            for ref in done:
+                yield refs.pop(ref), ray.get(ref)
+    finally:
+        if started_here:
+            ray.shutdown()
+
+
+def generate_dataset(
+    config: DatasetConfig,
+    out_dir: str | os.PathLike,
+    *,
+    workers: int = 1,
+    ray_address: str | None = None,
+    overwrite: bool = False,
+    progress: bool = True,
+    on_shard: Callable[[int], None] | None = None,
+) -> Path:
+    """Generate (or finish generating) a dataset into ``out_dir``.
+
+    Args:
+        config: what to generate.
+        out_dir: output folder; an existing one with the same config is resumed.
+        workers: local worker processes (1 = in this process). Ignored with ``ray_address``.
+        ray_address: ``"local"`` to start a local Ray instance, or a cluster address
+            (``"auto"``, ``"ray://host:10001"``); ``None`` uses local processes.
+        overwrite: discard an existing dataset with another config.
+        progress: show a progress bar.
+        on_shard: called with each shard index once it is on disk.
+    """
+    from tqdm.auto import tqdm
+
+    out = Path(out_dir)
+    todo = _prepare(out, config, overwrite)
+    shards = config.shards()
+    results = _ray_results(config, todo, ray_address) if ray_address else _local_results(config, todo, workers)
+    total = sum(len(s) for s in shards)
+    done_tasks = total - sum(len(shards[i]) for i in todo)
+    with tqdm(total=total, initial=done_tasks, unit="grasp", disable=not progress, desc="generating") as bar:
+        for index, data in results:
+            _atomic_write(shard_path(out, index), data)
+            bar.update(len(shards[index]))
+            if on_shard is not None:
+                on_shard(index)
+    return out
+
+
+def load_dataset(out_dir: str | os.PathLike):
+    """All shards of a finished dataset as one pandas DataFrame, in task order.
+
+    Array columns (``features``, ``waveform``) hold one NumPy array per row.
+    """
+    import pandas as pd
+
+    out = Path(out_dir)
+    manifest = json.loads((out / MANIFEST).read_text())
+    paths = [shard_path(out, i) for i in range(manifest["n_shards"])]
+    missing = [p.name for p in paths if not p.exists()]
+    if missing:
+        raise FileNotFoundError(f"dataset in {out} is incomplete: {len(missing)} shards missing "
+                                f"(first: {missing[0]}); run the generation again to finish it")
+    return pd.concat([pd.read_parquet(p) for p in paths], ignore_index=True)

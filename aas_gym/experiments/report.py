@@ -1,0 +1,169 @@
+"""Run the paper's protocols on a dataset and write the Markdown report with its figures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from aas_gym.experiments.protocols import (
+    CLASSIFIERS,
+    PAPER_BEST_POSITION_RMSE_MM,
+    PAPER_RECOGNITION,
+    PositionResult,
+    RecognitionResult,
+    grasp_position,
+    recognition,
+)
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def run_protocols(df, seed: int = 0) -> tuple[list[RecognitionResult], list[PositionResult]]:
+    """All recognition and grasp-position results that the dataset ``df`` supports."""
+    rec: list[RecognitionResult] = []
+    pos: list[PositionResult] = []
+    for exc in sorted(df["excitation"].unique(), key=["impulse", "linear", "exponential"].index):
+        single = df[(df.scene == "single") & (df.excitation == exc)]
+        multi = df[(df.scene == "multi") & (df.excitation == exc)]
+        if len(single) and single["object"].nunique() > 1:
+            X, y = np.stack(single.features), single["object"].to_numpy()
+            rec += recognition(X, y, excitation=exc, seed=seed)
+            if len(multi):
+                rec += recognition(X, y, excitation=exc, seed=seed, test_features=np.stack(multi.features),
+                                   test_labels=multi["object"].to_numpy())
+        sweep = df[(df.scene == "position") & (df.excitation == exc)]
+        for obj in sorted(sweep["object"].unique()):
+            rows = sweep[sweep["object"] == obj]
+            if len(rows) >= 6:
+                pos.append(grasp_position(np.stack(rows.features), rows["position_m"].to_numpy(),
+                                          object_name=obj, excitation=exc, seed=seed))
+    return rec, pos
+
+
+def recognition_table(results: list[RecognitionResult]) -> str:
+    """Table II layout: simulated accuracy next to the paper's, per excitation and protocol."""
+    lines = ["| excitation | protocol | " + " | ".join(f"{c} sim / paper" for c in CLASSIFIERS) + " |",
+             "|---|---|" + "---|" * len(CLASSIFIERS)]
+    by_key = {(r.excitation, r.protocol, r.classifier): r.accuracy for r in results}
+    for exc in ("impulse", "linear", "exponential"):
+        for protocol, label in (("single", "single -> single (5-fold)"), ("transfer", "single -> multiple")):
+            if (exc, protocol, "KNN") not in by_key:
+                continue
+            paper = PAPER_RECOGNITION[exc][protocol]
+            cells = [f"{by_key[(exc, protocol, c)]:.1f} / {p:.1f}" for c, p in zip(CLASSIFIERS, paper)]
+            lines.append(f"| {exc} | {label} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def position_table(results: list[PositionResult]) -> str:
+    excs = [e for e in ("impulse", "linear", "exponential") if any(r.excitation == e for r in results)]
+    objs = sorted({r.object_name for r in results})
+    by_key = {(r.object_name, r.excitation): r.rmse_mm for r in results}
+    lines = ["| object | " + " | ".join(f"{e} RMSE [mm]" for e in excs) + " |", "|---|" + "---|" * len(excs)]
+    for obj in objs:
+        lines.append(f"| {obj} | " + " | ".join(f"{by_key[(obj, e)]:.2f}" if (obj, e) in by_key else "-" for e in excs) + " |")
+    return "\n".join(lines)
+
+
+def plot_confusions(results: list[RecognitionResult], path: Path) -> Path:
+    plt = _plt()
+    picked = [r for r in results if r.classifier == "MLP"]
+    fig, axes = plt.subplots(2, 3, figsize=(15, 9.5), constrained_layout=True, squeeze=False)
+    for ax in axes.ravel():
+        ax.axis("off")
+    for r in picked:
+        row = 0 if r.protocol == "single" else 1
+        col = ["impulse", "linear", "exponential"].index(r.excitation)
+        ax = axes[row, col]
+        ax.axis("on")
+        cm = r.confusion / np.maximum(r.confusion.sum(axis=1, keepdims=True), 1)
+        ax.imshow(cm, vmin=0, vmax=1, cmap="Blues")
+        ax.set_xticks(range(len(r.labels)), r.labels, rotation=60, ha="right", fontsize=7)
+        ax.set_yticks(range(len(r.labels)), r.labels, fontsize=7)
+        for i in range(cm.shape[0]):
+            for j in range(cm.shape[1]):
+                if r.confusion[i, j]:
+                    ax.text(j, i, r.confusion[i, j], ha="center", va="center", fontsize=7,
+                            color="white" if cm[i, j] > 0.5 else "black")
+        name = "single -> single" if r.protocol == "single" else "single -> multiple"
+        ax.set_title(f"MLP, {r.excitation}, {name}: {r.accuracy:.1f}%", fontsize=9)
+        ax.set(xlabel="predicted", ylabel="true")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def plot_positions(results: list[PositionResult], path: Path) -> Path:
+    plt = _plt()
+    objs = sorted({r.object_name for r in results})
+    fig, axes = plt.subplots(1, len(objs), figsize=(3.2 * len(objs), 3.4), constrained_layout=True, squeeze=False)
+    for ax, obj in zip(axes[0], objs):
+        for r in results:
+            if r.object_name == obj:
+                ax.plot(r.true_mm, r.predicted_mm, ".", ms=4, label=f"{r.excitation} ({r.rmse_mm:.2f} mm)")
+        lim = max(r.true_mm.max() for r in results) + 5
+        ax.plot([0, lim], [0, lim], "k--", lw=0.6)
+        ax.set(title=obj, xlabel="true position [mm]", ylabel="predicted [mm]", xlim=(-3, lim), ylim=(-3, lim))
+        ax.legend(fontsize=6)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def plot_spectra(curves: list[tuple[str, str, np.ndarray, np.ndarray]], path: Path,
+                 band_hz: tuple[float, float] = (3000.0, 8000.0)) -> Path:
+    """The paper's spectra figure: one panel per factor, raw and Savitzky-Golay smoothed.
+
+    ``curves``: (panel title, curve label, frequencies_hz, amplitude) tuples.
+    """
+    from sensors import smooth_spectrum
+
+    plt = _plt()
+    panels = list(dict.fromkeys(c[0] for c in curves))
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.6), constrained_layout=True, squeeze=False)
+    for ax, panel in zip(axes[0], panels):
+        for k, (_, label, f, a) in enumerate(c for c in curves if c[0] == panel):
+            band = (f >= band_hz[0]) & (f <= band_hz[1])
+            color = f"C{k}"
+            ax.semilogy(f[band], a[band], lw=0.3, color=color, alpha=0.35)
+            ax.semilogy(f[band], np.maximum(smooth_spectrum(a, 101)[band], 1e-15), lw=1.2, color=color, label=label)
+        ax.set(title=panel, xlabel="frequency [Hz]", ylabel="amplitude")
+        ax.legend(fontsize=7)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def write_report(df, out_dir: Path, *, spectra: list | None = None, notes: str = "", seed: int = 0) -> Path:
+    """Run the protocols on ``df`` and write ``report.md`` with its figures into ``out_dir``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    rec, pos = run_protocols(df, seed=seed)
+    parts = ["# aas-gym: the paper's experiments in simulation", ""]
+    if rec:
+        parts += ["## Object recognition (accuracy %, simulated / paper)", "", recognition_table(rec), ""]
+        parts += ["![confusion matrices](confusion.png)", ""]
+        plot_confusions(rec, out_dir / "confusion.png")
+    if pos:
+        best = min(pos, key=lambda r: r.rmse_mm)
+        parts += ["## Grasp position (KNN k = 3, 3-fold CV)", "", position_table(pos), "",
+                  f"Best: {best.object_name}, {best.excitation} sweep, {best.rmse_mm:.2f} mm "
+                  f"(paper's best: wood bar, linear sweep, {PAPER_BEST_POSITION_RMSE_MM} mm).", "",
+                  "![predicted vs true position](positions.png)", ""]
+        plot_positions(pos, out_dir / "positions.png")
+    if spectra:
+        plot_spectra(spectra, out_dir / "spectra.png")
+        parts += ["## Spectra across material, shape, grasp position and contact", "",
+                  "![spectra](spectra.png)", ""]
+    if notes:
+        parts += ["## What the results say", "", notes.strip(), ""]
+    path = out_dir / "report.md"
+    path.write_text("\n".join(parts))
+    return path
