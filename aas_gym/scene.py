@@ -339,8 +339,9 @@ def _add_stage(spec: mujoco.MjSpec) -> None:
     spec.worldbody.add_light(name="key", pos=[0.3, -0.4, 1.2], dir=[-0.25, 0.35, -1], diffuse=[0.8, 0.8, 0.8])
     spec.worldbody.add_light(name="fill", pos=[-0.5, 0.5, 1.0], dir=[0.4, -0.4, -1], diffuse=[0.3, 0.3, 0.3])
     spec.worldbody.add_camera(name="overview", pos=[0.5, -0.5, 0.5], xyaxes=_look_at([0.5, -0.5, 0.5], [0, 0, 0.1]))
-    spec.worldbody.add_camera(name="closeup", pos=[0.17, -0.22, 0.16],
-                              xyaxes=_look_at([0.17, -0.22, 0.16], [0, 0, 0.02]))
+    # Low side view: sees the fingertips and the object under the hand body.
+    spec.worldbody.add_camera(name="closeup", pos=[0.2, -0.24, 0.08],
+                              xyaxes=_look_at([0.2, -0.24, 0.08], [0, 0, 0.035]))
 
 
 def _look_at(pos, target) -> list[float]:
