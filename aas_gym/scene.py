@@ -386,7 +386,28 @@ def build_scene_spec(objects: Iterable[str | ObjectSpec] = ("aluminium_bar",),
         add_table(spec)
     for obj, name, place in zip(objs, unique_body_names(objs), placements):
         add_object(spec, obj, name, place)
+        add_touch_sensors(spec, name)
     return spec
+
+
+#: Fingertip bodies carrying the actuator and microphone sites in the aas_gym hand.
+FINGERTIP_BODIES = {"actuator": "left_fingertip", "mic": "right_fingertip"}
+
+
+def touch_sensor_name(body: str, side: str) -> str:
+    """Name of the contact sensor between ``body`` and the ``side`` ("actuator"/"mic") tip."""
+    return f"{body}_touch_{side}"
+
+
+def add_touch_sensors(spec: mujoco.MjSpec, body: str) -> None:
+    """Two MuJoCo contact sensors (number of contacts of ``body`` with each sensor fingertip):
+    a grasp test computed in C during the step, so environments can check it every step
+    without walking the contact list in Python."""
+    for side, tip in FINGERTIP_BODIES.items():
+        spec.add_sensor(name=touch_sensor_name(body, side), type=mujoco.mjtSensor.mjSENS_CONTACT,
+                        objtype=mujoco.mjtObj.mjOBJ_BODY, objname=tip,
+                        reftype=mujoco.mjtObj.mjOBJ_BODY, refname=body,
+                        intprm=[1, 0, 1])  # data "found" (contact count), no reduction, 1 slot
 
 
 def build_scene(objects: Iterable[str | ObjectSpec] = ("aluminium_bar",), **kwargs) -> mujoco.MjModel:

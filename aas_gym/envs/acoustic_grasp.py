@@ -12,6 +12,7 @@ from aas_gym.envs.base import HOME_TCP, AasEnv
 
 # Largest TCP change per env step (action 1, dt = 0.05 s): 10 mm, 0.05 rad.
 MAX_DELTA = np.array([0.01, 0.01, 0.01, 0.05])
+MAX_DELTA_LIST = MAX_DELTA.tolist()
 
 
 class AcousticGraspEnv(AasEnv):
@@ -45,14 +46,13 @@ class AcousticGraspEnv(AasEnv):
         self._last_acoustic = self._empty_acoustic()
 
     def _obs(self) -> dict:
-        obs, extra = self._proprio(7)
-        sc = self._scene
-        extra[0:3] = sc.xpos[sc.target_body]
-        extra[3:7] = sc.xquat[sc.target_body]
-        obs["object"] = extra
+        return self._obs_and_values()[0]
+
+    def _obs_and_values(self):
+        obs, values = self._state_obs(True)
         for key, value in self._last_acoustic.items():
             obs[key] = value.copy()
-        return obs
+        return obs, values
 
     def reset(self, *, seed=None, options=None):
         super().reset(seed=seed)
@@ -75,21 +75,25 @@ class AcousticGraspEnv(AasEnv):
         return self._obs(), info
 
     def step(self, action):
-        a = np.asarray(action, dtype=np.float64).reshape(6)
+        try:
+            a = np.asarray(action, dtype=np.float64).reshape(6).tolist()
+        except ValueError:
+            raise ValueError(f"action must have 6 entries, got shape {np.shape(action)}") from None
         sc = self._scene
-        hand, ctrl = sc.hand, sc.ctrl
-        # Per-step code: plain ufuncs (np.clip's wrapper costs more than the arithmetic).
-        delta = np.minimum(np.maximum(a[:4], -1.0), 1.0) * MAX_DELTA
-        ctrl[sc.tcp_ctrl] = np.minimum(np.maximum(ctrl[sc.tcp_ctrl] + delta, hand.tcp_low), hand.tcp_high)
+        ctrl, low, high = sc.ctrl, sc.tcp_low, sc.tcp_high
+        target = ctrl[sc.tcp_ctrl].tolist()
+        # Per-step code in plain floats: four numbers do not need numpy's call overhead.
+        for i in range(4):
+            v = target[i] + max(-1.0, min(1.0, a[i])) * MAX_DELTA_LIST[i]
+            target[i] = min(max(v, low[i]), high[i])
+        ctrl[sc.tcp_ctrl] = target
         ctrl[sc.gripper] = 0.08 if a[4] > 0 else 0.0
         mujoco.mj_step(sc.model, sc.data, nstep=self.frame_skip)
         grasped = self._is_grasped()
-        delta = sc.site_xpos[sc.tcp_site] - sc.xpos[sc.target_body]
-        dist = math.sqrt(float(delta @ delta))
-        reward = -dist + (1.0 if grasped else 0.0)
-        terminated = False
-        info = {"grasped": grasped, "is_success": False}
         sense = self.sense_mode == "every_step" or (self.sense_mode == "action" and a[5] > 0)
+        info = {"grasped": grasped, "is_success": False}
+        terminated = False
+        bonus = 0.0
         if sense:
             acoustic, rec = self._sense()
             self._last_acoustic = acoustic
@@ -99,9 +103,13 @@ class AcousticGraspEnv(AasEnv):
             rot = sc.data.xmat[sc.target_body].reshape(3, 3)
             info["grasp_position_m"] = float((rot.T @ (sc.site_xpos[sc.tcp_site] - sc.xpos[sc.target_body]))[0])
             if grasped and info["recording_grasped"] and self.sense_mode == "action":
-                reward += 10.0
+                bonus = 10.0
                 terminated = True
                 info["is_success"] = True
+        obs, v = self._obs_and_values()
+        # TCP and object centre from the state: the carriage joints are the TCP coordinates.
+        dist = math.sqrt((v[0] - v[11]) ** 2 + (v[1] - v[12]) ** 2 + (v[2] - v[13]) ** 2)
+        reward = -dist + (1.0 if grasped else 0.0) + bonus
         if self.render_mode == "human":
             self.render()
-        return self._obs(), float(reward), terminated, False, info
+        return obs, float(reward), terminated, False, info

@@ -121,6 +121,15 @@ class _Scene:
         self.act_geoms = np.flatnonzero(self.model.geom_bodyid == act_body)
         self.mic_geoms = np.flatnonzero(self.model.geom_bodyid == mic_body)
         self.body_geoms = [np.flatnonzero(self.model.geom_bodyid == b) for b in self.body_ids]
+        # Contact-count sensors of the target with each fingertip (our scenes have them).
+        from aas_gym.scene import touch_sensor_name
+
+        adr = []
+        for side in ("actuator", "mic"):
+            sid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, touch_sensor_name(self.bodies[0], side))
+            adr.append(int(self.model.sensor_adr[sid]) if sid >= 0 else -1)
+        self.touch_adr = tuple(adr) if min(adr) >= 0 else None
+        self.sensordata = self.data.sensordata
         # pair_role[g0, g1]: 1 = target object x actuator tip, 2 = target x mic tip, else 0.
         ng = self.model.ngeom
         self.pair_role = np.zeros((ng, ng), dtype=np.int8)
@@ -139,12 +148,24 @@ class _Scene:
         self.f0, self.f1 = (int(i) for i in self.hand.finger_qpos)
         self.v0, self.v1 = (int(i) for i in self.hand.finger_qvel)
         self.gripper = int(self.hand.gripper_actuator)
+        self.tcp_low, self.tcp_high = self.hand.tcp_low.tolist(), self.hand.tcp_high.tolist()
         self.target_body = int(self.body_ids[0])
         self.tcp_site = int(self.hand.tcp_site)
-        tcp = self.hand.tcp_qpos
-        self.tcp_slice = slice(int(tcp[0]), int(tcp[0]) + 4) if np.array_equal(tcp, np.arange(tcp[0], tcp[0] + 4)) else tcp
-        tcpv = self.hand.tcp_qvel
-        self.tcpv_slice = slice(int(tcpv[0]), int(tcpv[0]) + 4) if np.array_equal(tcpv, np.arange(tcpv[0], tcpv[0] + 4)) else tcpv
+        # Observation as one linear map of the physics state [qpos, qvel] (a single BLAS call
+        # per step instead of a dozen small array operations): rows = TCP x, y, z, yaw (the
+        # carriage joints are the TCP coordinates), their velocities, gripper opening and
+        # opening speed (sums of the finger joints), a placeholder for the motor force, then
+        # the target's free-joint position and quaternion (= its body pose).
+        nq, nv = self.model.nq, self.model.nv
+        obs_map = np.zeros((18, nq + nv))
+        for row, (qa, va) in enumerate(zip(self.hand.tcp_qpos, self.hand.tcp_qvel)):
+            obs_map[row, qa] = 1.0
+            obs_map[4 + row, nq + va] = 1.0
+        obs_map[8, self.hand.finger_qpos] = 1.0
+        obs_map[9, nq + self.hand.finger_qvel] = 1.0
+        obs_map[np.arange(11, 18), np.arange(self.free_qpos[0], self.free_qpos[0] + 7)] = 1.0
+        self.obs_map = obs_map
+        self.state = np.empty(nq + nv)
 
 
 class AasEnv(gym.Env):
@@ -346,20 +367,26 @@ class AasEnv(gym.Env):
             out["waveform"] = spaces.Box(-np.inf, np.inf, (self.n_samples,), np.float32)
         return out
 
-    def _proprio(self, extra: int = 0) -> tuple[dict, np.ndarray]:
-        """TCP pose/velocity, and gripper opening [m], opening speed [m/s], motor force [N]
-        (what the real hand reports; no contact sensing needed). Filled into one fresh
-        float32 buffer (this runs every step); its last ``extra`` entries are returned for
-        the caller to fill."""
+    def _state_obs(self, with_object: bool) -> tuple[dict, np.ndarray]:
+        """Proprioception (``tcp``, ``tcp_velocity``, ``gripper`` = opening [m], opening speed
+        [m/s], motor force [N]: what the real hand reports, no contact sensing) and, with
+        ``with_object``, the target's pose under ``object``; plus the float64 values."""
         sc = self._scene
-        qpos, qvel = sc.qpos, sc.qvel
-        buf = np.empty(11 + extra, np.float32)
-        buf[0:4] = qpos[sc.tcp_slice]
-        buf[4:8] = qvel[sc.tcpv_slice]
-        buf[8] = qpos[sc.f0] + qpos[sc.f1]
-        buf[9] = qvel[sc.v0] + qvel[sc.v1]
-        buf[10] = -sc.actuator_force[sc.gripper]
-        return {"tcp": buf[0:4], "tcp_velocity": buf[4:8], "gripper": buf[8:11]}, buf[11:]
+        nq = sc.model.nq
+        state = sc.state
+        state[:nq] = sc.qpos
+        state[nq:] = sc.qvel
+        values = sc.obs_map @ state if with_object else sc.obs_map[:11] @ state
+        values[10] = -sc.actuator_force[sc.gripper]
+        buf = values.astype(np.float32)
+        obs = {"tcp": buf[0:4], "tcp_velocity": buf[4:8], "gripper": buf[8:11]}
+        if with_object:
+            obs["object"] = buf[11:18]
+        return obs, values
+
+    def _proprio(self) -> dict:
+        """Proprioception only (see ``_state_obs``)."""
+        return self._state_obs(False)[0]
 
     def _sense(self, excitation=None) -> tuple[dict, object]:
         """Record through the current grasp: observation entries and the AcousticObservation."""
@@ -380,8 +407,12 @@ class AasEnv(gym.Env):
         return out
 
     def _is_grasped(self) -> bool:
-        """Both sensor fingertips touch the target (table lookup: this runs every step)."""
+        """Both sensor fingertips touch the target (this runs every step: read MuJoCo's
+        contact sensors, or look the contact pairs up in a table)."""
         sc = self._scene
+        if sc.touch_adr is not None:  # computed by MuJoCo during the step
+            a, m = sc.touch_adr
+            return sc.sensordata[a] > 0 and sc.sensordata[m] > 0
         if sc.qpos[sc.f0] + sc.qpos[sc.f1] < 5e-4:  # nothing between the fingertips
             return False
         d = sc.data

@@ -57,7 +57,7 @@ class GraspPositionEnv(AasEnv):
         grasp = self._grasp(float(self.positions_m[k]), self._episode_grip_force())
         acoustic, rec = self._sense()
         self._true_position = grasp["grasp_position_m"]
-        obs, _ = self._proprio()
+        obs = self._proprio()
         obs.update(acoustic)
         info = self._ground_truth(contacts=True)
         info.update(grasp, position_index=k, nominal_position_m=float(self.positions_m[k]),
@@ -69,7 +69,7 @@ class GraspPositionEnv(AasEnv):
     def step(self, action):
         estimate = float(np.asarray(action, dtype=np.float64).reshape(-1)[0])
         error = abs(estimate - self._true_position)
-        obs, _ = self._proprio()
+        obs = self._proprio()
         obs.update(self._empty_acoustic())
         info = {"grasp_position_m": self._true_position, "abs_error_m": error}
         return obs, -error, True, False, info

@@ -46,7 +46,7 @@ class ObjectRecognitionEnv(AasEnv):
         self.observation_space = spaces.Dict(obs)
 
     def _obs(self) -> dict:
-        obs, _ = self._proprio()
+        obs = self._proprio()
         obs.update({k: v.copy() for k, v in self._acoustic.items()})
         obs["probe"] = self._probe.copy()
         obs["n_probes"] = np.array([self._n_probes], np.float32)
