@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 
 import aas_gym  # noqa: F401  (registers the envs)
+from aas_gym.scene import DEFAULT_OBJECT_NAMES
 import gymnasium as gym
 import mujoco
 import numpy as np
@@ -88,12 +89,16 @@ def physics_ratio(chunks: int, steps: int) -> dict:
 
 
 def acoustic_cost(objects: list[str], excitations: list[str], repeats: int) -> list[dict]:
+    """Per object and excitation: CPU time of ``sense`` for 1 s, (a) sensing the same grasp
+    again (the synthesis reuses its per-grasp system) and (b) a new grasp every time (the
+    per-grasp damping and eigen-decomposition are rebuilt: the dataset-generation case)."""
     from aas_gym.grasp import planar_grasp
     from aas_gym.scene import build_scene
     from aas_gym.sim_sensor import SimAcousticSensor
     from sensors import Excitation
 
     rows = []
+    positions = np.linspace(0.0, 0.06, repeats + 1)
     for name in objects:
         model = build_scene([name])
         data = mujoco.MjData(model)
@@ -104,15 +109,22 @@ def acoustic_cost(objects: list[str], excitations: list[str], repeats: int) -> l
         cold = _clock() - t0
         for ex_name in excitations:
             ex = Excitation.by_name(ex_name)
-            sensor.sense(ex, 1.0)  # warm-up (compilation caches of the synthesis)
-            times = []
+            planar_grasp(model, data, name, 0.03, 40.0)
+            sensor.sense(ex, 1.0)  # warm-up (compiled kernels, FFT plans)
+            same = []
             for _ in range(repeats):
                 t0 = _clock()
                 sensor.sense(ex, 1.0)
-                times.append(_clock() - t0)
-            best, med = min(times), statistics.median(times)
+                same.append(_clock() - t0)
+            new = []
+            for k in range(repeats):
+                planar_grasp(model, data, name, float(positions[k + 1]), 40.0)
+                t0 = _clock()
+                sensor.sense(ex, 1.0)
+                new.append(_clock() - t0)
             rows.append({"object": name, "excitation": ex.name, "modes": len(modal.frequencies_hz),
-                         "cold_s": cold, "median_s": med, "rtf_median": 1.0 / med, "rtf_best": 1.0 / best})
+                         "cold_s": cold, "same_s": statistics.median(same), "new_s": statistics.median(new),
+                         "rtf_same": 1.0 / statistics.median(same), "rtf_new": 1.0 / statistics.median(new)})
             cold = float("nan")  # report the modal-model cost once per object
     return rows
 
@@ -122,7 +134,7 @@ def main() -> None:
     parser.add_argument("--chunks", type=int, default=40)
     parser.add_argument("--steps", type=int, default=50, help="env steps per chunk")
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--objects", nargs="+", default=["aluminium_bar", "aluminium_tube", "wood_bar"])
+    parser.add_argument("--objects", nargs="+", default=list(DEFAULT_OBJECT_NAMES))
     parser.add_argument("--excitations", nargs="+", default=["impulse", "linear", "exponential"])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "benchmarks" / "env.md")
     args = parser.parse_args()
@@ -151,16 +163,20 @@ def main() -> None:
         "## One 1 s acoustic observation (warm caches)",
         "",
         "Real-time factor = 1 s of recording / CPU time of `SimAcousticSensor.sense` (contacts, "
-        "fingertip model, synthesis, features not included); grasp at 30 mm, 40 N. "
-        f"Median and best of {args.repeats}. Cold = building or loading the modal model once.",
+        "fingertip model, synthesis; 40 N grasp on the table). *Same grasp*: sensed again, the "
+        "synthesis reuses its per-grasp system; *new grasp*: a different grasp position every time "
+        f"(damping matrix and eigen-decomposition rebuilt). Medians of {args.repeats}. *Cold*: building "
+        "the modal model, or loading it from the disk cache, once per object.",
         "",
-        "| object | modes | excitation | CPU time [s] | real-time factor (median) | (best) | cold [s] | goal |",
-        "|---|---:|---|---:|---:|---:|---:|---:|",
+        "| object | modes | excitation | same grasp [s] | RTF | new grasp [s] | RTF | cold [s] | goal |",
+        "|---|---:|---|---:|---:|---:|---:|---:|---:|",
     ]
     for r in acoustic:
         cold = "" if np.isnan(r["cold_s"]) else f"{r['cold_s']:.2f}"
-        lines.append(f"| {r['object']} | {r['modes']} | {r['excitation']} | {r['median_s']:.4f} | "
-                     f"{r['rtf_median']:.1f}x | {r['rtf_best']:.1f}x | {cold} | >= 20x |")
+        lines.append(f"| {r['object']} | {r['modes']} | {r['excitation']} | {r['same_s']:.4f} | "
+                     f"{r['rtf_same']:.0f}x | {r['new_s']:.4f} | {r['rtf_new']:.0f}x | {cold} | >= 20x |")
+    worst = min(r["rtf_new"] for r in acoustic)
+    lines += ["", f"Slowest case: {worst:.0f}x real time (goal >= 20x)."]
     text = "\n".join(lines) + "\n"
     print(text)
     args.out.parent.mkdir(parents=True, exist_ok=True)
