@@ -177,6 +177,13 @@ def main() -> None:
                      f"{r['rtf_same']:.0f}x | {r['new_s']:.4f} | {r['rtf_new']:.0f}x | {cold} | >= 20x |")
     worst = min(r["rtf_new"] for r in acoustic)
     lines += ["", f"Slowest case: {worst:.0f}x real time (goal >= 20x)."]
+    below = sorted({(r["object"], r["modes"]) for r in acoustic if min(r["rtf_new"], r["rtf_same"]) < 20})
+    if below:
+        lines += ["", "Below the goal: " + ", ".join(f"{o} ({n} modes)" for o, n in below) + ". A new grasp "
+                  "rebuilds the synthesis' per-grasp system (contact damping, eigen-decomposition of the "
+                  "2r-state system in `sensors.synthesis`), whose cost grows with the number of modes up to "
+                  "the modal model's band limit (22.05 kHz by default); `SimAcousticSensor(modal_options="
+                  "{'max_frequency_hz': ...})` trades feature accuracy for speed."]
     text = "\n".join(lines) + "\n"
     print(text)
     args.out.parent.mkdir(parents=True, exist_ok=True)
