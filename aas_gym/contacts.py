@@ -143,58 +143,73 @@ class ContactStream:
         self._geom_names = np.array([mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, i) or f"geom{i}"
                                      for i in range(model.ngeom)], dtype=object)
         self._f6 = np.zeros(6)
+        self._kind_names = np.array(KINDS)
 
     def read(self, data: mujoco.MjData) -> dict[str, ObjectContacts]:
-        """Body name -> ``ObjectContacts`` for the current state of ``data``."""
-        out = {}
-        ncon = data.ncon
-        if ncon:
-            geoms = np.asarray(data.contact.geom)[:ncon]
-            gbody = self._geom_body[geoms]
-            sensed = self._body_index[gbody]  # (ncon, 2) index into self.bodies or -1
+        """Body name -> ``ObjectContacts`` for the current state of ``data`` (vectorized over
+        the contact list; forces straight from the solver's rows for elliptic cones)."""
+        n = data.ncon
+        rows = sides = np.zeros(0, dtype=int)
+        if n:
+            con = data.contact
+            geom = con.geom[:n]
+            sensed = self._body_index[self._geom_body[geom]]  # (n, 2): sensed-body index or -1
             rows, sides = np.nonzero(sensed >= 0)
-        else:
-            rows = sides = np.zeros(0, dtype=int)
-        per_body: dict[int, list] = {i: [] for i in range(len(self.bodies))}
-        for r, s in zip(rows, sides):
-            per_body[int(sensed[r, s])].append((int(r), int(s)))
+        k = rows.size
+        if k == 0:
+            return {name: self._empty(name) for name in self.bodies}
+        frame = con.frame[:n][rows].reshape(k, 3, 3)
+        pos_w = con.pos[:n][rows]
+        mu = con.friction[:n][rows, 0].copy()
+        pen = -con.dist[:n][rows]
+        f_contact = self._contact_forces(data, con, n, rows)  # (k, 3): on geom[1], contact frame
+        sign = np.where(sides == 0, 1.0, -1.0)[:, None]  # object is geom[0]: normal points out of it
+        normal_w = sign * frame[:, 0, :]
+        force_w = -sign * np.einsum("kij,ki->kj", frame, f_contact)  # frame^T f, then onto the object
+        obj = sensed[rows, sides]
+        other_geom = geom[rows, 1 - sides]
+        other_body = self._geom_body[other_geom]
+        kinds = self._kind_names[self._kind_of_body[other_body]]
+        fn = np.maximum(f_contact[:, 0], 0.0)
+        out = {}
         for i, name in enumerate(self.bodies):
-            out[name] = self._object_contacts(data, i, per_body[i], geoms if ncon else None)
+            sel = np.flatnonzero(obj == i)
+            if sel.size == 0:
+                out[name] = self._empty(name)
+                continue
+            b = self.body_ids[i]
+            rot = data.xmat[b].reshape(3, 3)
+            # Row vectors: v @ R is R^T v for each row (world -> object frame).
+            out[name] = ObjectContacts(
+                name, (pos_w[sel] - data.xpos[b]) @ rot, normal_w[sel] @ rot, fn[sel], force_w[sel] @ rot,
+                mu[sel], pen[sel], kinds[sel], self._body_names[other_body[sel]], self._geom_names[other_geom[sel]])
         return out
 
-    def _object_contacts(self, data, index: int, items, geoms) -> ObjectContacts:
-        n = len(items)
-        pos = np.zeros((n, 3))
-        nrm = np.zeros((n, 3))
-        fn = np.zeros(n)
-        fvec = np.zeros((n, 3))
-        mu = np.zeros(n)
-        pen = np.zeros(n)
-        kinds = np.empty(n, dtype=object)
-        others = np.empty(n, dtype=object)
-        other_geoms = np.empty(n, dtype=object)
-        b = self.body_ids[index]
-        xpos = data.xpos[b]
-        rot = data.xmat[b].reshape(3, 3)
-        for k, (r, side) in enumerate(items):
-            con = data.contact[r]
-            frame = con.frame.reshape(3, 3)
-            sign = 1.0 if side == 0 else -1.0  # object is geom[0]: normal points out of it
-            mujoco.mj_contactForce(self.model, data, r, self._f6)
-            f_world = frame.T @ self._f6[:3]  # force on geom[1]
-            pos[k] = rot.T @ (con.pos - xpos)
-            nrm[k] = rot.T @ (sign * frame[0])
-            fn[k] = max(self._f6[0], 0.0)
-            fvec[k] = rot.T @ (-sign * f_world)
-            mu[k] = con.friction[0]
-            pen[k] = -con.dist
-            other_geom = geoms[r, 1 - side]
-            other_body = self._geom_body[other_geom]
-            kinds[k] = KINDS[self._kind_of_body[other_body]]
-            others[k] = self._body_names[other_body]
-            other_geoms[k] = self._geom_names[other_geom]
-        return ObjectContacts(self.bodies[index], pos, nrm, fn, fvec, mu, pen, kinds.astype(str) if n else
-                              np.zeros(0, dtype=str), others, other_geoms)
+    def _contact_forces(self, data, con, n: int, rows: np.ndarray) -> np.ndarray:
+        """Normal and two tangential force components (contact frame, acting on geom[1])."""
+        out = np.zeros((rows.size, 3))
+        if self.model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC:
+            # Elliptic cones: the solver's rows of a contact are its force components
+            # (what mj_contactForce copies); contacts without rows carry no force.
+            adr = con.efc_address[:n][rows]
+            dim = con.dim[:n][rows]
+            efc = data.efc_force
+            ok = adr >= 0
+            out[ok, 0] = efc[adr[ok]]
+            tang = ok & (dim >= 3)
+            out[tang, 1] = efc[adr[tang] + 1]
+            out[tang, 2] = efc[adr[tang] + 2]
+            return out
+        f6 = self._f6
+        for k, r in enumerate(rows):
+            mujoco.mj_contactForce(self.model, data, int(r), f6)
+            out[k] = f6[:3]
+        return out
+
+    def _empty(self, name: str) -> ObjectContacts:
+        z3, z = np.zeros((0, 3)), np.zeros(0)
+        e = np.zeros(0, dtype=object)
+        return ObjectContacts(name, z3, z3.copy(), z, z3.copy(), z.copy(), z.copy(), np.zeros(0, dtype="<U11"), e, e)
 
 
 def _body_id(model: mujoco.MjModel, name: str) -> int:

@@ -100,3 +100,30 @@ def test_contact_stream_rejects_unknown_bodies():
     m = build_scene(["wood_bar"])
     with pytest.raises(ValueError, match="no body named"):
         ContactStream(m, ["granite_bar"])
+
+
+@pytest.mark.parametrize("cone", ["elliptic", "pyramidal"])
+def test_stream_forces_equal_mj_contact_force(cone):
+    m = build_scene(["steel_bar", "wood_bar"])
+    if cone == "pyramidal":
+        m.opt.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
+    d = mujoco.MjData(m)
+    planar_grasp(m, d, "steel_bar", 0.02, 40.0)
+    stream = ContactStream(m, ["steel_bar", "wood_bar"])
+    got = stream.read(d)
+    f6 = np.zeros(6)
+    for body in ("steel_bar", "wood_bar"):
+        bid = m.body(body).id
+        expected_total = np.zeros(3)
+        for i in range(d.ncon):
+            g = d.contact.geom[i]
+            side = [m.geom_bodyid[g[0]] == bid, m.geom_bodyid[g[1]] == bid]
+            if not any(side):
+                continue
+            mujoco.mj_contactForce(m, d, i, f6)
+            world = d.contact.frame[i].reshape(3, 3).T @ f6[:3]
+            expected_total += world if side[1] else -world  # force acts on geom[1]
+        rot = d.xmat[bid].reshape(3, 3)
+        np.testing.assert_allclose(rot @ got[body].forces_n.sum(axis=0), expected_total, atol=1e-9)
+    assert got["steel_bar"].total_normal_force_n("actuator") == pytest.approx(40.0, rel=0.05)
+    assert len(got["wood_bar"]) == 4 and set(got["wood_bar"].kinds) == {"environment"}
