@@ -445,13 +445,14 @@ def object_specs_from_model(model: mujoco.MjModel) -> dict[str, ObjectSpec]:
 
 
 def write_asset_files(objects_dir: Path = OBJECTS_DIR, scenes_dir: Path = SCENES_DIR) -> list[Path]:
-    """Write the generated MJCF files shipped in ``assets/``: one scene per default object
-    (``objects/<label>.xml``: table, one object, no hand), a single-object and a
-    multi-object scene with the hand. Regenerate after changing this module."""
+    """Write the generated MJCF files shipped in ``assets/``: a bar and a tube of every
+    material (``objects/<label>.xml``: the object alone, with its description), a
+    single-object, a multi-object and an all-default-objects scene with the hand.
+    Regenerate after changing this module."""
     objects_dir.mkdir(parents=True, exist_ok=True)
     scenes_dir.mkdir(parents=True, exist_ok=True)
     written = []
-    for obj in default_objects():
+    for obj in [get_object(f"{m}_{shape}") for m in known_material_names() for shape in ("bar", "tube")]:
         spec = mujoco.MjSpec()
         spec.modelname = obj.label
         add_object(spec, obj, obj.label)

@@ -59,7 +59,9 @@ def test_every_material_builds_bar_tube_and_rod_in_one_scene():
 
 
 def test_generated_asset_files_load_and_describe_their_objects():
-    for name in DEFAULT_OBJECT_NAMES:
+    names = [f"{mat}_{shape}" for mat in known_material_names() for shape in ("bar", "tube")]
+    assert set(DEFAULT_OBJECT_NAMES) <= set(names)
+    for name in names:
         m = mujoco.MjModel.from_xml_path(str(OBJECTS_DIR / f"{name}.xml"))
         assert object_specs_from_model(m) == {name: get_object(name)}
     single = mujoco.MjModel.from_xml_path(str(SCENES_DIR / "single_object.xml"))
