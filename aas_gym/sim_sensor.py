@@ -173,7 +173,11 @@ class SimAcousticSensor:
         c = contacts[body]
         merged = {}
         for kind in ("actuator", "mic"):
-            point, normal, force, mu = c.merged(kind)
+            patch = c.merged(kind)
+            if patch is None:  # forces on opposite faces cancel: not one fingertip patch
+                raise NoGraspError(f"the {kind} fingertip touches {body!r} on opposite sides; "
+                                   "no single contact to excite or record through")
+            point, normal, force, mu = patch
             merged[kind] = Contact(position_m=point, normal=normal, force_n=force, friction=mu)
         others = c.select(~np.isin(c.kinds, ("actuator", "mic"))).to_sensor_contacts(self.min_force_n)
         return body, merged["actuator"], merged["mic"], others
@@ -185,7 +189,7 @@ class SimAcousticSensor:
         The grasp is taken as constant during the recording (the paper records a static grasp).
         """
         import sensors
-        from sensors import AcousticObservation, Excitation
+        from sensors import Excitation
 
         if isinstance(excitation, str):
             excitation = Excitation.by_name(excitation)

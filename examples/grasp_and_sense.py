@@ -17,7 +17,6 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import mujoco
-import numpy as np
 
 from aas_gym.grasp import planar_grasp
 from aas_gym.scene import build_scene
