@@ -214,12 +214,13 @@ def bar_mesh(length_m: float, width_m: float, height_m: float, element_size_m: f
     """Structured tet mesh of a box: length along x, width along y, height along z.
 
     Args:
-        element_size_m: Target edge length [m]; default: half the smaller cross-section side
-            divided by ``resolution`` (2 elements across, enough for P2 below ~10 kHz).
+        element_size_m: Target edge length [m]; default: a quarter of the smaller
+            cross-section side divided by ``resolution`` (4 P2 elements across: torsion and
+            the higher bending modes of a 25 mm ABS bar below 10 kHz within 1%).
         resolution: Multiplies the number of elements in every direction.
     """
     _check_positive(length_m=length_m, width_m=width_m, height_m=height_m, resolution=resolution)
-    h = element_size_m if element_size_m is not None else min(width_m, height_m) / 2.0
+    h = element_size_m if element_size_m is not None else min(width_m, height_m) / 4.0
     _check_positive(element_size_m=h)
     h = h / resolution
     ny, nz = _divisions(width_m, h, 2), _divisions(height_m, h, 2)
@@ -235,7 +236,8 @@ def bar_mesh(length_m: float, width_m: float, height_m: float, element_size_m: f
 
 
 def tube_mesh(length_m: float, outer_radius_m: float, inner_radius_m: float,
-              element_size_m: float | None = None, resolution: float = 1.0) -> TetMesh:
+              element_size_m: float | None = None, resolution: float = 1.0,
+              divisions: tuple[int, int, int] | None = None) -> TetMesh:
     """Structured tet mesh of a hollow cylinder along x (annulus cross-section).
 
     Default: 24 elements around (curved P2 edges make that accurate), 1 through a thin wall,
@@ -257,6 +259,8 @@ def tube_mesh(length_m: float, outer_radius_m: float, inner_radius_m: float,
         n_r = _divisions(wall, h, 1)
         h_x = 1.5 * h
     nx = _divisions(length_m, h_x, 4)
+    if divisions is not None:  # explicit (around, through the wall, along x)
+        n_theta, n_r, nx = (int(d) for d in divisions)
     theta = 2 * math.pi * np.arange(n_theta) / n_theta
     r = np.linspace(inner_radius_m, outer_radius_m, n_r + 1)
     rr, tt = np.meshgrid(r, theta, indexing="ij")
