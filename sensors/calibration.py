@@ -281,17 +281,34 @@ class StiffnessFit:
         return sum(len(m) for m in self.matches)
 
 
-def _match(log_f: np.ndarray, log_c: np.ndarray, sizes: np.ndarray, log_s: float, tol: float) -> list[tuple[int, int]]:
+def _match(log_f: np.ndarray, log_c: np.ndarray, sizes: np.ndarray, log_s: float, tol: float,
+           log_sigma: np.ndarray | None = None, log_sigma_prior: np.ndarray | None = None) -> list[tuple[int, int]]:
     """One-to-one assignment of measured modes to clusters (a cluster of n modes takes up to
-    n measured modes) minimising the log-frequency distance, pairs farther than 3 tol dropped."""
+    n measured modes) minimising the log-frequency distance, pairs farther than 3 tol dropped.
+
+    With decay rates and a prior decay rate per cluster, a decay far from the prior costs a
+    little too: between two measured modes equally close in frequency (an object mode and a
+    heavily damped fingertip resonance) the plausible one wins.
+    """
     if log_f.size == 0 or log_c.size == 0:
         return []
     cols = np.repeat(np.arange(log_c.size), sizes)
     d = np.abs(log_f[:, None] - (log_s + log_c[cols])[None, :])
     big = 1e6
     cost = np.where(d <= 3 * tol, (d / tol) ** 2, big)
+    if log_sigma is not None and log_sigma_prior is not None:
+        # a factor 3 from the table's damping costs as much as one tolerance in frequency
+        extra = ((log_sigma[:, None] - log_sigma_prior[cols][None, :]) / math.log(3.0)) ** 2
+        cost = np.where(cost < big, cost + extra, big)
     rows, cc = scipy.optimize.linear_sum_assignment(cost)
     return [(int(r), int(cols[c])) for r, c in zip(rows, cc) if cost[r, c] < big]
+
+
+def _decay_terms(est: ModalEstimate, priors: Sequence[np.ndarray] | None, k: int):
+    if priors is None:
+        return None, None
+    with np.errstate(divide="ignore"):
+        return np.log(np.maximum(est.decay_rates, 1e-9)), np.log(np.maximum(np.asarray(priors[k], float), 1e-9))
 
 
 def fit_stiffness(
@@ -301,6 +318,7 @@ def fit_stiffness(
     *,
     factor_range: tuple[float, float] = (1 / 3, 3.0),
     rel_tol: float = 0.01,
+    cluster_decay_priors: Sequence[np.ndarray] | None = None,
 ) -> StiffnessFit:
     """Frequency scale s = sqrt(E / E_base) from measured modes of one or more recordings.
 
@@ -311,6 +329,8 @@ def fit_stiffness(
         cluster_sizes: modes per cluster (default 1).
         factor_range: search range of E / E_base.
         rel_tol: relative frequency tolerance of a match (the model's own accuracy).
+        cluster_decay_priors: per recording, an expected decay rate per cluster [1/s] (the
+            base material's); breaks ties between measured modes close in frequency.
 
     The score of a scale is the number of measured modes that have a model mode within
     ``rel_tol`` (Gaussian-weighted), summed over recordings: missing modes (nodes, outside
@@ -335,7 +355,8 @@ def fit_stiffness(
         raise ValueError("no measured modes to match")
     log_s = float(grid[np.argmax(score)])
     for tol in (coarse_tol, rel_tol, rel_tol):
-        matches = [_match(lf, lc, np.asarray(sz), log_s, tol) for lf, lc, sz in zip(log_fs, log_cs, cluster_sizes)]
+        matches = [_match(lf, lc, np.asarray(sz), log_s, tol, *_decay_terms(est, cluster_decay_priors, k))
+                   for k, (lf, lc, sz, est) in enumerate(zip(log_fs, log_cs, cluster_sizes, measured))]
         ratios, weights = [], []
         for m, lf, lc, est in zip(matches, log_fs, log_cs, measured):
             for i, c in m:
@@ -425,7 +446,8 @@ def fit_damping(
             worst first, refitting in between (mis-matched or badly estimated modes).
         n_bootstrap: bootstrap resamples of the rows for ``bootstrap_std`` (0 = skip).
 
-    alpha, beta and gamma are constrained to be >= 0.
+    alpha, beta and gamma are constrained to be >= 0. Rows far (twice ``outlier_sigma``)
+    from a robust Cauchy-loss fit are dropped first, then the worst remaining row at a time.
     """
     f = np.asarray(frequencies_hz, float)
     sig = np.asarray(decay_rates, float)
@@ -453,7 +475,20 @@ def fit_damping(
         res = scipy.optimize.lsq_linear(Aw, target[rows] / sd[rows], bounds=(0.0, np.inf), method="bvls")
         return res.x / col_scale
 
+    # A robust (Cauchy-loss) fit first: a few wrong rows (a fingertip resonance matched to a
+    # model mode) must not drag the start so far that every row looks like an outlier.
+    x0 = solve(keep)
+    Ak = A[keep] / col_scale / sd[keep, None]
+    tk = target[keep] / sd[keep]
+    robust = scipy.optimize.least_squares(lambda u: Ak @ u - tk, x0 * col_scale, bounds=(0.0, np.inf),
+                                          loss="cauchy", f_scale=2.0)
+    r0 = (target - A @ (robust.x / col_scale)) / sd
+    spread = max(1.4826 * float(np.median(np.abs(r0[keep]))), 1.0)
+    far = keep & (np.abs(r0) > 2 * outlier_sigma * spread)
     rejected = 0
+    if keep.sum() - far.sum() >= need + 1:
+        keep &= ~far
+        rejected = int(far.sum())
     for _ in range(max(3, sig.size // 5)):
         x = solve(keep)
         r = (target - A @ x) / sd
@@ -510,42 +545,58 @@ def _exact_decay_rates(w: np.ndarray, C: np.ndarray) -> np.ndarray:
 
 
 def _refine_exact(fit: DampingFit, w_model: np.ndarray, G_list: list[np.ndarray], row_rec: np.ndarray,
-                  row_members: list[np.ndarray], sigma: np.ndarray, sd: np.ndarray, gamma_held: float | None) -> DampingFit:
+                  row_members: list[np.ndarray], sigma: np.ndarray, sd: np.ndarray, gamma_held: float | None,
+                  freqs_hz: np.ndarray, outlier_sigma: float = 4.0) -> DampingFit:
     """Refit alpha, beta (and gamma) to the exact eigenvalues of the damped modal system of
-    each recording, starting from the first-order (diagonal) fit; rows as that fit kept them."""
-    used = fit.used
+    each recording, starting from the first-order (diagonal) fit.
+
+    All rows take part again (the diagonal fit may have rejected the contact-coupled ones
+    that only the exact model explains): a Cauchy-loss fit first, then the rows it leaves
+    far out are dropped and the rest fitted by plain least squares."""
     x0 = np.array([fit.alpha, fit.beta] + ([fit.gamma] if gamma_held is None else []))
     scale = np.maximum(np.abs(x0), [1e-3, 1e-12, 1e-6][:x0.size])
-    recs = np.unique(row_rec[used])
+    n_par = x0.size
+    finite = np.isfinite(sigma) & np.isfinite(sd)
 
-    def predict(x):
+    def predict(x, rows):
         alpha, beta = x[0], x[1]
         gamma = x[2] if gamma_held is None else gamma_held
-        out = np.empty(used.sum())
-        idx = np.flatnonzero(used)
-        for r in recs:
+        out = np.full(rows.size, np.nan)
+        for r in np.unique(row_rec[rows]):
             C = np.diag(alpha + beta * w_model**2) + gamma * G_list[r]
             s_modes = _exact_decay_rates(w_model, C)
-            for k, i in enumerate(idx):
-                if row_rec[i] == r:
-                    out[k] = np.nanmean(s_modes[row_members[i]])
+            for k in np.flatnonzero(row_rec[rows] == r):
+                out[k] = np.nanmean(s_modes[row_members[rows[k]]])
         return out
 
-    def resid(xs):
-        return (sigma[used] - predict(xs * scale)) / sd[used]
+    def solve(rows, start, loss):
+        def resid(xs):
+            return (sigma[rows] - predict(xs * scale, rows)) / sd[rows]
+        return scipy.optimize.least_squares(resid, start / scale, bounds=(0.0, np.inf), method="trf", loss=loss,
+                                            f_scale=2.0)
 
-    sol = scipy.optimize.least_squares(resid, x0 / scale, bounds=(0.0, np.inf), method="trf", x_scale=1.0)
+    rows = np.flatnonzero(finite)
+    first = solve(rows, x0, "cauchy")
+    r0 = (sigma[rows] - predict(first.x * scale, rows)) / sd[rows]
+    spread = max(1.4826 * float(np.median(np.abs(r0))), 1.0)
+    keep_rows = rows[np.abs(r0) <= outlier_sigma * spread]
+    if keep_rows.size < n_par + 1:
+        keep_rows = rows
+    sol = solve(keep_rows, first.x * scale, "linear")
     x = sol.x * scale
     r = sol.fun
-    n_par = x.size
     chi2 = float(np.sum(r**2) / max(r.size - n_par, 1))
-    J = sol.jac / scale[None, :]
-    cov_small = np.linalg.pinv((J * scale).T @ (J * scale)) * np.outer(scale, scale) * max(chi2, 1.0)
+    Js = sol.jac  # w.r.t. the scaled unknowns
+    cov_small = np.linalg.pinv(Js.T @ Js) * np.outer(scale, scale) * max(chi2, 1.0)
     cov = np.zeros((3, 3))
     cov[:n_par, :n_par] = cov_small
+    used = np.zeros(sigma.size, bool)
+    used[keep_rows] = True
     return dataclasses.replace(
         fit, alpha=float(x[0]), beta=float(x[1]), gamma=float(x[2]) if gamma_held is None else float(gamma_held),
-        covariance=cov, chi2_reduced=chi2, predicted=predict(x), damping_model="exact")
+        covariance=cov, chi2_reduced=chi2, predicted=predict(x, keep_rows), damping_model="exact",
+        n_modes=int(keep_rows.size), n_rejected=int(finite.sum() - keep_rows.size), used=used,
+        frequencies_hz=freqs_hz[keep_rows], decay_rates=sigma[keep_rows])
 
 
 # -- the whole calibration ------------------------------------------------------------------------------
@@ -675,33 +726,37 @@ def calibrate(
     cluster_f = np.array([f_base[c].mean() for c in clusters])
     cluster_n = np.array([c.size for c in clusters])
 
-    per_rec_cf, per_rec_sizes, per_rec_ids = [], [], []
+    w_base = 2 * np.pi * f_base
+    per_rec_cf, per_rec_sizes, per_rec_ids, per_rec_prior, G_list = [], [], [], [], []
     for s in setups:
+        G = contact_damping_matrix(model, s.contacts)
+        G_list.append(G)
+        prior = 0.5 * (base.alpha + base.beta * w_base**2 + base.gamma * np.diag(G))
         obs = observability(model, s.actuator, s.mic)
         obs_c = np.array([math.sqrt(np.sum(obs[c] ** 2)) for c in clusters])
         visible = obs_c >= min_observability * obs_c.max() if obs_c.max() > 0 else np.zeros(len(clusters), bool)
         ids = np.flatnonzero(visible)
         per_rec_ids.append(ids)
+        per_rec_prior.append(np.array([prior[clusters[i]].mean() for i in ids]))
         per_rec_cf.append(cluster_f[ids])
         per_rec_sizes.append(cluster_n[ids])
 
     if fit_youngs_modulus:
-        stiff = fit_stiffness(estimates, per_rec_cf, per_rec_sizes, factor_range=factor_range, rel_tol=rel_tol)
+        stiff = fit_stiffness(estimates, per_rec_cf, per_rec_sizes, factor_range=factor_range, rel_tol=rel_tol,
+                              cluster_decay_priors=per_rec_prior)
         scale = stiff.scale
         matches = stiff.matches
     else:
         stiff = None
         scale = 1.0
-        matches = [_match(np.log(e.frequencies_hz), np.log(cf), sz, 0.0, rel_tol)
-                   for e, cf, sz in zip(estimates, per_rec_cf, per_rec_sizes)]
+        matches = [_match(np.log(e.frequencies_hz), np.log(cf), sz, 0.0, rel_tol,
+                          *_decay_terms(e, per_rec_prior, k))
+                   for k, (e, cf, sz) in enumerate(zip(estimates, per_rec_cf, per_rec_sizes))]
 
     if damping_model not in ("exact", "diagonal"):
         raise ValueError(f"damping_model must be 'exact' or 'diagonal', got {damping_model!r}")
     rows_f, rows_sig, rows_sd, rows_g, rec_of_row, members = [], [], [], [], [], []
-    G_list = []
-    for r, (s, est, m, ids) in enumerate(zip(setups, estimates, matches, per_rec_ids)):
-        G = contact_damping_matrix(model, s.contacts)
-        G_list.append(G)
+    for r, (est, m, ids, G) in enumerate(zip(estimates, matches, per_rec_ids, G_list)):
         for i, c_local in m:
             c = clusters[ids[c_local]]
             rows_f.append(est.frequencies_hz[i])
@@ -723,7 +778,7 @@ def calibrate(
         sd = np.sqrt(np.asarray(rows_sd) ** 2 + (rel_floor * np.asarray(rows_sig)) ** 2)
         damping = _refine_exact(damping, w_model * math.sqrt(base.youngs_modulus_pa / model_E) * scale, G_list,
                                 np.asarray(rec_of_row), members, np.asarray(rows_sig), sd,
-                                None if fit_gamma else base.gamma)
+                                None if fit_gamma else base.gamma, np.asarray(rows_f))
     material = dataclasses.replace(
         base, name=name or f"{base.name}-calibrated", youngs_modulus_pa=base.youngs_modulus_pa * scale**2,
         alpha=damping.alpha, beta=damping.beta, gamma=damping.gamma)
