@@ -700,6 +700,8 @@ def calibrate(
             the matching excitation before its modes are estimated.
         **estimate_kwargs: passed to :func:`sensors.modal_estimation.estimate_modes_from_observation`.
     """
+    if damping_model not in ("exact", "diagonal"):
+        raise ValueError(f"damping_model must be 'exact' or 'diagonal', got {damping_model!r}")
     base = get_material(base_material) if base_material is not None else model.material
     if not isinstance(base, Material):
         raise TypeError(f"base material must be a sensors.Material or a table name, got {type(base).__name__}")
@@ -753,8 +755,6 @@ def calibrate(
                           *_decay_terms(e, per_rec_prior, k))
                    for k, (e, cf, sz) in enumerate(zip(estimates, per_rec_cf, per_rec_sizes))]
 
-    if damping_model not in ("exact", "diagonal"):
-        raise ValueError(f"damping_model must be 'exact' or 'diagonal', got {damping_model!r}")
     rows_f, rows_sig, rows_sd, rows_g, rec_of_row, members = [], [], [], [], [], []
     for r, (est, m, ids, G) in enumerate(zip(estimates, matches, per_rec_ids, G_list)):
         for i, c_local in m:
