@@ -42,13 +42,17 @@ def shard_path(out_dir: Path, index: int) -> Path:
 
 def compute_shard(config_dict: dict[str, Any], shard_index: int) -> bytes:
     """Simulate one shard and return it as Parquet bytes (runs in a worker)."""
+    from threadpoolctl import threadpool_limits
+
     from aas_gym.experiments.simulate import run_task
 
     config = DatasetConfig.from_dict(config_dict)
     tasks = config.shards()[shard_index]
     rows: list[dict[str, Any]] = []
-    for task in tasks:
-        rows += run_task(task, config)
+    # One worker per core: BLAS threads inside a worker would only oversubscribe the cores.
+    with threadpool_limits(1):
+        for task in tasks:
+            rows += run_task(task, config)
     return rows_to_parquet(rows, config)
 
 
