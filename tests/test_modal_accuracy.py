@@ -229,13 +229,17 @@ def test_default_objects_match_beam_theory_within_1_percent(default_models, kind
 
 
 @pytest.mark.parametrize("kind", ["bar", "tube"])
-def test_default_objects_match_independent_skfem_p2(default_models, kind):
-    # ABS has the most modes below 10 kHz (including tube ring modes beam theory misses).
-    model = default_models[kind, "abs"]
-    f = model.frequencies_hz[model.frequencies_hz < 10000]
-    ref = skfem_p2_frequencies_hz(kind, BAR if kind == "bar" else TUBE, MATERIALS["abs"], len(f) + 4)
-    err = np.abs(f / ref[: len(f)] - 1)
-    assert err.max() < 0.01, f"max relative error {err.max():.4f}: {np.c_[f, ref[:len(f)]]}"
+def test_same_mesh_matches_independent_skfem_p2(kind):
+    # Same mesh and geometry (curved mid-edge nodes for the tube), independent assembly and
+    # solve: the discrete eigenvalues must agree to solver precision. This checks our
+    # assembly, quadrature and eigen-solve; the beam tests check the discretization error.
+    dims = BAR if kind == "bar" else TUBE
+    build = ModalModel.bar if kind == "bar" else ModalModel.tube
+    model = build(**dims, material="abs", resolution=0.5, cache=False, max_frequency_hz=12000)
+    ref = skfem_p2_frequencies_hz(kind, dims, MATERIALS["abs"], model.n_modes + 2, resolution=0.5)
+    # Straight elements are integrated exactly by both codes; curved ones (tube) with
+    # different quadrature rules, which leaves ~1e-4 on this deliberately coarse mesh.
+    np.testing.assert_allclose(model.frequencies_hz, ref[: model.n_modes], rtol=1e-7 if kind == "bar" else 5e-4)
 
 
 def test_p1_locks_and_p2_converges(tmp_path):
