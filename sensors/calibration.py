@@ -55,6 +55,7 @@ __all__ = [
     "CalibrationResult",
     "mode_clusters",
     "observability",
+    "undamped_frequencies_hz",
     "fit_stiffness",
     "fit_damping",
     "calibrate",
@@ -304,6 +305,13 @@ def _match(log_f: np.ndarray, log_c: np.ndarray, sizes: np.ndarray, log_s: float
     return [(int(r), int(cols[c])) for r, c in zip(rows, cc) if cost[r, c] < big]
 
 
+def undamped_frequencies_hz(estimate: ModalEstimate) -> np.ndarray:
+    """Undamped natural frequencies |s| / 2 pi = sqrt(f_d^2 + (sigma / 2 pi)^2) [Hz] of
+    estimated modes (exact for a viscously damped single mode)."""
+    f = np.asarray(estimate.frequencies_hz, float)
+    return np.sqrt(f**2 + (np.asarray(estimate.decay_rates, float) / (2 * np.pi)) ** 2)
+
+
 def _decay_terms(est: ModalEstimate, priors: Sequence[np.ndarray] | None, k: int):
     if priors is None:
         return None, None
@@ -340,7 +348,9 @@ def fit_stiffness(
         raise ValueError("one list of model frequencies per modal estimate")
     if cluster_sizes is None:
         cluster_sizes = [np.ones(len(c), int) for c in cluster_frequencies_hz]
-    log_fs = [np.log(np.asarray(m.frequencies_hz, float)) for m in measured]
+    # compare undamped natural frequencies: a mode decaying at sigma rings at
+    # w_d = sqrt(w0^2 - sigma^2), 0.1-0.5 % below w0 for wood
+    log_fs = [np.log(undamped_frequencies_hz(m)) for m in measured]
     log_cs = [np.log(np.asarray(c, float)) for c in cluster_frequencies_hz]
     lo, hi = 0.5 * math.log(factor_range[0]), 0.5 * math.log(factor_range[1])
     grid = np.arange(lo, hi + rel_tol / 8, rel_tol / 8)
@@ -751,7 +761,7 @@ def calibrate(
     else:
         stiff = None
         scale = 1.0
-        matches = [_match(np.log(e.frequencies_hz), np.log(cf), sz, 0.0, rel_tol,
+        matches = [_match(np.log(undamped_frequencies_hz(e)), np.log(cf), sz, 0.0, rel_tol,
                           *_decay_terms(e, per_rec_prior, k))
                    for k, (e, cf, sz) in enumerate(zip(estimates, per_rec_cf, per_rec_sizes))]
 
@@ -759,7 +769,7 @@ def calibrate(
     for r, (est, m, ids, G) in enumerate(zip(estimates, matches, per_rec_ids, G_list)):
         for i, c_local in m:
             c = clusters[ids[c_local]]
-            rows_f.append(est.frequencies_hz[i])
+            rows_f.append(undamped_frequencies_hz(est)[i])
             rows_sig.append(est.decay_rates[i])
             rows_sd.append(est.decay_rate_std[i])
             rows_g.append(float(np.trace(G[np.ix_(c, c)]) / c.size))
