@@ -165,7 +165,8 @@ def write_markdown(path, rows, spectral, model_desc, args):
         "",
         "A \"real\" bar with E x1.2, alpha x1.5 (at least 3 1/s), beta x0.8, gamma x1.3 of the table "
         "material is recorded through the simulated chain (fingertip drive, exact modal + contact damping, "
-        f"gripper leak at -20 dB (one leak recording per excitation, which the calibration is given and removes), white noise at the SNR below the signal RMS), {DURATION_S:g} s per recording, "
+        "gripper leak at -20 dB (one leak recording per excitation, given to the calibration, which removes it), "
+        f"white noise at the SNR below the signal RMS), {DURATION_S:g} s per recording, "
         f"{args.excitation} excitation, at {len(GRASPS)} grasps (x = 30 and 55 mm; 10 N and 40 N). "
         "Calibration starts from the table material. Errors are |relative|: median / worst over "
         f"{args.seeds} noise seeds; sigma is the median stated 1-sigma uncertainty (relative). "
