@@ -40,6 +40,7 @@ class DatasetConfig:
         position_repeats: recordings per position (paper: 5).
         duration_s: recording length used for features (paper: first 1 s of 5 s).
         grip_force_n: grip force (paper: 40 N).
+        grasp_jitter_m: half-range of the uniform error of each grasp along the main axis.
         noise_std: microphone noise standard deviation (full scale 1; 1e-5 is -100 dBFS,
             a good sound card's floor).
         store_waveforms: also store raw waveforms (about 176 kB per row).
@@ -57,6 +58,7 @@ class DatasetConfig:
     position_repeats: int = 5
     duration_s: float = 1.0
     grip_force_n: float = 40.0
+    grasp_jitter_m: float = 0.0005
     noise_std: float = 1e-5
     store_waveforms: bool = False
     seed: int = 0

@@ -134,7 +134,9 @@ def plot_spectra(curves: list[tuple[str, str, np.ndarray, np.ndarray]], path: Pa
             band = (f >= band_hz[0]) & (f <= band_hz[1])
             color = f"C{k}"
             ax.semilogy(f[band], a[band], lw=0.3, color=color, alpha=0.35)
-            ax.semilogy(f[band], np.maximum(smooth_spectrum(a, 101)[band], 1e-15), lw=1.2, color=color, label=label)
+            # Smooth the log-amplitude: smoothing the amplitude itself overshoots below zero at sharp peaks.
+            smooth = 10 ** smooth_spectrum(np.log10(np.maximum(a, 1e-30)), 101)
+            ax.semilogy(f[band], smooth[band], lw=1.2, color=color, label=label)
         ax.set(title=panel, xlabel="frequency [Hz]", ylabel="amplitude")
         ax.legend(fontsize=7)
     fig.savefig(path, dpi=100)

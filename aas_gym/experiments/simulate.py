@@ -79,9 +79,11 @@ def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
     mujoco.mj_forward(model, data)
     body = get_object(task.object_name).label
     position_m = _grasp_position(task, config, rng, avoid)
-    # Where the pads meet the faces varies a little from grasp to grasp, as on the robot.
-    height_offset_m = 0.0 if task.scene == "position" else float(rng.uniform(-0.002, 0.002))
-    grasp = planar_grasp(model, data, body, position_m, grip_force_n=config.grip_force_n,
+    # Re-grasping is never exact: the pads land a little off the commanded point along the axis
+    # and in height, as on the robot (the label stays the commanded position).
+    jitter_m = float(rng.uniform(-config.grasp_jitter_m, config.grasp_jitter_m))
+    height_offset_m = float(rng.uniform(-0.002, 0.002))
+    grasp = planar_grasp(model, data, body, position_m + jitter_m, grip_force_n=config.grip_force_n,
                          height_offset_m=height_offset_m)
     if not grasp.success:
         raise RuntimeError(f"task {task.task_id}: the scripted grasp did not hold the object ({grasp})")
@@ -96,6 +98,7 @@ def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
             "shape": spec.shape, "excitation": name, "grasp_index": task.grasp_index,
             "position_m": position_m, "grip_force_n": float(grasp.actuator_force_n),
             "n_other_contacts": len(meta.get("other_contacts", [])),
+            "other_contact_force_n": float(sum(c["force_n"] for c in meta.get("other_contacts", []))),
             "features": obs.features().astype(np.float32),
         }
         if config.store_waveforms:
