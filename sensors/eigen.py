@@ -89,7 +89,8 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
     """
     n = K.shape[0]
     rng = np.random.default_rng(12345)  # deterministic start -> reproducible mode bases
-    max_basis = min(n - 6, cap + 4 * block, 4000)
+    max_basis = min(n - 6, cap + 4 * block, 3000, max(4 * block, int(1.2e8 / n)))  # <= ~1 GB per array
+    best_res = np.inf
 
     def orthonormalize(Y, basis):
         for _ in range(2):  # twice is enough (Kahan)
@@ -117,6 +118,12 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
             res = mode_residuals(K, M, theta[: n_want + 1], U)
             if np.all(res[:n_want] <= 0.5 * residual_tol):
                 return theta[: n_want + 1], U
+            worst = float(res[:n_want].max())
+            if worst > 0.5 * best_res:  # settled Ritz values but no progress: round-off floor
+                raise EigenSolveError(
+                    f"eigen-solve stagnates at residual {worst:.3g} > {residual_tol:g} with {n_want} modes in band "
+                    "(ill-conditioned problem, e.g. Poisson ratio near 0.5 or extremely thin elements)")
+            best_res = min(best_res, worst)
         if basis.shape[1] >= max_basis:
             if n_want is None:
                 raise EigenSolveError(f"more than {cap} modes below the band limit; raise max_modes or lower "

@@ -17,7 +17,7 @@ import numpy as np
 import scipy.sparse
 
 from .materials import Material
-from .meshing import P2_EDGES
+from .meshing import P2_EDGES, MeshError
 
 __all__ = ["assemble", "shape_functions", "shape_gradients_ref", "QUADRATURE"]
 
@@ -83,7 +83,8 @@ def _jacobians(coords: np.ndarray, dN: np.ndarray):
     det = np.linalg.det(J)
     if np.any(det <= 0):
         bad = int((det <= 0).any(axis=1).sum())
-        raise ValueError(f"{bad} elements have a non-positive Jacobian (inverted or degenerate tets)")
+        raise MeshError(f"{bad} elements have a non-positive Jacobian (inverted, degenerate, or curved "
+                        "P2 elements too thin for their curvature: refine the mesh)")
     Jinv = np.linalg.inv(J)
     G = np.einsum("qak,mqki->mqai", dN, Jinv)
     return G, det

@@ -258,6 +258,12 @@ def tube_mesh(length_m: float, outer_radius_m: float, inner_radius_m: float,
         n_theta = 4 * max(2, int(math.ceil(2 * math.pi * outer_radius_m / h / 4 - 1e-9)))
         n_r = _divisions(wall, h, 1)
         h_x = 1.5 * h
+    # Curving the P2 edges onto the circle moves mid-nodes by the sagitta r (pi/n)^2 / 2; keep
+    # it below 1/8 of the wall or thin-walled elements invert.
+    n_min = 4 * int(math.ceil(2 * math.pi * math.sqrt(outer_radius_m / wall) / 4))
+    if n_theta < n_min:
+        n_theta = n_min
+        h_x = max(h_x, 2 * math.pi * outer_radius_m / n_theta * 2.0)
     nx = _divisions(length_m, h_x, 4)
     if divisions is not None:  # explicit (around, through the wall, along x)
         n_theta, n_r, nx = (int(d) for d in divisions)
@@ -439,7 +445,7 @@ def tetrahedralize_surface(mesh, element_size_m: float | None = None, resolution
                            cache: bool = True, cache_dir=None) -> TetMesh:
     """Tetrahedralize a watertight surface with pytetwild (fTetWild), cached on disk.
 
-    The envelope is set so the output boundary stays within 0.05% of the smallest
+    The envelope is set so the output boundary stays within 0.1% of the smallest
     bounding-box extent of the input (fTetWild's default can thicken a 10 mm bar by 0.1 mm).
 
     Args:
@@ -461,7 +467,7 @@ def tetrahedralize_surface(mesh, element_size_m: float | None = None, resolution
         element_size_m = float(extents.min()) / 4.0
     _check_positive(element_size_m=element_size_m, resolution=resolution)
     h = element_size_m / resolution
-    epsilon = max(5e-4 * float(extents.min()) / diag, 1e-6)
+    epsilon = max(1e-3 * float(extents.min()) / diag, 1e-6)
     key = cache_mod.content_key("tetwild", verts, faces, h, epsilon)
     if cache:
         hit = cache_mod.load_arrays(key, cache_dir)
