@@ -91,6 +91,7 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
     rng = np.random.default_rng(12345)  # deterministic start -> reproducible mode bases
     max_basis = min(n - 6, cap + 4 * block, 3000, max(4 * block, int(1.2e8 / n)))  # <= ~1 GB per array
     best_res = np.inf
+    stalls = 0
 
     def orthonormalize(Y, basis):
         for _ in range(2):  # twice is enough (Kahan)
@@ -119,7 +120,10 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
             if np.all(res[:n_want] <= 0.5 * residual_tol):
                 return theta[: n_want + 1], U
             worst = float(res[:n_want].max())
-            if worst > 0.5 * best_res:  # settled Ritz values but no progress: round-off floor
+            if worst <= residual_tol:
+                return theta[: n_want + 1], U
+            stalls = stalls + 1 if worst > 0.9 * best_res else 0
+            if stalls >= 2:  # settled Ritz values but no progress: round-off floor
                 raise EigenSolveError(
                     f"eigen-solve stagnates at residual {worst:.3g} > {residual_tol:g} with {n_want} modes in band "
                     "(ill-conditioned problem, e.g. Poisson ratio near 0.5 or extremely thin elements)")

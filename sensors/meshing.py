@@ -263,7 +263,7 @@ def tube_mesh(length_m: float, outer_radius_m: float, inner_radius_m: float,
     n_min = 4 * int(math.ceil(2 * math.pi * math.sqrt(outer_radius_m / wall) / 4))
     if n_theta < n_min:
         n_theta = n_min
-        h_x = max(h_x, 2 * math.pi * outer_radius_m / n_theta * 2.0)
+        h_x = max(h_x, 2 * math.pi * outer_radius_m / n_theta * 3.0)
     nx = _divisions(length_m, h_x, 4)
     if divisions is not None:  # explicit (around, through the wall, along x)
         n_theta, n_r, nx = (int(d) for d in divisions)
