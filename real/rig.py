@@ -40,6 +40,7 @@ from typing import Any, Iterator
 import numpy as np
 
 from sensors import AcousticObservation, Excitation
+from sensors.atomic import atomic_write_text
 
 from .latency import find_latency, period_lags
 
@@ -416,20 +417,6 @@ def partial_paths(path: str | os.PathLike) -> tuple[Path, Path, Path]:
             stem.with_name(stem.name + ".partial.npz"))
 
 
-def _atomic_write_text(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-
-
 class _PartialWriter:
     """Streams input samples to ``<name>.partial.f32`` as they arrive, described by
     ``<name>.partial.json`` (written first), so a crash loses at most the last ~0.5 s."""
@@ -439,7 +426,7 @@ class _PartialWriter:
     def __init__(self, final_path: Path, header: dict[str, Any]) -> None:
         self.raw_path, self.json_path, self.npz_path = partial_paths(final_path)
         self.raw_path.parent.mkdir(parents=True, exist_ok=True)
-        _atomic_write_text(self.json_path, json.dumps({**header, "partial": True, "final_path": str(final_path)}))
+        atomic_write_text(self.json_path, json.dumps({**header, "partial": True, "final_path": str(final_path)}))
         self._fh = open(self.raw_path, "wb")
         self._last_sync = time.monotonic()
 

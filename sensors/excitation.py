@@ -31,6 +31,11 @@ def _require_finite_positive(name: str, value: float) -> float:
     return value
 
 
+def _sweep_args(args: dict[str, Any]) -> dict[str, Any]:
+    """A sweep constructor's keyword arguments, as the dataclass fields they set."""
+    return {k: args[k] for k in ("fs", "duration_s", "period_s", "amplitude", "f0_hz", "f1_hz", "fade_s")}
+
+
 @dataclass(frozen=True)
 class Excitation:
     """One period of a looping actuator excitation.
@@ -124,8 +129,7 @@ class Excitation:
         fade_s: float = 0.0,
     ) -> Excitation:
         """Linear sweep: instantaneous frequency f0 + (f1 - f0) t / T."""
-        return cls("linear_sweep", fs=fs, duration_s=duration_s, period_s=period_s,
-                   amplitude=amplitude, f0_hz=f0_hz, f1_hz=f1_hz, fade_s=fade_s)
+        return cls("linear_sweep", **_sweep_args(locals()))
 
     @classmethod
     def exponential_sweep(
@@ -140,8 +144,7 @@ class Excitation:
         fade_s: float = 0.0,
     ) -> Excitation:
         """Exponential sweep: instantaneous frequency f0 (f1 / f0)^(t / T)."""
-        return cls("exponential_sweep", fs=fs, duration_s=duration_s, period_s=period_s,
-                   amplitude=amplitude, f0_hz=f0_hz, f1_hz=f1_hz, fade_s=fade_s)
+        return cls("exponential_sweep", **_sweep_args(locals()))
 
     @classmethod
     def by_name(cls, name: str, **kwargs: Any) -> Excitation:

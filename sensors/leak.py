@@ -20,13 +20,14 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import scipy.signal as ssig
+
+from .atomic import atomic_open
 
 __all__ = ["LeakRecording", "save_leak", "load_leak", "excitation_lag", "align_leak"]
 
@@ -65,17 +66,9 @@ def save_leak(path: str | os.PathLike, waveform, sample_rate_hz: int, excitation
     path = Path(path)
     if path.suffix != ".npz":
         path = path.with_suffix(".npz")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    # write to a temporary name and rename: an interruption never leaves a half-written file
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".npz")
-    os.close(fd)
-    try:
-        np.savez(tmp, waveform=rec.waveform, sample_rate_hz=np.int64(rec.sample_rate_hz),
+    with atomic_open(path) as fh:
+        np.savez(fh, waveform=rec.waveform, sample_rate_hz=np.int64(rec.sample_rate_hz),
                  excitation=np.array(json.dumps(rec.excitation)), metadata=np.array(json.dumps(rec.metadata)))
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
 
 

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from .atomic import atomic_open
 from .excitation import Excitation
 from .features import amplitude_spectrum, spectral_features
 
@@ -82,24 +82,14 @@ class AcousticObservation:
         path = Path(path)
         if path.suffix != ".npz":
             path = path.with_suffix(".npz")
-        path.parent.mkdir(parents=True, exist_ok=True)
         meta = json.dumps({
             "sample_rate_hz": self.sample_rate_hz,
             "excitation": self.excitation.to_dict(),
             "start_time_s": self.start_time_s,
             "metadata": self.metadata,
         })
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                np.savez(fh, waveform=self.waveform, meta=np.array(meta))
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        with atomic_open(path) as fh:
+            np.savez(fh, waveform=self.waveform, meta=np.array(meta))
         return path
 
     @classmethod

@@ -19,7 +19,6 @@ from __future__ import annotations
 import io
 import json
 import os
-import tempfile
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from multiprocessing import get_context
@@ -31,6 +30,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from aas_gym.experiments.config import DatasetConfig
+from sensors.atomic import atomic_write_bytes
 
 FORMAT = "aas-gym-dataset/1"
 MANIFEST = "dataset.json"
@@ -72,20 +72,6 @@ def rows_to_parquet(rows: list[dict[str, Any]], config: DatasetConfig) -> bytes:
     return buf.getvalue()
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def _prepare(out_dir: Path, config: DatasetConfig, overwrite: bool) -> list[int]:
     """Write or check the manifest; return the shard indices still to compute."""
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -103,7 +89,7 @@ def _prepare(out_dir: Path, config: DatasetConfig, overwrite: bool) -> list[int]
     else:
         for stale in out_dir.glob("shard-*.parquet"):
             stale.unlink()
-        _atomic_write(manifest_path, json.dumps(manifest, indent=2, sort_keys=True).encode())
+        atomic_write_bytes(manifest_path, json.dumps(manifest, indent=2, sort_keys=True).encode())
     for tmp in out_dir.glob(".shard-*.tmp"):  # left by a killed run; never renamed, never whole
         tmp.unlink()
     todo = []
@@ -190,7 +176,7 @@ def generate_dataset(
     done_tasks = total - sum(len(shards[i]) for i in todo)
     with tqdm(total=total, initial=done_tasks, unit="grasp", disable=not progress, desc="generating") as bar:
         for index, data in results:
-            _atomic_write(shard_path(out, index), data)
+            atomic_write_bytes(shard_path(out, index), data)
             bar.update(len(shards[index]))
             if on_shard is not None:
                 on_shard(index)
