@@ -46,7 +46,12 @@ def _build_model(args, material):
     names = SHAPE_DIMS[args.shape]
     if dims is None or len(dims) != len(names):
         raise SystemExit(f"aas calibrate: --shape {args.shape} needs --dims {' '.join(n.upper() for n in names)}")
-    return getattr(sensors.ModalModel, args.shape)(*dims, material)
+    options = {}
+    if args.max_frequency_hz is not None:
+        options["max_frequency_hz"] = args.max_frequency_hz
+    if args.element_size_m is not None:
+        options["element_size_m"] = args.element_size_m
+    return getattr(sensors.ModalModel, args.shape)(*dims, material, **options)
 
 
 def _grasp_contacts(args, force_n: float):
@@ -148,6 +153,9 @@ def add_subcommands(sub) -> None:
     p.add_argument("--dims", type=float, nargs="+", metavar="M",
                    help="bar: L W H; tube: L R_OUT R_IN; rod: L R (metres)")
     p.add_argument("--model", help="a saved sensors.ModalModel instead of --shape/--dims")
+    p.add_argument("--max-frequency-hz", type=float,
+                   help="FEM band limit (default: ModalModel's); modes a little above the analysed band suffice")
+    p.add_argument("--element-size-m", type=float, help="FEM element size (default: ModalModel's)")
     p.add_argument("--out", required=True, help="material file to write (.json)")
     p.add_argument("--name", help="name of the calibrated material (default <base>-calibrated)")
     p.add_argument("--grasp-x", type=float, help="grasp position along the main axis [m] (recordings without contacts)")
