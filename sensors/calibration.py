@@ -29,7 +29,6 @@ import dataclasses
 import json
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
@@ -37,6 +36,7 @@ from typing import Any, Sequence
 import numpy as np
 import scipy.optimize
 
+from .atomic import atomic_write_text
 from .contact import Contact
 from .damping import contact_damping_matrix
 from .materials import Material, get_material
@@ -74,20 +74,10 @@ def save_material(path: str | os.PathLike, material: Material, *, calibration: d
     "calibration": {...}}``; :func:`load_material` reads it back.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     doc = {"format": MATERIAL_FILE_FORMAT, "version": 1, "material": material.to_dict()}
     if calibration is not None:
         doc["calibration"] = calibration
-    text = json.dumps(doc, indent=2, default=_json_default)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text + "\n")
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    atomic_write_text(path, json.dumps(doc, indent=2, default=_json_default) + "\n")
     return path
 
 
