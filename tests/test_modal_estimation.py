@@ -181,3 +181,26 @@ def test_silence_and_pure_noise_give_no_modes():
     exc = Excitation.impulse()
     for w in (np.zeros(2 * FS), np.random.default_rng(0).standard_normal(2 * FS)):
         assert len(estimate_modes_from_observation(AcousticObservation(w, FS, exc))) == 0
+
+
+def test_stated_standard_deviations_match_the_scatter():
+    # 16 noise draws of the same two modes: the Fisher standard deviations predict the spread
+    exc = Excitation.impulse()
+    modes = rayleigh_modes([1000.0, 1030.0], alpha=20.0, beta=1e-6)
+    clean = recording(exc, modes, periods=3)
+    rng = np.random.default_rng(3)
+    noise = 0.03 * np.sqrt(np.mean(clean**2))
+    f_est, s_est, f_sd, s_sd = [], [], [], []
+    for _ in range(16):
+        est = estimate_modes(transfer_function(clean + noise * rng.standard_normal(clean.size), exc),
+                             f_min_hz=900.0, f_max_hz=1150.0)
+        i = match(est, modes[0])
+        f_est.append(est.frequencies_hz[i])
+        s_est.append(est.decay_rates[i])
+        f_sd.append(est.frequency_std_hz[i])
+        s_sd.append(est.decay_rate_std[i])
+    ratio_f = np.std(f_est, axis=0) / np.mean(f_sd, axis=0)
+    ratio_s = np.std(s_est, axis=0) / np.mean(s_sd, axis=0)
+    # 16 draws estimate a standard deviation to about +-18 %; allow for that and a little more
+    assert np.all((ratio_f > 0.5) & (ratio_f < 1.6)), ratio_f
+    assert np.all((ratio_s > 0.5) & (ratio_s < 1.6)), ratio_s
