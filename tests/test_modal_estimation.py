@@ -7,6 +7,8 @@ from rest over the looping excitation, then white noise at a given SNR is added.
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 from scipy.signal import lfilter
 
 from sensors import AcousticObservation, Excitation
@@ -204,3 +206,17 @@ def test_stated_standard_deviations_match_the_scatter():
     # 16 draws estimate a standard deviation to about +-18 %; allow for that and a little more
     assert np.all((ratio_f > 0.5) & (ratio_f < 1.6)), ratio_f
     assert np.all((ratio_s > 0.5) & (ratio_s < 1.6)), ratio_s
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.tuples(st.floats(0.9, 0.999), st.floats(-3.0, 3.0), st.floats(0.3, 3.0)), min_size=1, max_size=5))
+def test_esprit_property_noise_free(poles):
+    angles = np.array([p[1] for p in poles])
+    assume(np.all(np.diff(np.sort(angles)) > 0.05))
+    z_true = np.array([r * np.exp(1j * a) for r, a, _ in poles])
+    amps = np.array([p[2] for p in poles])
+    n = np.arange(160)
+    x = (amps[None, :] * z_true[None, :] ** n[:, None]).sum(axis=1)
+    z = esprit(x, len(poles))
+    for zt in z_true:
+        assert np.min(np.abs(z - zt)) < 1e-7
