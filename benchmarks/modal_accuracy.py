@@ -31,6 +31,10 @@ from test_modal_accuracy import BAR, TABLE, TUBE, compare_to_beam  # noqa: E402
 BAND_HZ = 10000.0
 
 
+def pct(err: float) -> str:
+    return f"{100 * err:.3f}" if math.isfinite(err) else "modes missing"
+
+
 def max_error(model) -> float:
     rows = compare_to_beam(model, BAND_HZ)
     return max(abs(fe / ref - 1) if math.isfinite(fe) else float("inf") for _, ref, fe in rows)
@@ -55,7 +59,7 @@ def sweep(material: str, quick: bool):
                 rows.append(dict(kind=kind, element=element, resolution=res, n_dof=m.metadata["n_dof"],
                                  n_tets=m.metadata["n_tets"], time_s=dt, error=err))
                 print(f"  {kind:4s} {element} res {res:4.2f}: {m.metadata['n_dof']:6d} dof {dt:6.2f} s "
-                      f"max error {100 * err:.3f} %", flush=True)
+                      f"max error {pct(err)} %", flush=True)
     return rows
 
 
@@ -97,6 +101,10 @@ def main(argv=None):
         f"relative deviation from beam theory (Timoshenko bending, exact torsion, Rayleigh-Love axial) over",
         f"all beam modes below {BAND_HZ:.0f} Hz. Bar 200 x 25 x 25 mm, tube 200 mm x 25 / 19 mm diameter.",
         "Times are wall-clock on a shared 2-core machine (other jobs running), one BLAS thread.",
+        "\"modes missing\": P1 locking pushed beam modes above the computed band. The tube's floor of",
+        "~0.9% is Timoshenko theory's own deviation from 3D elasticity for this thick tube (it stays",
+        "when the mesh is refined 3x); tube ring (ovalling) modes, below 10 kHz only in ABS, are not",
+        "covered by beam theory.",
         "",
         f"## Run time against error ({args.material})",
         "",
@@ -105,7 +113,7 @@ def main(argv=None):
     ]
     for r in sweep_rows:
         lines.append(f"| {r['kind']} | {r['element'].upper()} | {r['resolution']:.2f} | {r['n_dof']} | {r['n_tets']} | "
-                     f"{r['time_s']:.2f} | {100 * r['error']:.3f} |")
+                     f"{r['time_s']:.2f} | {pct(r['error'])} |")
     lines += [
         "",
         "## Default objects, default options (P2, band 22.05 kHz)",
@@ -115,7 +123,7 @@ def main(argv=None):
     ]
     for r in goal_rows:
         lines.append(f"| {r['kind']} | {r['material']} | {r['n_dof']} | {r['n_modes']} | {r['cold_s']:.2f} | "
-                     f"{r['cached_ms']:.1f} | {100 * r['error']:.3f} |")
+                     f"{r['cached_ms']:.1f} | {pct(r['error'])} |")
     text = "\n".join(lines) + "\n\n![run time against error](modal_accuracy.png)\n"
     print()
     print(text)

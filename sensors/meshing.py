@@ -241,7 +241,8 @@ def tube_mesh(length_m: float, outer_radius_m: float, inner_radius_m: float,
     """Structured tet mesh of a hollow cylinder along x (annulus cross-section).
 
     Default: 24 elements around (curved P2 edges make that accurate), 1 through a thin wall,
-    elements along x about twice the outer radius / 3; ``resolution`` scales all counts.
+    elements along x 2.5 times as long as they are wide; ``resolution`` scales all counts.
+    ``divisions=(around, through the wall, along x)`` sets the counts explicitly.
     """
     _check_positive(length_m=length_m, outer_radius_m=outer_radius_m, inner_radius_m=inner_radius_m,
                     resolution=resolution)
@@ -251,7 +252,7 @@ def tube_mesh(length_m: float, outer_radius_m: float, inner_radius_m: float,
     if element_size_m is None:
         n_theta = 4 * max(2, int(round(6 * resolution)))
         n_r = max(1, int(math.ceil(wall / (2 * math.pi * outer_radius_m / n_theta) * 0.75 - 1e-9)))
-        h_x = 2 * math.pi * outer_radius_m / n_theta * 2.0
+        h_x = 2 * math.pi * outer_radius_m / n_theta * 2.5  # P2 beam modes tolerate long cells
     else:
         _check_positive(element_size_m=element_size_m)
         h = element_size_m / resolution
