@@ -115,3 +115,13 @@ def test_pytetwild_path_tight_and_cached(tmp_path):
     assert tm.volume_m3() == pytest.approx(surface.volume, rel=1e-3)
     again = tetrahedralize_surface(surface, element_size_m=0.005, cache_dir=tmp_path)
     assert again.digest() == tm.digest()  # served from the cache: identical
+
+    # End to end (tet mesh from the cache above): same modes as the structured bar.
+    from sensors import ModalModel
+
+    opts = dict(cache_dir=tmp_path, progress=False, max_frequency_hz=30000)
+    general = ModalModel.from_mesh(surface, "aluminium", element_size_m=0.005, **opts)
+    bar = ModalModel.bar(0.06, 0.02, 0.01, "aluminium", **opts)
+    n = min(4, bar.n_modes)
+    np.testing.assert_allclose(general.frequencies_hz[:n], bar.frequencies_hz[:n], rtol=0.01)
+    assert general.kind == "mesh" and general.dimensions_m["extent_x_m"] == pytest.approx(0.06)
