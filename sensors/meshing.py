@@ -23,6 +23,7 @@ import hashlib
 import logging
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse
@@ -478,8 +479,16 @@ def tetrahedralize_surface(mesh, element_size_m: float | None = None, resolution
 
     start = time.perf_counter()
     log.info("pytetwild: %d faces, edge length %.3g m, envelope %.2g", len(faces), h, epsilon)
-    tv, tt = pytetwild.tetrahedralize(verts, faces, edge_length_abs=h, epsilon=epsilon, quiet=True,
-                                      num_threads=1)
+    # fTetWild leaves a debug file "__tracked_surface.stl" in the working directory: remove it
+    # unless it was there before (the user's own file).
+    debug_file = Path.cwd() / "__tracked_surface.stl"
+    had_debug_file = debug_file.exists()
+    try:
+        tv, tt = pytetwild.tetrahedralize(verts, faces, edge_length_abs=h, epsilon=epsilon, quiet=True,
+                                          num_threads=1)
+    finally:
+        if not had_debug_file:
+            debug_file.unlink(missing_ok=True)
     tv = np.asarray(tv, dtype=np.float64)
     tt = np.asarray(tt, dtype=np.int64)
     if len(tt) == 0:
