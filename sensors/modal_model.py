@@ -307,6 +307,33 @@ class ModalModel:
             n[curved] = (radial[curved] / r[curved, None]) * sign[curved, None]
         return n
 
+    def with_material(self, material, **options) -> "ModalModel":
+        """This object in another material.
+
+        With the same Poisson ratio, K scales with E and M with the density, so the modes are
+        exact without a new solve: frequencies times sqrt((E'/rho') / (E/rho)), mass-normalized
+        shapes times sqrt(rho / rho'); the band limit in the metadata scales with the
+        frequencies. A different Poisson ratio changes the mode shapes: bars, tubes and rods
+        are rebuilt with the stored options (``options`` override them); other meshes raise.
+        """
+        material = get_material(material)
+        old = self.material
+        if math.isclose(material.poisson_ratio, old.poisson_ratio, rel_tol=0, abs_tol=1e-12):
+            c2 = (material.youngs_modulus_pa / material.density_kg_m3) / (old.youngs_modulus_pa / old.density_kg_m3)
+            meta = dict(self.metadata, material=material.name, cache_hit=False)
+            if "max_frequency_hz" in meta:
+                meta["max_frequency_hz"] = float(meta["max_frequency_hz"]) * math.sqrt(c2)
+            return ModalModel(self.nodes_m, self.elements, self.frequencies_hz * math.sqrt(c2),
+                              self.mode_shapes * math.sqrt(old.density_kg_m3 / material.density_kg_m3), material,
+                              element=self.element, metadata=meta)
+        builders = {"bar": ModalModel.bar, "tube": ModalModel.tube, "rod": ModalModel.rod}
+        if self.kind not in builders:
+            raise ValueError("a different Poisson ratio needs a new solve; rebuild the model with from_mesh")
+        opts = {k: self.metadata[k] for k in ("element", "max_frequency_hz", "resolution", "element_size_m")
+                if k in self.metadata}
+        opts.update(options)
+        return builders[self.kind](**self.dimensions_m, material=material, **opts)
+
     def damping_matrix(self, contacts):
         """Modal damping matrix (r, r) for the given contacts (see :mod:`sensors.damping`)."""
         from .damping import modal_damping_matrix

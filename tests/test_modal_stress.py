@@ -160,3 +160,18 @@ def test_tiny_model_from_arrays():
     np.testing.assert_allclose(m.mode_shapes_at([[0.25, 0.25, 0.25]])[0, :, 0], shapes.mean(axis=0)[:, 0])
     with pytest.raises(ValueError, match="mode_shapes"):
         ModalModel(nodes, [[0, 1, 2, 3]], [100.0, 200.0], shapes, "abs")
+
+
+def test_with_material_is_exact_for_same_poisson_ratio():
+    opts = dict(cache=False, progress=False, resolution=0.5, max_frequency_hz=15000)
+    base = ModalModel.bar(0.2, 0.025, 0.025, "abs", **opts)
+    other = Material("abs-like", 1500.0, 4.0e9, 0.36, alpha=1.0)
+    scaled = base.with_material(other)
+    direct = ModalModel.bar(0.2, 0.025, 0.025, other, **opts)
+    n = min(scaled.n_modes, direct.n_modes)
+    np.testing.assert_allclose(scaled.frequencies_hz[:n], direct.frequencies_hz[:n], rtol=1e-8)
+    K, M = direct.assemble_matrices()
+    U = scaled.mode_matrix()
+    np.testing.assert_allclose(U.T @ (M @ U), np.eye(scaled.n_modes), atol=1e-8)
+    rebuilt = base.with_material("steel", cache=False, progress=False)  # other Poisson ratio: new solve
+    assert rebuilt.material.name == "steel" and rebuilt.metadata["resolution"] == 0.5
