@@ -164,9 +164,9 @@ def main(argv: list[str]) -> int:
         return 0
     if task == "main":
         return subprocess.call([str(py), "-m", "aas_gym.cli", "run", *rest], cwd=ROOT, env=env)
-    # Tests: two workers for the two cores; tests/conftest.py keeps each file, and the audio
-    # tests of several files, on one worker.
-    return subprocess.call([str(py), "-m", "pytest", "-n", "2", "--dist", "loadgroup", *rest], cwd=ROOT, env=env)
+    # Tests: two workers for the two cores; each file stays on one worker (module fixtures are
+    # built once, and all audio tests, which share one sound server, are in one file).
+    return subprocess.call([str(py), "-m", "pytest", "-n", "2", "--dist", "loadfile", *rest], cwd=ROOT, env=env)
 
 
 if __name__ == "__main__":

@@ -31,8 +31,9 @@ import real  # noqa: E402
 import sensors  # noqa: E402
 from real import loopback  # noqa: E402
 
-# One PulseAudio server, which some tests kill and restart: keep these tests on one xdist
-# worker (pytest -n N --dist loadgroup).
+# One PulseAudio server, which some tests kill and restart: every test that plays or records
+# audio is in this file, so that `pytest-xdist --dist loadfile` keeps them on one worker
+# (the group mark does the same for `--dist loadgroup`).
 pytestmark = [pytest.mark.audio, pytest.mark.xdist_group("real_audio")]
 EXCITATIONS = ["impulse", "linear", "exponential"]
 GAIN = 0.5  # headroom: a full-scale loopback reads exactly 1.0, which the rig flags as clipping
@@ -381,3 +382,21 @@ def test_output_underrun_is_detected_and_raised(audio_loopback, tmp_path):
     assert rec.input.shape[0] >= 2.0 * ex.fs and rec.problems
     part = sensors.AcousticObservation.load(info.value.partial_path)
     assert part.metadata["partial"] and part.metadata["problems"] == rec.problems
+
+
+def test_grasp_and_sense_through_the_real_audio_path(audio_loopback):
+    from real.env import MujocoRobot, RealGraspEnv
+    from scripted_policy import reach_and_grasp
+
+    robot = MujocoRobot(randomization=False)
+    sensor = real.RealAcousticSensor(real.PyAudioRig(output_gain=0.5))
+    env = RealGraspEnv(robot, sensor, excitation="linear", duration_s=1.0)
+    obs, _ = env.reset(seed=1)
+    obs = reach_and_grasp(env, obs)
+    obs, reward, terminated, truncated, info = env.step(np.array([0, 0, 0, 0, -1, 1], np.float32))
+    assert terminated and info["is_success"]
+    meta = info["recording_metadata"]
+    assert meta["source"] == "real" and meta["complete"] and meta["sync"]["drift_samples"] == 0
+    np.testing.assert_allclose(obs["acoustic"], env.last_recording.features().astype(np.float32))
+    assert env.observation_space.contains(obs) and obs["acoustic"].max() > 0
+    robot.close()
