@@ -57,11 +57,7 @@ class AcousticGraspEnv(AasEnv):
     def reset(self, *, seed=None, options=None):
         super().reset(seed=seed)
         options = options or {}
-        target = self.objects[int(self.np_random.integers(len(self.objects)))]
-        if "object" in options:
-            from aas_gym.scene import get_object
-
-            target = get_object(options["object"])
+        target = self._target_object(options)
         self._get_scene(self._choose_objects(target))
         self._place_objects()
         self.hand.teleport(self.data, HOME_TCP, 0.08)

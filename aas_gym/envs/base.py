@@ -266,6 +266,17 @@ class AasEnv(gym.Env):
     def dt(self) -> float:
         return self._scene.model.opt.timestep * self.frame_skip
 
+    def _target_object(self, options: dict) -> ObjectSpec:
+        """The episode's target: ``options["object"]`` if given, else drawn from ``objects``.
+
+        The draw happens either way, so the random stream does not depend on the option."""
+        target = self.objects[int(self.np_random.integers(len(self.objects)))]
+        if "object" in options:
+            from aas_gym.scene import get_object
+
+            target = get_object(options["object"])
+        return target
+
     def _choose_objects(self, target: ObjectSpec) -> tuple[ObjectSpec, ...]:
         """Target first, then distractors for multi-object scenes (1 or 2, random)."""
         if self.scene_kind == "single":

@@ -43,11 +43,7 @@ class GraspPositionEnv(AasEnv):
     def reset(self, *, seed=None, options=None):
         super().reset(seed=seed)
         options = options or {}
-        target = self.objects[int(self.np_random.integers(len(self.objects)))]
-        if "object" in options:
-            from aas_gym.scene import get_object
-
-            target = get_object(options["object"])
+        target = self._target_object(options)
         k = int(options.get("position_index", self.np_random.integers(len(self.positions_m))))
         if not 0 <= k < len(self.positions_m):
             raise ValueError(f"position_index must be in [0, {len(self.positions_m)}), got {k}")
