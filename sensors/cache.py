@@ -10,14 +10,16 @@ Directory: ``$AAS_GYM_CACHE`` if set, else ``~/.cache/aas_gym``.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import logging
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from .atomic import atomic_open
 
 __all__ = ["CODE_VERSION", "default_cache_dir", "content_key", "load_arrays", "save_arrays", "entry_path"]
 
@@ -98,12 +100,34 @@ def save_arrays(key: str, arrays: dict, cache_dir=None) -> Path | None:
     """Store ``arrays`` under ``key`` atomically; returns the path (None if not writable)."""
     path = _file(key, cache_dir)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        with os.fdopen(fd, "wb") as f:
+        with atomic_open(path) as f:
             np.savez(f, **arrays)
-        os.replace(tmp, path)
         return path
     except OSError as exc:
         log.warning("could not write cache entry %s: %s", path, exc)
         return None
+
+
+@contextlib.contextmanager
+def build_lock(key: str, cache_dir=None):
+    """Hold an exclusive lock on ``key`` while building its entry, so that processes that
+    miss the cache together (dataset workers) build it once and the others then load it.
+    Without POSIX file locks, or in a read-only cache, it does not lock."""
+    try:
+        import fcntl
+    except ImportError:  # Windows
+        yield
+        return
+    lock_dir = entry_path(key, cache_dir) / "locks"
+    try:
+        lock_dir.mkdir(parents=True, exist_ok=True)
+        fh = open(lock_dir / f"{key}.lock", "a")
+    except OSError:
+        yield
+        return
+    with fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)

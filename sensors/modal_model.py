@@ -454,16 +454,32 @@ class ModalModel:
         return cls._build(key, make, material, opts, {"kind": kind, "dimensions_m": {k: float(v) for k, v in dims.items()}})
 
     @classmethod
+    def _cached(cls, key, opts) -> "ModalModel | None":
+        hit = cache_mod.load_arrays(key, opts["cache_dir"])
+        if hit is None:
+            return None
+        try:
+            model = cls._from_arrays(hit)
+        except (KeyError, ValueError) as exc:
+            log.warning("ignoring cache entry %s: %s", key[:12], exc)
+            return None
+        model.metadata["cache_hit"] = True
+        return model
+
+    @classmethod
     def _build(cls, key, make_mesh, material, opts, meta) -> "ModalModel":
-        if opts["cache"]:
-            hit = cache_mod.load_arrays(key, opts["cache_dir"])
-            if hit is not None:
-                try:
-                    model = cls._from_arrays(hit)
-                    model.metadata["cache_hit"] = True
-                    return model
-                except (KeyError, ValueError) as exc:
-                    log.warning("ignoring cache entry %s: %s", key[:12], exc)
+        if not opts["cache"]:
+            return cls._solve(key, make_mesh, material, opts, meta)
+        model = cls._cached(key, opts)
+        if model is not None:
+            return model
+        with cache_mod.build_lock(key, opts["cache_dir"]):
+            # Another process may have built it while this one waited for the lock.
+            model = cls._cached(key, opts)
+            return model if model is not None else cls._solve(key, make_mesh, material, opts, meta)
+
+    @classmethod
+    def _solve(cls, key, make_mesh, material, opts, meta) -> "ModalModel":
         from tqdm.auto import tqdm
 
         stages = ["mesh", "elements", "assemble", "eigensolve"]
