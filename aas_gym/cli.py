@@ -14,7 +14,7 @@ from typing import Callable
 
 # Modules that may add subcommands through ``add_subcommands(subparsers)``. A module whose
 # optional dependency is missing (PyAudio for ``real``) only loses its own commands.
-_PLUGIN_MODULES = ("aas_gym.demo", "real.cli", "aas_gym.experiments.cli", "aas_gym.calibration_cli")
+_PLUGIN_MODULES = ("aas_gym.experiments.cli", "aas_gym.calibration_cli", "aas_gym.demo", "real.cli")
 
 
 def build_parser() -> argparse.ArgumentParser:
