@@ -7,6 +7,7 @@ from gymnasium.utils.env_checker import check_env
 
 import aas_gym  # noqa: F401  (registers the envs)
 from aas_gym.envs.base import DomainRandomization
+from scripted_policy import reach_until_grasped
 
 ENV_IDS = ["aas_gym/AcousticGrasp-v0", "aas_gym/GraspPosition-v0", "aas_gym/ObjectRecognition-v0"]
 # Smallest settings that still exercise everything: 0.5 s recordings (one excitation period).
@@ -65,22 +66,8 @@ def test_reach_and_grasp_by_actions_gives_reward_and_grasp():
     """A scripted policy through the public action space: move over the bar, down, close."""
     env = gym.make("aas_gym/AcousticGrasp-v0", sense_mode="never", randomization=DomainRandomization.off())
     obs, _ = env.reset(seed=0)
-    grasped = False
-    for _ in range(120):
-        target = obs["object"][:3].astype(float)
-        tcp = obs["tcp"].astype(float)
-        err = target - tcp[:3]
-        above = np.linalg.norm(err[:2]) > 0.003
-        goal_z = target[2] + (0.06 if above else 0.0)
-        action = np.zeros(6, np.float32)
-        action[:2] = np.clip(err[:2] / 0.01, -1, 1)
-        action[2] = np.clip((goal_z - tcp[2]) / 0.01, -1, 1)
-        action[4] = 1.0 if abs(goal_z - tcp[2]) > 0.002 or above else -1.0
-        obs, reward, terminated, truncated, info = env.step(action)
-        if info["grasped"]:
-            grasped = True
-            break
-    assert grasped and reward > 0.9
+    obs, reward, info = reach_until_grasped(env, obs, max_steps=120)  # raises unless grasped
+    assert info["grasped"] and reward > 0.9
     assert obs["gripper"][2] == pytest.approx(40.0, rel=0.05)  # motor force saturated at the grip force
 
 
