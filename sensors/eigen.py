@@ -59,13 +59,6 @@ def mode_residuals(K, M, lambdas: np.ndarray, U: np.ndarray) -> np.ndarray:
     return np.linalg.norm(KU - (M @ U) * lambdas, axis=0) / np.maximum(np.linalg.norm(KU, axis=0), 1e-300)
 
 
-def _rayleigh_ritz(K, M, V):
-    Kr = V.T @ (K @ V)
-    Mr = V.T @ (M @ V)
-    lam, Q = scipy.linalg.eigh(0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T))
-    return lam, V @ Q
-
-
 def _cut(lam: np.ndarray, lam_max: float, cluster_rtol: float) -> int | None:
     """Number of modes to keep: all with lam <= lam_max plus the rest of a cluster at the cut.
 
