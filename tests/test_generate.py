@@ -95,3 +95,18 @@ def test_bad_config_is_named():
         DatasetConfig(excitations=("chirp",))
     with pytest.raises(ValueError, match="single_grasps"):
         DatasetConfig(single_grasps=-1)
+
+
+def test_report_from_a_dataset(tmp_path):
+    from aas_gym.experiments.report import run_protocols, write_report
+
+    # Four grasps per object: KNN (k = 3) needs three training samples in every CV fold.
+    config = DatasetConfig(**dict(SMALL, scenes=("single", "multi"), single_grasps=4))
+    generate_dataset(config, tmp_path / "data", progress=False)
+    rec, pos = run_protocols(load_dataset(tmp_path / "data"))
+    assert {(r.protocol, r.classifier) for r in rec} == {(p, c) for p in ("single", "transfer") for c in ("KNN", "SVM", "MLP")}
+    assert all(0 <= r.accuracy <= 100 and r.confusion.sum() > 0 for r in rec)
+    path = write_report(rec, pos, tmp_path / "report")
+    text = path.read_text()
+    assert "| linear | single -> single (5-fold) |" in text and "78.6" in text  # the paper's KNN figure beside ours
+    assert (tmp_path / "report" / "confusion.png").stat().st_size > 0

@@ -144,10 +144,11 @@ def plot_spectra(curves: list[tuple[str, str, np.ndarray, np.ndarray]], path: Pa
     return path
 
 
-def write_report(df, out_dir: Path, *, spectra: list | None = None, notes: str = "", seed: int = 0) -> Path:
-    """Run the protocols on ``df`` and write ``report.md`` with its figures into ``out_dir``."""
+def write_report(rec: list[RecognitionResult], pos: list[PositionResult], out_dir: Path, *,
+                 spectra: list | None = None, notes: str = "") -> Path:
+    """Write ``report.md`` with its figures into ``out_dir`` from the results of
+    :func:`run_protocols`."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    rec, pos = run_protocols(df, seed=seed)
     parts = ["# aas-gym: the paper's experiments in simulation", ""]
     if rec:
         parts += ["## Object recognition (accuracy %, simulated / paper)", "", recognition_table(rec), ""]

@@ -110,7 +110,7 @@ def report_dataset(dataset_dir: Path, out_dir: Path, seed: int = 0) -> Path:
     df = load_dataset(dataset_dir)
     rec, pos = run_protocols(df, seed=seed)
     spectra = spectra_curves(seed=seed)
-    path = write_report(df, out_dir, spectra=spectra, notes=_notes(df, rec, pos), seed=seed)
+    path = write_report(rec, pos, out_dir, spectra=spectra, notes=_notes(df, rec, pos))
     summary = {
         "recognition": [{"excitation": r.excitation, "protocol": r.protocol, "classifier": r.classifier,
                          "accuracy_percent": r.accuracy} for r in rec],
