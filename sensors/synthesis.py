@@ -130,6 +130,18 @@ def _powers(base: np.ndarray, count: int) -> np.ndarray:
     return out
 
 
+def _blocked_steps(u: np.ndarray) -> tuple[int, int, np.ndarray]:
+    """The len(u)-1 steps' end-point forces (u[n], u[n+1]) left-padded with zeros into M
+    blocks of B: (B, M, X) with X of shape (2, M, B), the last step in the last column."""
+    L = len(u) - 1
+    Bk, M = _block(L)
+    pad = M * Bk - L
+    X = np.zeros((2, M * Bk))
+    X[0, pad:] = u[:-1]
+    X[1, pad:] = u[1:]
+    return Bk, M, X.reshape(2, M, Bk)
+
+
 def _convolve(u: np.ndarray, h: np.ndarray, n: int) -> np.ndarray:
     """First n samples of the linear convolution u * h."""
     if len(h) == 0:
@@ -275,12 +287,7 @@ class _EigenPart:
         """Coordinates after len(u)-1 steps from z0 under the piecewise-linear force u."""
         L = len(u) - 1
         lt = self.lam * self.T
-        Bk, M = _block(L)
-        pad = M * Bk - L
-        X = np.zeros((2, M * Bk))
-        X[0, pad:] = u[:-1]
-        X[1, pad:] = u[1:]
-        X = X.reshape(2, M, Bk)
+        Bk, M, X = _blocked_steps(u)
         qrev = np.exp(np.outer(np.arange(Bk - 1, -1, -1), lt))         # (Bk, K): a^(B-1-j)
         inner = (X @ qrev.real) + 1j * (X @ qrev.imag)                  # (2, M, K)
         outer = np.exp(np.outer(np.arange(M - 1, -1, -1) * Bk, lt))    # (M, K)
@@ -356,12 +363,7 @@ class _DensePart:
 
     def propagate(self, z0, u: np.ndarray) -> np.ndarray:
         L = len(u) - 1
-        Bk, M = _block(L)
-        pad = M * Bk - L
-        X = np.zeros((2, M * Bk))
-        X[0, pad:] = u[:-1]
-        X[1, pad:] = u[1:]
-        X = X.reshape(2, M, Bk)
+        Bk, M, X = _blocked_steps(u)
         ns = self.Phi.shape[0]
         g = np.empty((ns, Bk, 2))                                   # Phi^(B-1-j) Gamma
         cur = np.stack([self.G0, self.G1], axis=1)
