@@ -21,7 +21,8 @@ from gymnasium import spaces
 
 from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
-from aas_gym.scene import DEFAULT_OBJECT_NAMES, ObjectSpec, build_scene, euler_to_quat, get_object
+from aas_gym.scene import (DEFAULT_OBJECT_NAMES, ObjectSpec, build_scene, euler_to_quat, get_object,
+                           touch_sensor_name)
 from aas_gym.sim_sensor import SimAcousticSensor
 
 N_FEATURES = 140
@@ -115,38 +116,21 @@ class _Scene:
         self.body_ids = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, b) for b in self.bodies]
         self.free_qpos = [int(self.model.jnt_qposadr[self.model.body_jntadr[b]]) for b in self.body_ids]
         self.free_qvel = [int(self.model.jnt_dofadr[self.model.body_jntadr[b]]) for b in self.body_ids]
-        # Geoms of each fingertip, for the cheap vectorized "is grasped" test of every step.
-        act_body = self.model.site_bodyid[self.hand.actuator_site]
-        mic_body = self.model.site_bodyid[self.hand.mic_site]
-        self.act_geoms = np.flatnonzero(self.model.geom_bodyid == act_body)
-        self.mic_geoms = np.flatnonzero(self.model.geom_bodyid == mic_body)
-        self.body_geoms = [np.flatnonzero(self.model.geom_bodyid == b) for b in self.body_ids]
-        # Contact-count sensors of the target with each fingertip (our scenes have them).
-        from aas_gym.scene import touch_sensor_name
-
-        adr = []
-        for side in ("actuator", "mic"):
-            sid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, touch_sensor_name(self.bodies[0], side))
-            adr.append(int(self.model.sensor_adr[sid]) if sid >= 0 else -1)
-        self.touch_adr = tuple(adr) if min(adr) >= 0 else None
+        # Contact-count sensors of the target with each fingertip: build_scene adds them to
+        # every object, so the per-step grasp test is two reads of sensordata.
+        self.touch_adr = tuple(
+            int(self.model.sensor_adr[mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR,
+                                                         touch_sensor_name(self.bodies[0], side))])
+            for side in ("actuator", "mic"))
         self.sensordata = self.data.sensordata
-        # pair_role[g0, g1]: 1 = target object x actuator tip, 2 = target x mic tip, else 0.
-        ng = self.model.ngeom
-        self.pair_role = np.zeros((ng, ng), dtype=np.int8)
-        for tips, role in ((self.act_geoms, 1), (self.mic_geoms, 2)):
-            for g in self.body_geoms[0]:
-                self.pair_role[g, tips] = role
-                self.pair_role[tips, g] = role
         # Views into the MjData arrays (their memory never moves): saves the per-access view
         # creation of the mujoco bindings in the per-step code.
         d = self.data
         self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl
-        self.actuator_force, self.xpos, self.xquat, self.site_xpos = d.actuator_force, d.xpos, d.xquat, d.site_xpos
+        self.actuator_force, self.xpos, self.site_xpos = d.actuator_force, d.xpos, d.site_xpos
         self.tcp_ctrl = slice(int(self.hand.tcp_actuators[0]), int(self.hand.tcp_actuators[0]) + 4) \
             if np.array_equal(self.hand.tcp_actuators, np.arange(self.hand.tcp_actuators[0], self.hand.tcp_actuators[0] + 4)) \
             else self.hand.tcp_actuators
-        self.f0, self.f1 = (int(i) for i in self.hand.finger_qpos)
-        self.v0, self.v1 = (int(i) for i in self.hand.finger_qvel)
         self.gripper = int(self.hand.gripper_actuator)
         self.tcp_low, self.tcp_high = self.hand.tcp_low.tolist(), self.hand.tcp_high.tolist()
         self.target_body = int(self.body_ids[0])
@@ -418,21 +402,11 @@ class AasEnv(gym.Env):
         return out
 
     def _is_grasped(self) -> bool:
-        """Both sensor fingertips touch the target (this runs every step: read MuJoCo's
-        contact sensors, or look the contact pairs up in a table)."""
+        """Both sensor fingertips touch the target (this runs every step: MuJoCo's contact
+        sensors computed it during the step)."""
         sc = self._scene
-        if sc.touch_adr is not None:  # computed by MuJoCo during the step
-            a, m = sc.touch_adr
-            return sc.sensordata[a] > 0 and sc.sensordata[m] > 0
-        if sc.qpos[sc.f0] + sc.qpos[sc.f1] < 5e-4:  # nothing between the fingertips
-            return False
-        d = sc.data
-        n = d.ncon
-        if n == 0:
-            return False
-        g = d.contact.geom[:n]
-        roles = sc.pair_role[g[:, 0], g[:, 1]].tolist()  # a few entries: list tests beat ufunc reductions
-        return 1 in roles and 2 in roles
+        a, m = sc.touch_adr
+        return sc.sensordata[a] > 0 and sc.sensordata[m] > 0
 
     def _ground_truth(self, contacts: bool = True) -> dict:
         sc = self._scene
