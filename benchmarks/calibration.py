@@ -42,7 +42,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 import sensors  # noqa: E402
 from sensors import Contact, Excitation, LeakRecording, simulate_recording  # noqa: E402
-from sensors.calibration import RecordingSetup, calibrate, with_material  # noqa: E402
+from sensors.calibration import RecordingSetup, calibrate, log_spectral_distance_db, with_material  # noqa: E402
 from sensors.materials import get_material  # noqa: E402
 
 DIMS = (0.2, 0.02, 0.01)  # bar length, width (y), height (z) [m]
@@ -103,10 +103,7 @@ def spectral_error_db(model, material, exc, setups, settings):
     for k, (s, (leak, noise)) in enumerate(zip(setups, settings)):
         sim = simulate_recording(with_material(model, material), exc, DURATION_S, s.actuator, s.mic,
                                  leak=leak, noise_std=noise, rng=7 + k)
-        f, a_real = s.observation.spectrum()
-        _, a_sim = sim.spectrum()
-        band = (f >= 200) & (f <= 9800)
-        errs.append(np.sqrt(np.mean((20 * np.log10(a_sim[band] / a_real[band])) ** 2)))
+        errs.append(log_spectral_distance_db(s.observation, sim))
     return float(np.mean(errs))
 
 

@@ -59,6 +59,7 @@ __all__ = [
     "fit_stiffness",
     "fit_damping",
     "calibrate",
+    "log_spectral_distance_db",
 ]
 
 MATERIAL_FILE_FORMAT = "aas-gym material"
@@ -783,3 +784,14 @@ def calibrate(
         base, name=name or f"{base.name}-calibrated", youngs_modulus_pa=base.youngs_modulus_pa * scale**2,
         alpha=damping.alpha, beta=damping.beta, gamma=damping.gamma)
     return CalibrationResult(material, base, stiff, damping, estimates)
+
+
+def log_spectral_distance_db(recording: AcousticObservation, simulation: AcousticObservation,
+                             band_hz: tuple[float, float] = (200.0, 9800.0)) -> float:
+    """RMS difference [dB] of the amplitude spectra of two observations of the same excitation
+    over ``band_hz``: how well a simulation (e.g. with a calibrated material) reproduces a
+    recording; two noisy recordings of one object differ by the noise-limited floor."""
+    f, a_rec = recording.spectrum()
+    _, a_sim = simulation.spectrum()
+    band = (f >= band_hz[0]) & (f <= band_hz[1])
+    return float(np.sqrt(np.mean((20 * np.log10(a_sim[band] / a_rec[band])) ** 2)))

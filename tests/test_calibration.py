@@ -16,7 +16,8 @@ from scipy.signal import lfilter
 from calibration_fakes import AnalyticBar
 from sensors import Contact, Excitation, LeakRecording, save_leak, simulate_recording
 from sensors.calibration import (
-    RecordingSetup, ScaledModalModel, calibrate, fit_damping, fit_stiffness, load_material, save_material, with_material,
+    RecordingSetup, ScaledModalModel, calibrate, fit_damping, fit_stiffness, load_material, log_spectral_distance_db,
+    save_material, with_material,
 )
 from sensors.materials import Material, get_material
 from sensors.modal_estimation import ModalEstimate
@@ -98,10 +99,7 @@ def test_calibrated_simulation_matches_the_recordings_better_than_the_table(abs_
         for k, (s, (leak, noise_std)) in enumerate(zip(setups, settings)):
             sim = simulate_recording(with_material(bar, material), exc, DURATION_S, s.actuator, s.mic,
                                      leak=leak, noise_std=noise_std, rng=100 + k)
-            f, real_a = s.observation.spectrum()
-            _, sim_a = sim.spectrum()
-            band = (f >= 200) & (f <= 9800)
-            errs.append(np.sqrt(np.mean((20 * np.log10(sim_a[band] / real_a[band])) ** 2)))
+            errs.append(log_spectral_distance_db(s.observation, sim))
         return float(np.mean(errs))
 
     table_db = log_spectrum_error_db(base)
