@@ -256,8 +256,6 @@ class AasEnv(gym.Env):
         The draw happens either way, so the random stream does not depend on the option."""
         target = self.objects[int(self.np_random.integers(len(self.objects)))]
         if "object" in options:
-            from aas_gym.scene import get_object
-
             target = get_object(options["object"])
         return target
 

@@ -6,6 +6,7 @@ import numpy as np
 from gymnasium import spaces
 
 from aas_gym.envs.base import EXCITATION_NAMES, AasEnv, resolve_excitation
+from aas_gym.scene import DEFAULT_OBJECT_NAMES
 
 
 class ObjectRecognitionEnv(AasEnv):
@@ -24,8 +25,6 @@ class ObjectRecognitionEnv(AasEnv):
     """
 
     def __init__(self, objects=None, *, probe_cost: float = 0.01, max_position_m: float = 0.05, **kwargs) -> None:
-        from aas_gym.scene import DEFAULT_OBJECT_NAMES
-
         super().__init__(objects if objects is not None else DEFAULT_OBJECT_NAMES, **kwargs)
         self.labels = [o.label for o in self.objects]
         if len(set(self.labels)) != len(self.labels):
