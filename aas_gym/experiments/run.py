@@ -28,8 +28,7 @@ def _grasped_spectrum(objects, placements, body: str, position_m: float, excitat
 
 def spectra_curves(excitation: str = "linear", seed: int = 0) -> list[tuple[str, str, np.ndarray, np.ndarray]]:
     """Spectra that differ in one factor each: material, shape, grasp position, contact."""
-    import math
-
+    from aas_gym.experiments.simulate import crossing_placement
     from aas_gym.scene import Placement, get_object
 
     curves = []
@@ -39,12 +38,11 @@ def spectra_curves(excitation: str = "linear", seed: int = 0) -> list[tuple[str,
         curves.append(("shape (aluminium, centre grasp)", name.split("_")[1], *_grasped_spectrum([name], None, name, 0.0, excitation, seed)))
     for pos in (0.0, 0.03, 0.06):
         curves.append(("grasp position (wood bar)", f"{pos * 1e3:.0f} mm", *_grasped_spectrum(["wood_bar"], None, "wood_bar", pos, excitation, seed)))
-    bar = get_object("aluminium_bar")
-    top = 2 * bar.half_extents_m[2] + bar.half_extents_m[2] + 0.001
     # Same grasp position with and without the other object: only the contact differs.
     curves.append(("contact (aluminium bar)", "alone", *_grasped_spectrum(["aluminium_bar"], None, "aluminium_bar", -0.02, excitation, seed)))
     curves.append(("contact (aluminium bar)", "steel bar across it", *_grasped_spectrum(
-        ["aluminium_bar", "steel_bar"], [Placement(0, 0), Placement(0.06, 0, z_m=top, yaw_rad=math.pi / 2)],
+        ["aluminium_bar", "steel_bar"],
+        [Placement(0, 0), crossing_placement(get_object("aluminium_bar"), get_object("steel_bar"), 0.06)],
         "aluminium_bar", -0.02, excitation, seed)))
     return curves
 

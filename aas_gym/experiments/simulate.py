@@ -49,11 +49,17 @@ def _multi_scene(task: Task, config: DatasetConfig, rng: np.random.Generator
         other = get_object(others[int(rng.integers(len(others)))])
         side = 1.0 if k == 0 else -1.0
         x = side * rng.uniform(_CROSSING_MIN_OFFSET_M, half - 0.015)
-        top = 2 * target.half_extents_m[2] + other.half_extents_m[2] + 0.001
-        placements.append(Placement(x, 0.0, z_m=top, yaw_rad=math.pi / 2 + rng.uniform(-0.3, 0.3)))
+        placements.append(crossing_placement(target, other, x, rng.uniform(-0.3, 0.3)))
         names.append(other.label)
         offsets.append(x)
     return build_scene(names, placements=placements), offsets
+
+
+def crossing_placement(target, other, x_m: float, skew_rad: float = 0.0) -> Placement:
+    """``other`` lying across ``target`` (which rests on the table at the origin), 1 mm above
+    contact, ``x_m`` from the target's centre, turned ``skew_rad`` from perpendicular."""
+    top_m = 2 * target.half_extents_m[2] + other.half_extents_m[2] + 0.001
+    return Placement(x_m, 0.0, z_m=top_m, yaw_rad=math.pi / 2 + skew_rad)
 
 
 def _grasp_position(task: Task, config: DatasetConfig, rng: np.random.Generator, avoid: list[float]) -> float:
@@ -77,7 +83,8 @@ def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
         model, avoid = _single_scene(task.object_name), []
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    body = get_object(task.object_name).label
+    spec = get_object(task.object_name)
+    body = spec.label
     position_m = _grasp_position(task, config, rng, avoid)
     # Re-grasping is never exact: the pads land a little off the commanded point along the axis
     # and in height, as on the robot (the label stays the commanded position).
@@ -88,7 +95,6 @@ def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
     if not grasp.success:
         raise RuntimeError(f"task {task.task_id}: the scripted grasp did not hold the object ({grasp})")
     sensor = SimAcousticSensor(model, data, noise_std=config.noise_std, rng=rng)
-    spec = get_object(task.object_name)
     rows = []
     for name in config.excitations:
         obs = sensor.sense(Excitation.by_name(name), config.duration_s)
