@@ -480,13 +480,13 @@ class ModalSystem:
         if n == 0:
             return y
         x0 = None if initial_state is None else np.asarray(initial_state, dtype=float)
+        has_u = np.any(u != 0)
         for p in self.parts:
             z0 = None
             if x0 is not None:
                 xs = x0[p.idx]
                 if np.any(xs != 0):
                     z0 = p.to_coords(xs)
-            has_u = np.any(u != 0)
             if not has_u and z0 is None:
                 continue
             vecs = []
@@ -520,10 +520,7 @@ class ModalSystem:
         x0 = None if initial_state is None else np.asarray(initial_state, dtype=float)
         for p in self.parts:
             z0 = None if x0 is None else p.to_coords(x0[p.idx])
-            if len(u) < 2:
-                z = z0 if z0 is not None else None
-            else:
-                z = p.propagate(z0, u)
+            z = z0 if len(u) < 2 else p.propagate(z0, u)
             if z is not None:
                 x[p.idx] = p.from_coords(z)
         return x
