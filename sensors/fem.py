@@ -77,16 +77,21 @@ def shape_gradients_ref(xi: np.ndarray, element: str) -> np.ndarray:
     return np.concatenate([corner, edge], axis=1)
 
 
-def _jacobians(coords: np.ndarray, dN: np.ndarray):
-    """coords (m, n, 3), dN (q, n, 3) -> physical gradients (m, q, n, 3) and det J (m, q)."""
+def _jacobian(coords: np.ndarray, dN: np.ndarray):
+    """coords (m, n, 3), dN (q, n, 3) -> J (m, q, 3, 3) and det J (m, q), checked positive."""
     J = np.einsum("mai,qak->mqik", coords, dN)  # J[i, k] = d x_i / d xi_k
     det = np.linalg.det(J)
     if np.any(det <= 0):
         bad = int((det <= 0).any(axis=1).sum())
         raise MeshError(f"{bad} elements have a non-positive Jacobian (inverted, degenerate, or curved "
                         "P2 elements too thin for their curvature: refine the mesh)")
-    Jinv = np.linalg.inv(J)
-    G = np.einsum("qak,mqki->mqai", dN, Jinv)
+    return J, det
+
+
+def _jacobians(coords: np.ndarray, dN: np.ndarray):
+    """coords (m, n, 3), dN (q, n, 3) -> physical gradients (m, q, n, 3) and det J (m, q)."""
+    J, det = _jacobian(coords, dN)
+    G = np.einsum("qak,mqki->mqai", dN, np.linalg.inv(J))
     return G, det
 
 
@@ -164,7 +169,8 @@ def assemble(nodes_m: np.ndarray, tets: np.ndarray, material: Material, element:
         s = slot[sel].ravel()
         for c in range(9):
             k_blocks[:, c] += np.bincount(s, weights=Ke[:, c], minlength=nnzb)
-        _, detm = _jacobians(X, dNm)
+        # The mass needs only det J (the same as the stiffness's when the rules coincide).
+        detm = det if rule == m_rule else _jacobian(X, dNm)[1]
         Me = rho * ((detm * wm) @ NN)  # (ne, n_el * n_el)
         m_blocks += np.bincount(s, weights=Me.ravel(), minlength=nnzb)
     K = scipy.sparse.bsr_matrix((k_blocks.reshape(-1, 3, 3), indices, indptr), shape=(3 * n_nodes, 3 * n_nodes))
