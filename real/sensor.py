@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import os
-import tempfile
 import warnings
 from pathlib import Path
 from typing import Any
@@ -106,20 +105,8 @@ class RealAcousticSensor:
         meta_labels = {**self.labels, **(labels or {}), "gripper": "idle"}
         rec = self.record(excitation, duration_s, save_path=path, labels=meta_labels)
         obs = rec.to_observation(trim=True, labels=meta_labels)
-        meta = {**obs.metadata, "kind": "leak"}
-        path.parent.mkdir(parents=True, exist_ok=True)
-        # Write under a temporary name, fsync, rename: the final name only ever holds a whole
-        # file, and it survives a power cut once this returns.
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".npz")
-        os.close(fd)
-        try:
-            save_leak(tmp, obs.waveform, obs.sample_rate_hz, excitation, meta)
-            with open(tmp, "rb") as fh:
-                os.fsync(fh.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        # save_leak writes atomically (temporary file, fsync, rename)
+        save_leak(path, obs.waveform, obs.sample_rate_hz, excitation, {**obs.metadata, "kind": "leak"})
         rec.discard_partial()
         return path
 
