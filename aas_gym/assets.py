@@ -13,11 +13,3 @@ OBJECTS_DIR = ASSETS_DIR / "objects"
 #: Generated single- and multi-object scene MJCF files.
 SCENES_DIR = ASSETS_DIR / "scenes"
 
-
-def asset_path(name: str) -> Path:
-    """Absolute path of ``assets/<name>``; raises ``FileNotFoundError`` with the folder listed."""
-    path = ASSETS_DIR / name
-    if not path.exists():
-        known = sorted(str(p.relative_to(ASSETS_DIR)) for p in ASSETS_DIR.rglob("*.xml"))
-        raise FileNotFoundError(f"no asset {name!r} in {ASSETS_DIR}; known MJCF files: {known}")
-    return path
