@@ -8,10 +8,14 @@ mic contact (the paper's choice of quantity) to recorded units: 2e5 per metre, i
 at 5 um.  It is ONE constant for every object and grasp, so relative levels between objects
 (material and damping information) survive.  Measured with the default fingertip model (1 N
 exciter, 40 N grip) on the FEM bars (200 x 20 x 20 mm) and tubes (20/16 mm) of the paper's
-materials, 1 s recordings peak at about 0.003-0.05 (aluminium, steel, wood) under the sweeps,
-with 3-10 kHz spectral peaks of 1e-5 to 1e-4, well above a 1e-4 noise floor (1e-6 per bin);
-the soft ABS objects deflect far more below their first mode and peak at 0.8-2.5 (a real rig
-would turn its preamp down); the one-sample impulse carries ~100x less energy.
+materials, grasped antipodally 40 mm from the centre, 1 s recordings peak at about
+0.003-0.05 (aluminium, steel, wood) under the sweeps, with 3-10 kHz spectral peaks of 1e-5 to
+1e-4, well above a 1e-4 noise floor (1e-6 per bin); the soft ABS objects deflect far more
+below their first mode and peak at 0.8-2.5 (a real rig would turn its preamp down).  The
+grasp position matters as much as the material: moved along the bar (0-80 mm from the
+centre) the metal bars peak at 0.001-0.04 under the linear sweep (lowest at 60 mm, e.g.
+0.002 for aluminium) and the ABS bar at 0.2-4.  The one-sample impulse carries ~4e4 times
+less energy than a sweep (~200x lower RMS).
 Velocity and acceleration outputs use the same gain referred to 5 kHz (the middle of the
 feature band): divided by 2 pi 5 kHz and (2 pi 5 kHz)^2.
 Recorded values are not clipped (the waveform stays float32; a clipping rig would have to
