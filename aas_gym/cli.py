@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-from pathlib import Path
 from typing import Callable
 
 # Modules that may add subcommands through ``add_subcommands(subparsers)``. A module whose
@@ -65,10 +64,6 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 0
     return int(func(args) or 0)
-
-
-def default_output_dir() -> Path:
-    return Path("outputs")
 
 
 if __name__ == "__main__":

@@ -14,18 +14,14 @@ QUICK = dict(single_grasps=6, multi_grasps=3, positions=7, position_repeats=3)
 
 
 def _config(args: argparse.Namespace) -> DatasetConfig:
-    kw = dict(QUICK) if getattr(args, "quick", False) else {}
+    kw = dict(QUICK) if args.quick else {}
     for name in ("single_grasps", "multi_grasps", "positions", "position_repeats", "seed", "shard_size"):
-        value = getattr(args, name, None)
-        if value is not None:
-            kw[name] = value
-    if getattr(args, "objects", None):
-        kw["objects"] = tuple(args.objects.split(","))
-    if getattr(args, "excitations", None):
-        kw["excitations"] = tuple(args.excitations.split(","))
-    if getattr(args, "scenes", None):
-        kw["scenes"] = tuple(args.scenes.split(","))
-    if getattr(args, "waveforms", False):
+        if getattr(args, name) is not None:
+            kw[name] = getattr(args, name)
+    for name in ("objects", "excitations", "scenes"):
+        if getattr(args, name):
+            kw[name] = tuple(getattr(args, name).split(","))
+    if args.waveforms:
         kw["store_waveforms"] = True
     return DatasetConfig(**kw)
 
