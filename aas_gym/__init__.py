@@ -11,8 +11,15 @@ from __future__ import annotations
 import os
 import sys
 
-if sys.platform.startswith("linux") and "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY") \
-        and not os.environ.get("WAYLAND_DISPLAY"):
+
+def _has_display() -> bool:
+    """Whether a window can be opened (macOS/Windows always; Linux needs X11 or Wayland)."""
+    if not sys.platform.startswith("linux"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+if "MUJOCO_GL" not in os.environ and not _has_display():
     os.environ["MUJOCO_GL"] = "egl"
 
 import gymnasium as _gym

@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
+from aas_gym import _has_display
 from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
 from aas_gym.scene import (DEFAULT_OBJECT_NAMES, ObjectSpec, build_scene, euler_to_quat, get_object,
@@ -90,16 +91,6 @@ def resolve_excitation(excitation):
     if isinstance(excitation, dict):
         return Excitation.from_dict(excitation)
     raise TypeError(f"excitation must be a sensors.Excitation, a name {EXCITATION_NAMES} or a dict, got {excitation!r}")
-
-
-def _has_display() -> bool:
-    """Whether a window can be opened (macOS/Windows always; Linux needs X11 or Wayland)."""
-    import os
-    import sys
-
-    if not sys.platform.startswith("linux"):
-        return True
-    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
 class _Scene:
