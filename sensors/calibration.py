@@ -758,9 +758,10 @@ def calibrate(
 
     rows_f, rows_sig, rows_sd, rows_g, rec_of_row, members = [], [], [], [], [], []
     for r, (est, m, ids, G) in enumerate(zip(estimates, matches, per_rec_ids, G_list)):
+        f_undamped = undamped_frequencies_hz(est)
         for i, c_local in m:
             c = clusters[ids[c_local]]
-            rows_f.append(undamped_frequencies_hz(est)[i])
+            rows_f.append(f_undamped[i])
             rows_sig.append(est.decay_rates[i])
             rows_sd.append(est.decay_rate_std[i])
             rows_g.append(float(np.trace(G[np.ix_(c, c)]) / c.size))
