@@ -158,7 +158,7 @@ def _remove_leak(response: np.ndarray, leak, excitation: Excitation, inverse: np
         windows = windows[1:]
     H_leak = np.fft.rfft(windows, axis=1).mean(axis=0) * inverse
     n = excitation.period_samples
-    # circular cross-correlation of the two impulse responses: the leak's lag in the recording
+    # the leak's lag in the recording, given by the caller: a circular delay, i.e. a phase ramp
     lag = int(delay) % n
     # unit gain: the leak path does not change with the grasp (a least-squares gain would be
     # pulled by the object's response, which correlates with the leak)
