@@ -12,7 +12,7 @@ import numpy as np
 
 from .atomic import atomic_open
 from .excitation import Excitation
-from .features import amplitude_spectrum, spectral_features
+from .features import _validate_waveform, amplitude_spectrum, spectral_features
 
 
 @dataclass
@@ -37,10 +37,7 @@ class AcousticObservation:
 
     def __post_init__(self) -> None:
         w = np.asarray(self.waveform)
-        if w.ndim != 1 or w.size == 0:
-            raise ValueError(f"waveform must be a non-empty 1-D array, got shape {w.shape}")
-        if not np.all(np.isfinite(w)):
-            raise ValueError("waveform contains NaN or infinite samples")
+        _validate_waveform(w)
         self.waveform = w.astype(np.float32, copy=False)
         if int(self.sample_rate_hz) != self.sample_rate_hz or self.sample_rate_hz <= 0:
             raise ValueError(f"sample_rate_hz must be a positive integer, got {self.sample_rate_hz!r}")
