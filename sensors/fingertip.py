@@ -138,21 +138,39 @@ class FingertipModel:
         if e.ndim != 1 or not np.all(np.isfinite(e)):
             raise ValueError("excitation_signal must be a finite 1-D array")
         fe = self.actuator_force_n * e
-        A, B, C = self.state_space()
-        kc, cc, fg = self.contact_stiffness_n_m, self.contact_damping_n_s_m, self.grip_force_n
-        sysm = lti_system(A, B, C, 0.0, fs)
-        f_act = sysm.response(fe)
-        # mic-side contact force: F_g + k_c (d_o - d_m) + c_c (v_o - v_m)
-        Cm = np.zeros(8)
-        Cm[4], Cm[5], Cm[6], Cm[7] = kc, cc, -kc, -cc
-        f_mic = lti_system(A, B, Cm, 0.0, fs).response(fe)
-        min_total = fg + min(f_act.min(initial=0.0), f_mic.min(initial=0.0))
+        f_act, f_mic = self._linear_forces(fe, fs, periodic=False)
+        min_total = self.grip_force_n + min(f_act.min(initial=0.0), f_mic.min(initial=0.0))
         separated = bool(min_total < 0.0)
         if separated:
             f_act, min_total = _simulate_one_sided(self._params(), fe, float(fs), int(self.substeps))
         if return_info:
             return f_act, {"separated": separated, "min_contact_force_n": float(min_total)}
         return f_act
+
+    def periodic_contact_force(self, excitation_period, fs: float, return_info: bool = False):
+        """Periodic steady state of :meth:`contact_force` (one period) for an excitation that
+        loops ``excitation_period`` forever, from the linear model.  ``separated`` in the info
+        dict means a contact would lift off: the linear steady state is then not valid."""
+        fe = self.actuator_force_n * np.asarray(excitation_period, dtype=float)
+        f_act, f_mic = self._linear_forces(fe, fs, periodic=True)
+        min_total = self.grip_force_n + min(f_act.min(), f_mic.min())
+        if return_info:
+            return f_act, {"separated": bool(min_total < 0.0), "min_contact_force_n": float(min_total)}
+        return f_act
+
+    def _linear_forces(self, fe: np.ndarray, fs: float, periodic: bool):
+        """Dynamic contact forces (actuator side, mic side) of the linear model for the
+        exciter force ``fe``: from rest, or the periodic steady state."""
+        A, B, C = self.state_space()
+        kc, cc = self.contact_stiffness_n_m, self.contact_damping_n_s_m
+        # mic-side contact force: F_g + k_c (d_o - d_m) + c_c (v_o - v_m)
+        Cm = np.zeros(8)
+        Cm[4], Cm[5], Cm[6], Cm[7] = kc, cc, -kc, -cc
+        out = []
+        for row in (C, Cm):
+            sysm = lti_system(A, B, row, 0.0, fs)
+            out.append(sysm.periodic_response(fe) if periodic else sysm.response(fe))
+        return out
 
 
 @numba.njit(cache=True)

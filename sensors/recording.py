@@ -179,16 +179,8 @@ def _cached_force(fingertip: FingertipModel, excitation: Excitation, e: np.ndarr
 
 def _periodic_fingertip_force(fingertip: FingertipModel, excitation: Excitation):
     """Periodic steady-state drive force (linear fingertip model; one period)."""
-    from .synthesis import lti_system
-
-    A, B, C = fingertip.state_space()
-    fe = fingertip.actuator_force_n * excitation.signal
-    f = lti_system(A, B, C, 0.0, excitation.fs).periodic_response(fe)
-    kc, cc = fingertip.contact_stiffness_n_m, fingertip.contact_damping_n_s_m
-    Cm = np.zeros(8)
-    Cm[4], Cm[5], Cm[6], Cm[7] = kc, cc, -kc, -cc
-    fm = lti_system(A, B, Cm, 0.0, excitation.fs).periodic_response(fe)
-    if fingertip.grip_force_n + min(f.min(), fm.min()) < 0:
+    f, info = fingertip.periodic_contact_force(excitation.signal, excitation.fs, return_info=True)
+    if info["separated"]:
         raise ValueError("the fingertip contact separates in steady state: the periodic (linear) "
                          "steady state does not exist; use steady_state=False")
-    return f, {"separated": False}
+    return f, info
