@@ -10,7 +10,6 @@ import pytest
 gym = pytest.importorskip("gymnasium")
 import aas_gym  # noqa: E402,F401
 
-import real  # noqa: E402
 from real.env import MujocoRobot, RealGraspEnv, RobotInterface, RobotState  # noqa: E402
 from scripted_policy import reach_and_grasp  # noqa: E402
 
@@ -34,8 +33,6 @@ def robot():
     r = MujocoRobot(randomization=False)
     yield r
     r.close()
-
-
 
 
 def test_spaces_equal_the_simulated_env(robot):
