@@ -21,15 +21,16 @@ from .eigen import solve_modes
 from .fem import assemble, shape_functions
 from .materials import Material, get_material
 from .meshing import (
-    MeshError,
     TetMesh,
     bar_mesh,
     boundary_faces,
     check_tet_quality,
     quadratic_mesh,
     rod_mesh,
+    tet_volumes,
     tetrahedralize_surface,
     tube_mesh,
+    validate_surface,
 )
 
 __all__ = ["ModalModel", "closest_points_on_triangles"]
@@ -158,10 +159,7 @@ class ModalModel:
     @property
     def mass_kg(self) -> float:
         """Total mass [kg] (density times the meshed volume)."""
-        corners = self.elements[:, :4]
-        from .meshing import tet_volumes
-
-        return float(self.material.density_kg_m3 * tet_volumes(self.nodes_m, corners).sum())
+        return float(self.material.density_kg_m3 * tet_volumes(self.nodes_m, self.elements).sum())
 
     def describe(self) -> str:
         """One-line human description."""
@@ -257,9 +255,7 @@ class ModalModel:
 
     @staticmethod
     def _points(points_m) -> np.ndarray:
-        p = np.asarray(points_m, dtype=np.float64)
-        single = p.ndim == 1
-        p = np.atleast_2d(p)
+        p = np.atleast_2d(np.asarray(points_m, dtype=np.float64))
         if p.ndim != 2 or p.shape[1] != 3:
             raise ValueError(f"points_m must have shape (n, 3) or (3,), got {np.shape(points_m)}")
         if not np.all(np.isfinite(p)):
@@ -402,8 +398,6 @@ class ModalModel:
         The mesh is used in its own frame. Options as :meth:`bar`; ``element_size_m``
         defaults to a quarter of the smallest bounding-box extent.
         """
-        from .meshing import validate_surface
-
         opts = _options(options)
         material = get_material(material)
         surface = validate_surface(mesh)
