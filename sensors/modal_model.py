@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from . import cache as cache_mod
+from .atomic import atomic_open
 from .eigen import solve_modes
 from .fem import assemble, shape_functions
 from .materials import Material, get_material
@@ -356,9 +357,9 @@ class ModalModel:
                    metadata=json.loads(str(data["metadata"])))
 
     def save(self, path) -> Path:
-        """Write the model to an ``.npz`` file (no pickle); returns the path."""
+        """Write the model to an ``.npz`` file (no pickle, atomically); returns the path."""
         path = Path(path)
-        with open(path, "wb") as f:
+        with atomic_open(path) as f:
             np.savez(f, **self._arrays())
         return path
 
