@@ -11,8 +11,7 @@ from gymnasium import spaces
 from aas_gym.envs.base import HOME_TCP, AasEnv
 
 # Largest TCP change per env step (action 1, dt = 0.05 s): 10 mm, 0.05 rad.
-MAX_DELTA = np.array([0.01, 0.01, 0.01, 0.05])
-MAX_DELTA_LIST = MAX_DELTA.tolist()
+MAX_DELTA = (0.01, 0.01, 0.01, 0.05)
 
 
 class AcousticGraspEnv(AasEnv):
@@ -80,7 +79,7 @@ class AcousticGraspEnv(AasEnv):
         target = ctrl[sc.tcp_ctrl].tolist()
         # Per-step code in plain floats: four numbers do not need numpy's call overhead.
         for i in range(4):
-            v = target[i] + max(-1.0, min(1.0, a[i])) * MAX_DELTA_LIST[i]
+            v = target[i] + max(-1.0, min(1.0, a[i])) * MAX_DELTA[i]
             target[i] = min(max(v, low[i]), high[i])
         ctrl[sc.tcp_ctrl] = target
         ctrl[sc.gripper] = 0.08 if a[4] > 0 else 0.0
