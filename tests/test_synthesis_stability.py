@@ -12,6 +12,8 @@ from synthesis_fakes import TABLE, BoxModel, box_points, grasp
 FS = 44100
 SETTINGS = settings(max_examples=12, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.too_slow])
+CASES = dict(material=st.sampled_from(sorted(TABLE)), n_contacts=st.integers(0, 50),
+             seed=st.integers(0, 2**31 - 1), method=st.sampled_from(["exact", "diagonal"]), fem=st.booleans())
 
 
 _FEM = {}
@@ -36,18 +38,22 @@ def random_contacts(model, seed, n, fmax=1000.0, mumax=1.5):
     return [Contact(p, q, rng.uniform(0, fmax), rng.uniform(0, mumax)) for p, q in zip(pts, nrm)]
 
 
-@SETTINGS
-@given(material=st.sampled_from(sorted(TABLE)), n_contacts=st.integers(0, 50),
-       seed=st.integers(0, 2**31 - 1), method=st.sampled_from(["exact", "diagonal"]), fem=st.booleans())
-@example(material="aluminium", n_contacts=50, seed=1, method="exact", fem=True)
-@example(material="aluminium", n_contacts=50, seed=1, method="exact", fem=False)
-@example(material="aluminium", n_contacts=0, seed=2, method="exact", fem=True)
-def test_random_contacts_60s_finite_float32(material, n_contacts, seed, method, fem):
+def random_grasp(material, n_contacts, seed, method, fem, **build_kw):
+    """(rng, model, system) for one drawn case: the grasp plus n_contacts random contacts."""
     rng = np.random.default_rng(seed)
     model = make_model(material, seed, fem)
     dp, dn, mp, mn = grasp(model)
     contacts = random_contacts(model, seed, n_contacts)
-    sysm = ModalSystem.build(model, FS, dp, dn, mp, mn, contacts, method=method)
+    return rng, model, ModalSystem.build(model, FS, dp, dn, mp, mn, contacts, method=method, **build_kw)
+
+
+@SETTINGS
+@given(**CASES)
+@example(material="aluminium", n_contacts=50, seed=1, method="exact", fem=True)
+@example(material="aluminium", n_contacts=50, seed=1, method="exact", fem=False)
+@example(material="aluminium", n_contacts=0, seed=2, method="exact", fem=True)
+def test_random_contacts_60s_finite_float32(material, n_contacts, seed, method, fem):
+    rng, model, sysm = random_grasp(material, n_contacts, seed, method, fem)
     # 60 s of a loud broadband force (clipped noise, +-1 kN peak)
     u = np.clip(rng.normal(0, 300, 60 * FS), -1000, 1000)
     y = sysm.response(u).astype(np.float32)
@@ -56,17 +62,11 @@ def test_random_contacts_60s_finite_float32(material, n_contacts, seed, method, 
 
 
 @SETTINGS
-@given(material=st.sampled_from(sorted(TABLE)), n_contacts=st.integers(0, 50),
-       seed=st.integers(0, 2**31 - 1), method=st.sampled_from(["exact", "diagonal"]), fem=st.booleans())
+@given(**CASES)
 @example(material="wood", n_contacts=50, seed=3, method="exact", fem=True)
 @example(material="steel", n_contacts=50, seed=4, method="exact", fem=False)
 def test_zero_force_energy_never_increases(material, n_contacts, seed, method, fem):
-    rng = np.random.default_rng(seed)
-    model = make_model(material, seed, fem)
-    dp, dn, mp, mn = grasp(model)
-    contacts = random_contacts(model, seed, n_contacts)
-    sysm = ModalSystem.build(model, FS, dp, dn, mp, mn, contacts, method=method,
-                             keep_unobservable=True)
+    rng, model, sysm = random_grasp(material, n_contacts, seed, method, fem, keep_unobservable=True)
     # The one-step map is a contraction in the energy norm: E[n+1] <= E[n] for EVERY state.
     Phi = sysm.transition_matrix()
     assert np.linalg.norm(Phi, 2) <= 1.0 + 1e-10
