@@ -74,18 +74,18 @@ def content_key(*parts) -> str:
     return h.hexdigest()
 
 
-def entry_path(key: str, cache_dir=None) -> Path:
-    """Path of the cache entry for ``key``."""
+def _dir(cache_dir) -> Path:
     return Path(cache_dir) if cache_dir is not None else default_cache_dir()
 
 
-def _file(key: str, cache_dir) -> Path:
-    return entry_path(key, cache_dir) / f"{key}.npz"
+def entry_path(key: str, cache_dir=None) -> Path:
+    """Path of the cache entry for ``key``."""
+    return _dir(cache_dir) / f"{key}.npz"
 
 
 def load_arrays(key: str, cache_dir=None) -> dict | None:
     """The arrays stored under ``key``, or None (missing or unreadable entries are misses)."""
-    path = _file(key, cache_dir)
+    path = entry_path(key, cache_dir)
     if not path.is_file():
         return None
     try:
@@ -98,7 +98,7 @@ def load_arrays(key: str, cache_dir=None) -> dict | None:
 
 def save_arrays(key: str, arrays: dict, cache_dir=None) -> Path | None:
     """Store ``arrays`` under ``key`` atomically; returns the path (None if not writable)."""
-    path = _file(key, cache_dir)
+    path = entry_path(key, cache_dir)
     try:
         with atomic_open(path) as f:
             np.savez(f, **arrays)
@@ -118,7 +118,7 @@ def build_lock(key: str, cache_dir=None):
     except ImportError:  # Windows
         yield
         return
-    lock_dir = entry_path(key, cache_dir) / "locks"
+    lock_dir = _dir(cache_dir) / "locks"
     try:
         lock_dir.mkdir(parents=True, exist_ok=True)
         fh = open(lock_dir / f"{key}.lock", "a")
