@@ -24,7 +24,6 @@ lower its gain).
 
 from __future__ import annotations
 
-import json
 import os
 from collections import OrderedDict
 from typing import Sequence
@@ -145,8 +144,7 @@ _CACHE_SIZE = 8
 
 def _cached_system(model, fs, geom, contacts, method, output) -> ModalSystem:
     key = (id(model), float(fs), method, output,
-           np.concatenate([np.ravel(g) for g in geom]).tobytes(),
-           np.array([[*c.position_m, *c.normal, c.force_n, c.friction] for c in contacts]).tobytes())
+           np.concatenate([np.ravel(g) for g in geom]).tobytes(), tuple(contacts))
     hit = _CACHE.get(key)
     if hit is not None and hit[0] is model:
         _CACHE.move_to_end(key)
@@ -164,7 +162,7 @@ _FORCE_CACHE: "OrderedDict[tuple, tuple]" = OrderedDict()
 def _cached_force(fingertip: FingertipModel, excitation: Excitation, e: np.ndarray):
     """The drive force depends on the fingertip model and the excitation only, not on the
     grasp: computed once per (fingertip, excitation, length)."""
-    key = (fingertip, json.dumps(excitation.to_dict(), sort_keys=True), len(e))
+    key = (fingertip, excitation, len(e))
     hit = _FORCE_CACHE.get(key)
     if hit is not None:
         _FORCE_CACHE.move_to_end(key)
