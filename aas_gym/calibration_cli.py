@@ -40,8 +40,6 @@ def _build_model(args, material):
 
     if args.model:
         return sensors.ModalModel.load(args.model)
-    if not hasattr(sensors, "ModalModel"):
-        raise SystemExit("aas calibrate: sensors.ModalModel is not available in this checkout")
     dims = args.dims
     names = SHAPE_DIMS[args.shape]
     if dims is None or len(dims) != len(names):

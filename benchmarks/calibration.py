@@ -11,8 +11,7 @@ and worst over seeds), the stated 1-sigma uncertainty, modes matched, time per c
 and the log-spectral distance (dB, 200 Hz - 9.8 kHz) between the "real" recordings and
 simulations with the table material and with the calibrated one.
 
-The object model is ``sensors.ModalModel.bar`` (FEM) when this checkout has it, else the
-analytic Euler-Bernoulli bar of ``tests/calibration_fakes.py`` (named in the output).
+The object model is ``sensors.ModalModel.bar`` (FEM).
 
     python benchmarks/calibration.py [--snr 10 20 30 40 60] [--seeds 2] [--materials abs steel] [--no-write]
 
@@ -38,7 +37,6 @@ from scipy.signal import lfilter  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
 
 import sensors  # noqa: E402
 from sensors import Contact, Excitation, LeakRecording, simulate_recording  # noqa: E402
@@ -58,12 +56,8 @@ def true_material(base):
 
 
 def build_model(material):
-    """FEM bar when available, else the analytic bar; returns (model, description)."""
-    if hasattr(sensors, "ModalModel"):
-        return sensors.ModalModel.bar(*DIMS, material), "FEM bar (sensors.ModalModel.bar)"
-    from calibration_fakes import AnalyticBar
-
-    return AnalyticBar(*DIMS, material), "analytic Euler-Bernoulli bar (tests/calibration_fakes.py)"
+    """The FEM bar; returns (model, description)."""
+    return sensors.ModalModel.bar(*DIMS, material), "FEM bar (sensors.ModalModel.bar)"
 
 
 def grasp(x_m, force_n):

@@ -34,14 +34,9 @@ LENGTH_M, WIDTH_M, HEIGHT_M = 0.2, 0.02, 0.01
 
 
 def bar_model(material):
-    """The bar's modal model (FEM); the analytic bar of the tests if this checkout has no FEM."""
-    if hasattr(sensors, "ModalModel"):
-        # modes a little above the analysed band (<= 10 kHz) are all the calibration needs
-        return sensors.ModalModel.bar(LENGTH_M, WIDTH_M, HEIGHT_M, material, max_frequency_hz=12_000.0)
-    sys.path.insert(0, str(ROOT / "tests"))
-    from calibration_fakes import AnalyticBar
-
-    return AnalyticBar(LENGTH_M, WIDTH_M, HEIGHT_M, material)
+    """The bar's modal model (FEM)."""
+    # modes a little above the analysed band (<= 10 kHz) are all the calibration needs
+    return sensors.ModalModel.bar(LENGTH_M, WIDTH_M, HEIGHT_M, material, max_frequency_hz=12_000.0)
 
 
 def grasp(x_m: float, force_n: float):

@@ -168,7 +168,6 @@ def test_classifier_trained_on_sim_accepts_real_observations(recordings):
 
 def test_classifier_trained_on_sim_acoustic_sensor_accepts_real(recordings):
     """The same with aas_gym.SimAcousticSensor's own observations (the full simulator)."""
-    pytest.importorskip("sensors.modal_model", reason="the FEM modal model has not landed")
     gym = pytest.importorskip("gymnasium")
     import aas_gym  # noqa: F401
     from sklearn.neighbors import KNeighborsClassifier
