@@ -117,6 +117,8 @@ def test_sine_from_rest(method, zeta):
 
 
 def test_critical_damping_uses_robust_path_and_is_exact():
+    """The path taken; its exactness at zeta = 1 is what test_step, test_impulse and
+    test_sine_from_rest check (REGIMES holds 1.0)."""
     m = OneMode(1000.0, 1.0)
     sysm = ModalSystem.build(m, 44100, *DRIVE, *MIC)
     assert sysm.methods_used == ["dense"]  # defective eigenvalue -> matrix exponential
