@@ -38,7 +38,7 @@ import scipy.optimize
 
 from .atomic import atomic_write_text
 from .contact import Contact
-from .damping import contact_damping_matrix
+from .damping import contact_damping_matrix, modal_damping_matrix
 from .materials import Material, get_material
 from .modal_estimation import ModalEstimate, estimate_modes_from_observation
 from .observation import AcousticObservation
@@ -146,8 +146,6 @@ class ScaledModalModel:
 
     def damping_matrix(self, contacts=()) -> np.ndarray:
         """C_m of the new material (see :func:`sensors.damping.modal_damping_matrix`)."""
-        from .damping import modal_damping_matrix
-
         return modal_damping_matrix(self, contacts)
 
     def __repr__(self) -> str:
