@@ -26,6 +26,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT))
 
 from sensors import ModalModel  # noqa: E402
+from sensors.atomic import atomic_write_text  # noqa: E402
 from test_modal_accuracy import BAR, TABLE, TUBE, classify_modes, compare_to_beam  # noqa: E402
 
 BAND_HZ = 10000.0
@@ -88,11 +89,11 @@ def self_convergence(material: str = "abs"):
     opts = dict(material=material, cache=False, progress=False, max_frequency_hz=BAND_HZ * 1.05)
     coarse = ModalModel.tube(**TUBE, **opts)
     fine = ModalModel.tube(**TUBE, resolution=1.5, **opts)
-    labels = classify_modes(fine)
+    labels_c, labels_f = classify_modes(coarse), classify_modes(fine)
     rows = {}
     for family in ("bending", "torsion", "axial", "other"):
-        fc = sorted(f for f, lab in zip(coarse.frequencies_hz, classify_modes(coarse)) if lab == family and f < BAND_HZ)
-        ff = sorted(f for f, lab in zip(fine.frequencies_hz, labels) if lab == family and f < BAND_HZ)
+        fc = sorted(f for f, lab in zip(coarse.frequencies_hz, labels_c) if lab == family and f < BAND_HZ)
+        ff = sorted(f for f, lab in zip(fine.frequencies_hz, labels_f) if lab == family and f < BAND_HZ)
         n = min(len(fc), len(ff))
         if n:
             rows[family] = (n, max(abs(a / b - 1) for a, b in zip(fc[:n], ff[:n])))
@@ -161,7 +162,7 @@ def main(argv=None):
     print(text)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "modal_accuracy.md").write_text(text)
+    atomic_write_text(out / "modal_accuracy.md", text)
 
     import matplotlib
 
