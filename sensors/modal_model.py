@@ -326,8 +326,7 @@ class ModalModel:
         builders = {"bar": ModalModel.bar, "tube": ModalModel.tube, "rod": ModalModel.rod}
         if self.kind not in builders:
             raise ValueError("a different Poisson ratio needs a new solve; rebuild the model with from_mesh")
-        opts = {k: self.metadata[k] for k in ("element", "max_frequency_hz", "resolution", "element_size_m")
-                if k in self.metadata}
+        opts = {k: self.metadata[k] for k in _RESULT_OPTIONS if k in self.metadata}
         opts.update(options)
         return builders[self.kind](**self.dimensions_m, material=material, **opts)
 
@@ -509,9 +508,7 @@ class ModalModel:
         names = list(timings)
         stage_s = {n: (timings[names[i + 1]] if i + 1 < len(names) else end) - timings[n] for i, n in enumerate(names)}
         meta = dict(meta)
-        meta.update(element=opts["element"], max_frequency_hz=opts["max_frequency_hz"],
-                    resolution=opts["resolution"], element_size_m=opts["element_size_m"],
-                    n_dof=int(K.shape[0]), n_tets=int(len(elements)), build_time_s=end - t0,
+        meta.update(_key_options(opts), n_dof=int(K.shape[0]), n_tets=int(len(elements)), build_time_s=end - t0,
                     stage_times_s=stage_s, cache_key=key, code_version=cache_mod.CODE_VERSION)
         r = U.shape[1]
         model = cls(nodes, elements, np.sqrt(lam) / (2.0 * np.pi), U.reshape(len(nodes), 3, r), material,
@@ -541,5 +538,9 @@ def _options(options: dict) -> dict:
     return opts
 
 
+#: The options the modes depend on: part of the cache key, kept in the metadata for rebuilds.
+_RESULT_OPTIONS = ("element", "max_frequency_hz", "resolution", "element_size_m")
+
+
 def _key_options(opts: dict) -> dict:
-    return {k: opts[k] for k in ("element", "max_frequency_hz", "resolution", "element_size_m")}
+    return {k: opts[k] for k in _RESULT_OPTIONS}
