@@ -140,7 +140,7 @@ def check_tet_quality(vertices: np.ndarray, tets: np.ndarray, min_quality: float
     cols = t[:, 1:].ravel()
     graph = scipy.sparse.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
     used = np.unique(t)
-    n_comp, labels = scipy.sparse.csgraph.connected_components(graph, directed=False)
+    _, labels = scipy.sparse.csgraph.connected_components(graph, directed=False)
     n_comp_used = len(np.unique(labels[used]))
     if n_comp_used != 1:
         raise MeshError(
