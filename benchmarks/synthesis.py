@@ -12,7 +12,7 @@ several runs; CPU time because the machine is shared with other jobs).  "synthes
 excludes the per-grasp set-up (damping matrix, eigen-decomposition), which is listed
 separately and also folded into "RTF incl. set-up".
 
-    python benchmarks/synthesis.py [--modes 200] [--repeats 5] [--no-write]
+    python benchmarks/synthesis.py [--modes 200] [--repeats 30] [--no-write]
 
 Writes docs/benchmarks/synthesis.md and docs/benchmarks/synthesis.png.
 """
@@ -82,6 +82,17 @@ def best_time(f, repeats):
     return min(ts)
 
 
+def lsim_displacement(w, C, b, o, u):
+    """Independent reference: scipy.signal.lsim (linear input interpolation) of
+    q'' + C q' + w^2 q = b u, y = o q, in plain [q; q'] coordinates."""
+    r = len(w)
+    A = np.block([[np.zeros((r, r)), np.eye(r)], [-np.diag(w ** 2), -C]])
+    _, y, _ = ss.lsim((A, np.concatenate([np.zeros(r), b])[:, None],
+                       np.concatenate([o, np.zeros(r)])[None], np.zeros((1, 1))),
+                      u, np.arange(len(u)) / FS, interp=True)
+    return y
+
+
 def per_mode_lfilter(model, C, b, o, u, fs):
     """Baseline: each mode (diagonal damping) discretised with FOH by scipy, one lfilter call
     per mode, outputs summed."""
@@ -144,11 +155,8 @@ def main(argv=None):
     U = model.mode_shapes_at(np.array([dp, mp]))
     b, o = -dn @ U[0], mn @ U[1]
     w = model.angular_frequencies_rad_s
-    A = np.block([[np.zeros((R, R)), np.eye(R)], [-np.diag(w ** 2), -C]])
     t0 = time.process_time()
-    _, y_lsim, _ = ss.lsim((A, np.concatenate([np.zeros(R), b])[:, None],
-                            np.concatenate([o, np.zeros(R)])[None], np.zeros((1, 1))),
-                           u, np.arange(len(u)) / FS, interp=True)
+    y_lsim = lsim_displacement(w, C, b, o, u)
     t_lsim = time.process_time() - t0
     add("scipy.signal.lsim (continuous, linear interp.)", 0.0, t_lsim, y_lsim, "independent reference, 1 run")
 
@@ -231,11 +239,8 @@ def main(argv=None):
             Cf = modal_damping_matrix(fm, geom_f[5])[np.ix_(keep, keep)]
             Uf = fm.mode_shapes_at(np.array([geom_f[1], geom_f[3]]))[..., keep]
             rf = int(keep.sum())
-            wf = fm.angular_frequencies_rad_s[keep]
-            Af = np.block([[np.zeros((rf, rf)), np.eye(rf)], [-np.diag(wf ** 2), -Cf]])
-            _, yl, _ = ss.lsim((Af, np.concatenate([np.zeros(rf), -geom_f[2] @ Uf[0]])[:, None],
-                                np.concatenate([geom_f[4] @ Uf[1], np.zeros(rf)])[None], np.zeros((1, 1))),
-                               u, np.arange(len(u)) / FS, interp=True)
+            yl = lsim_displacement(fm.angular_frequencies_rad_s[keep], Cf, -geom_f[2] @ Uf[0],
+                                   geom_f[4] @ Uf[1], u)
             fem_rows.append((f"{kind} {mat}", rf, 1e3 * tb, 1e3 * tr, dur / tr, dur / (tb + tr),
                              float(np.max(np.abs(yf - yl)) / np.max(np.abs(yl)))))
 
