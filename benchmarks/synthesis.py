@@ -38,6 +38,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from sensors import Contact, Excitation, FingertipModel, ModalSystem  # noqa: E402
+from sensors.atomic import atomic_write_text  # noqa: E402
 from sensors.damping import modal_damping_matrix  # noqa: E402
 from sensors.synthesis import _DensePart, _state_matrices, _Setup  # noqa: E402
 
@@ -288,7 +289,7 @@ exact for the piecewise-linear force; ZOH shifts and attenuates the high band.
     if not args.no_write:
         out = ROOT / "docs" / "benchmarks"
         out.mkdir(parents=True, exist_ok=True)
-        (out / "synthesis.md").write_text(text)
+        atomic_write_text(out / "synthesis.md", text)
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
