@@ -237,13 +237,11 @@ def bar_mesh(length_m: float, width_m: float, height_m: float, element_size_m: f
 
 
 def tube_mesh(length_m: float, outer_radius_m: float, inner_radius_m: float,
-              element_size_m: float | None = None, resolution: float = 1.0,
-              divisions: tuple[int, int, int] | None = None) -> TetMesh:
+              element_size_m: float | None = None, resolution: float = 1.0) -> TetMesh:
     """Structured tet mesh of a hollow cylinder along x (annulus cross-section).
 
     Default: 24 elements around (curved P2 edges make that accurate), 1 through a thin wall,
     elements along x 2.5 times as long as they are wide; ``resolution`` scales all counts.
-    ``divisions=(around, through the wall, along x)`` sets the counts explicitly.
     """
     _check_positive(length_m=length_m, outer_radius_m=outer_radius_m, inner_radius_m=inner_radius_m,
                     resolution=resolution)
@@ -267,8 +265,6 @@ def tube_mesh(length_m: float, outer_radius_m: float, inner_radius_m: float,
         n_theta = n_min
         h_x = max(h_x, 2 * math.pi * outer_radius_m / n_theta * 3.0)
     nx = _divisions(length_m, h_x, 4)
-    if divisions is not None:  # explicit (around, through the wall, along x)
-        n_theta, n_r, nx = (int(d) for d in divisions)
     theta = 2 * math.pi * np.arange(n_theta) / n_theta
     r = np.linspace(inner_radius_m, outer_radius_m, n_r + 1)
     rr, tt = np.meshgrid(r, theta, indexing="ij")
