@@ -75,9 +75,10 @@ def grasp(model):
             np.array([0.05, -h, 0.001]), np.array([0.0, -1.0, 0.0]))
 
 
-def lsim_reference(model, C, u, fs, dp, dn, mp, mn, output="displacement", x0=None):
+def lsim_reference(model, C, u, fs, dp, dn, mp, mn, output="displacement", x0=None, interp=True):
     """Independent reference: scipy.signal.lsim (matrix exponential, linear input
-    interpolation) of q'' + C q' + w^2 q = U_d^T (-n_d) u in plain [q; q'] coordinates.
+    interpolation, or the input held per sample with ``interp=False``) of
+    q'' + C q' + w^2 q = U_d^T (-n_d) u in plain [q; q'] coordinates.
     Returns (y, state trajectory in [q; q'])."""
     import scipy.signal as ss
 
@@ -85,7 +86,7 @@ def lsim_reference(model, C, u, fs, dp, dn, mp, mn, output="displacement", x0=No
     r = len(w)
     U = model.mode_shapes_at(np.array([dp, mp]))
     b = -np.asarray(dn) @ U[0]
-    o = np.asarray(mp * 0 + mn) @ U[1]
+    o = np.asarray(mn) @ U[1]
     A = np.block([[np.zeros((r, r)), np.eye(r)], [-np.diag(w**2), -C]])
     B = np.concatenate([np.zeros(r), b])[:, None]
     if output == "displacement":
@@ -95,5 +96,5 @@ def lsim_reference(model, C, u, fs, dp, dn, mp, mn, output="displacement", x0=No
     else:
         Cm, D = o @ A[r:], o @ b
     t = np.arange(len(u)) / fs
-    _, y, x = ss.lsim((A, B, Cm[None], np.array([[D]])), u, t, X0=x0, interp=True)
+    _, y, x = ss.lsim((A, B, Cm[None], np.array([[D]])), u, t, X0=x0, interp=interp)
     return y, x
