@@ -49,7 +49,7 @@ Parameter values (defaults) and why
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -90,9 +90,7 @@ class FingertipModel:
             raise ValueError("substeps must be >= 1")
 
     def with_(self, **changes) -> "FingertipModel":
-        d = asdict(self)
-        d.update(changes)
-        return FingertipModel(**d)
+        return replace(self, **changes)
 
     # -- matrices -----------------------------------------------------------------------
     def _params(self) -> np.ndarray:
