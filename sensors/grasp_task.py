@@ -1,0 +1,171 @@
+"""The grasp-and-sense task contract shared by the simulated envs (``aas_gym``) and the real
+env (``real``): one place for the constants, the observation layout and the acoustic
+observation's configuration, so a policy sees the same spaces on both sides.
+
+Nothing here knows about MuJoCo or PyAudio; gymnasium is imported only by the helpers that
+build spaces.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from .features import feature_frequencies_hz
+
+#: Length of the spectral feature vector (3-10 kHz in 50 Hz steps).
+N_FEATURES = int(feature_frequencies_hz().size)
+#: Where an episode starts: TCP x, y, z [m], yaw [rad].
+HOME_TCP = (0.0, 0.0, 0.3, 0.0)
+#: Largest TCP change per env step for action 1: 10 mm, 10 mm, 10 mm, 0.05 rad.
+MAX_DELTA = (0.01, 0.01, 0.01, 0.05)
+#: Grip forces an env accepts [N]: the Franka hand's continuous force is 70 N, its peak 140 N.
+MAX_GRIP_FORCE_N = 140.0
+#: Fully open gripper: distance between the fingertip faces [m].
+MAX_OPENING_M = 0.08
+
+#: Named slices of the proprioceptive state vector, in the order envs assemble it.
+#: ``gripper`` is opening [m], opening speed [m/s], motor force [N]; ``object`` is the
+#: target's position [m] and quaternion (w, x, y, z).
+STATE_LAYOUT: dict[str, slice] = {
+    "tcp": slice(0, 4),
+    "tcp_velocity": slice(4, 8),
+    "gripper": slice(8, 11),
+    "object": slice(11, 18),
+}
+STATE_SIZE = 18
+
+CADENCES = ("action", "every_step", "never")
+FEATURE_SCALES = ("linear",)
+
+
+def check_grip_force(grip_force_n: float) -> float:
+    """``grip_force_n`` as a float, or ``ValueError`` if it is outside (0, 140] N."""
+    f = float(grip_force_n)
+    if not (math.isfinite(f) and 0 < f <= MAX_GRIP_FORCE_N):
+        raise ValueError(f"grip_force_n must be in (0, {MAX_GRIP_FORCE_N:g}] N, got {grip_force_n!r}")
+    return f
+
+
+def check_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
+    """``action`` as a float64 array of ``shape``; ``ValueError`` for another shape or for
+    NaN / infinite entries (``max(-1, min(1, nan))`` is 1: a NaN would be a full-speed move)."""
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"action must be numeric with shape {shape}, got {type(action).__name__}") from None
+    if a.shape != tuple(shape):
+        if a.size == math.prod(shape) and a.squeeze().shape == tuple(s for s in shape if s != 1):
+            a = a.reshape(shape)
+        else:
+            raise ValueError(f"action must have shape {tuple(shape)}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"action has NaN or infinite entries: {a.tolist()}")
+    return a
+
+
+@dataclass(frozen=True)
+class AcousticConfig:
+    """How an env exposes the acoustic sensor: one configuration for every simulated env and
+    for ``real.RealGraspEnv`` (as dm_control's observables: off until enabled, with noise as a
+    separate corruption of the recording).
+
+    Attributes:
+        enabled: record at all; ``False`` drops the acoustic entries from the observation
+            and costs nothing per step.
+        cadence: ``"action"`` (record when the policy asks), ``"every_step"`` or ``"never"``.
+            Envs whose actions are probes (recognition, grasp position) record every step.
+        waveform: add the raw recording (``waveform``, padded or cut to ``duration_s``).
+        feature_scale: how the 140 features are scaled (``"linear"``: amplitude spectrum).
+        noise_std: std of additive microphone noise in waveform units (simulation only; the
+            real microphone brings its own).
+        duration_s: length of one recording [s].
+    """
+
+    enabled: bool = True
+    cadence: str = "action"
+    waveform: bool = False
+    feature_scale: str = "linear"
+    noise_std: float = 0.0
+    duration_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.cadence not in CADENCES:
+            raise ValueError(f"cadence must be one of {CADENCES}, got {self.cadence!r}")
+        if self.feature_scale not in FEATURE_SCALES:
+            raise ValueError(f"feature_scale must be one of {FEATURE_SCALES}, got {self.feature_scale!r}")
+        if not (math.isfinite(self.noise_std) and self.noise_std >= 0):
+            raise ValueError(f"noise_std must be >= 0, got {self.noise_std!r}")
+        if not (math.isfinite(self.duration_s) and self.duration_s > 0):
+            raise ValueError(f"duration_s must be > 0 s, got {self.duration_s!r}")
+
+    @classmethod
+    def coerce(cls, value: "AcousticConfig | dict | None", **defaults: Any) -> "AcousticConfig":
+        """An ``AcousticConfig`` from ``None`` (``defaults``), a dict of fields or a config."""
+        if value is None:
+            return cls(**defaults)
+        if isinstance(value, cls):
+            return value
+        if isinstance(value, dict):
+            return cls(**{**defaults, **value})
+        raise TypeError(f"acoustic must be an AcousticConfig, a dict or None, got {type(value).__name__}")
+
+    def with_(self, **changes: Any) -> "AcousticConfig":
+        return replace(self, **changes)
+
+    def n_samples(self, sample_rate_hz: float) -> int:
+        """Samples in one recording at ``sample_rate_hz``."""
+        return int(round(self.duration_s * sample_rate_hz))
+
+    def scale_features(self, features: np.ndarray) -> np.ndarray:
+        """The amplitude features in this config's ``feature_scale`` (float32)."""
+        return np.asarray(features, dtype=np.float32)
+
+    def spaces(self, sample_rate_hz: float) -> dict:
+        """The acoustic entries of the observation space (empty when disabled)."""
+        from gymnasium import spaces  # only env builders need gymnasium
+
+        if not self.enabled:
+            return {}
+        out = {"acoustic": spaces.Box(0.0, np.inf, (N_FEATURES,), np.float32)}
+        if self.waveform:
+            out["waveform"] = spaces.Box(-np.inf, np.inf, (self.n_samples(sample_rate_hz),), np.float32)
+        return out
+
+    def empty(self, sample_rate_hz: float) -> dict[str, np.ndarray]:
+        """The acoustic entries before the first recording: zeros."""
+        if not self.enabled:
+            return {}
+        out = {"acoustic": np.zeros(N_FEATURES, np.float32)}
+        if self.waveform:
+            out["waveform"] = np.zeros(self.n_samples(sample_rate_hz), np.float32)
+        return out
+
+    def entries(self, recording) -> dict[str, np.ndarray]:
+        """The acoustic entries of a ``sensors.AcousticObservation``: its features and, with
+        ``waveform``, its samples zero-padded or cut to ``duration_s``."""
+        if not self.enabled:
+            return {}
+        out = {"acoustic": self.scale_features(recording.features())}
+        if self.waveform:
+            n = self.n_samples(recording.sample_rate_hz)
+            w = np.zeros(n, np.float32)
+            m = min(n, recording.waveform.size)
+            w[:m] = recording.waveform[:m]
+            out["waveform"] = w
+        return out
+
+
+def proprio_spaces(with_object: bool = True) -> dict:
+    """Observation-space entries of the proprioceptive state (see ``STATE_LAYOUT``)."""
+    from gymnasium import spaces
+
+    out = {}
+    for name, sl in STATE_LAYOUT.items():
+        if name == "object" and not with_object:
+            continue
+        out[name] = spaces.Box(-np.inf, np.inf, (sl.stop - sl.start,), np.float32)
+    return out
