@@ -20,6 +20,14 @@ DEFAULT_F_MIN_HZ = 3000.0
 DEFAULT_F_MAX_HZ = 10000.0
 DEFAULT_STEP_HZ = 50.0
 
+#: How feature amplitudes are presented to a learner (see :func:`scale_features`).
+FEATURE_SCALES = ("linear", "db", "normalized")
+#: 0 dB of the ``"db"`` scale, in waveform units (full scale 1): about the amplitude of one
+#: feature bin of white noise of std 1e-4 over a 0.5 s window, so sensed peaks read tens of dB.
+DB_REFERENCE = 1e-6
+#: Amplitudes below this read as this (-60 dB): silence and all-zero observations stay finite.
+DB_FLOOR = 1e-9
+
 
 def feature_frequencies_hz(
     f_min_hz: float = DEFAULT_F_MIN_HZ, f_max_hz: float = DEFAULT_F_MAX_HZ, step_hz: float = DEFAULT_STEP_HZ
@@ -129,6 +137,28 @@ def spectral_features(
     windows = segment(waveform, fs, period_s, start_s)
     amplitude = _amplitude_at(windows, fs, freqs)
     return amplitude.mean(axis=0) if average else amplitude
+
+
+def scale_features(amplitude: np.ndarray, scale: str = "linear") -> np.ndarray:
+    """Feature amplitudes on a scale a learner can use next to proprioception of order 1.
+
+    ``"linear"``: the amplitudes as they are (1e-7 to 1e-4 in simulation).
+    ``"db"``: ``20 log10(max(A, DB_FLOOR) / DB_REFERENCE)``, level relative to 1e-6 (tens of
+    dB for a sensed grasp, -60 dB for silence): keeps the absolute level, which carries the
+    material's damping.
+    ``"normalized"``: each vector divided by its Euclidean norm (all-zero stays zero): the
+    spectral shape only, blind to gain differences between rigs.
+    Works on one vector or on rows (last axis = features).
+    """
+    a = np.asarray(amplitude, dtype=float)
+    if scale == "linear":
+        return a
+    if scale == "db":
+        return 20.0 * np.log10(np.maximum(a, DB_FLOOR) / DB_REFERENCE)
+    if scale == "normalized":
+        norm = np.linalg.norm(a, axis=-1, keepdims=True)
+        return np.divide(a, norm, out=np.zeros_like(a), where=norm > 0)
+    raise ValueError(f"feature scale must be one of {FEATURE_SCALES}, got {scale!r}")
 
 
 def amplitude_spectrum(

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .features import feature_frequencies_hz
+from .features import FEATURE_SCALES, feature_frequencies_hz, scale_features
 
 #: Length of the spectral feature vector (3-10 kHz in 50 Hz steps).
 N_FEATURES = int(feature_frequencies_hz().size)
@@ -39,7 +39,6 @@ STATE_LAYOUT: dict[str, slice] = {
 STATE_SIZE = 18
 
 CADENCES = ("action", "every_step", "never")
-FEATURE_SCALES = ("linear",)
 
 
 def check_grip_force(grip_force_n: float) -> float:
@@ -79,7 +78,10 @@ class AcousticConfig:
         cadence: ``"action"`` (record when the policy asks), ``"every_step"`` or ``"never"``.
             Envs whose actions are probes (recognition, grasp position) record every step.
         waveform: add the raw recording (``waveform``, padded or cut to ``duration_s``).
-        feature_scale: how the 140 features are scaled (``"linear"``: amplitude spectrum).
+        feature_scale: how the 140 features are scaled: ``"linear"`` (amplitudes, 1e-7 to
+            1e-4), ``"db"`` (level relative to 1e-6, tens of dB) or ``"normalized"`` (unit
+            norm); see :func:`sensors.features.scale_features`. A policy network next to
+            proprioception of order 1 needs ``"db"`` or ``"normalized"``.
         noise_std: std of additive microphone noise in waveform units (simulation only; the
             real microphone brings its own).
         duration_s: length of one recording [s].
@@ -122,7 +124,7 @@ class AcousticConfig:
 
     def scale_features(self, features: np.ndarray) -> np.ndarray:
         """The amplitude features in this config's ``feature_scale`` (float32)."""
-        return np.asarray(features, dtype=np.float32)
+        return scale_features(features, self.feature_scale).astype(np.float32)
 
     def spaces(self, sample_rate_hz: float) -> dict:
         """The acoustic entries of the observation space (empty when disabled)."""
@@ -130,7 +132,8 @@ class AcousticConfig:
 
         if not self.enabled:
             return {}
-        out = {"acoustic": spaces.Box(0.0, np.inf, (N_FEATURES,), np.float32)}
+        low = -np.inf if self.feature_scale == "db" else 0.0
+        out = {"acoustic": spaces.Box(low, np.inf, (N_FEATURES,), np.float32)}
         if self.waveform:
             out["waveform"] = spaces.Box(-np.inf, np.inf, (self.n_samples(sample_rate_hz),), np.float32)
         return out
@@ -139,7 +142,7 @@ class AcousticConfig:
         """The acoustic entries before the first recording: zeros."""
         if not self.enabled:
             return {}
-        out = {"acoustic": np.zeros(N_FEATURES, np.float32)}
+        out = {"acoustic": self.scale_features(np.zeros(N_FEATURES))}
         if self.waveform:
             out["waveform"] = np.zeros(self.n_samples(sample_rate_hz), np.float32)
         return out

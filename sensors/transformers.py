@@ -8,7 +8,8 @@ import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from .features import DEFAULT_F_MAX_HZ, DEFAULT_F_MIN_HZ, DEFAULT_STEP_HZ, feature_frequencies_hz, spectral_features
+from .features import (DEFAULT_F_MAX_HZ, DEFAULT_F_MIN_HZ, DEFAULT_STEP_HZ, FEATURE_SCALES, feature_frequencies_hz,
+                       scale_features, spectral_features)
 
 
 class SpectralFeatures(TransformerMixin, BaseEstimator):
@@ -25,21 +26,25 @@ class SpectralFeatures(TransformerMixin, BaseEstimator):
         period_s: excitation period = window length, seconds.
         start_s: offset of the first period in each waveform, seconds.
         f_min_hz, f_max_hz, step_hz: feature band and spacing.
-        log: return ``log10(amplitude + 1e-12)`` instead of amplitude.
+        scale: ``"linear"`` amplitude, ``"db"`` or ``"normalized"`` (see
+            :func:`sensors.features.scale_features`); the envs' ``feature_scale`` option is the
+            same, so features from a pipeline and from an env agree.
     """
 
     def __init__(self, fs=44100, period_s=0.5, start_s=0.0, f_min_hz=DEFAULT_F_MIN_HZ,
-                 f_max_hz=DEFAULT_F_MAX_HZ, step_hz=DEFAULT_STEP_HZ, log=False):
+                 f_max_hz=DEFAULT_F_MAX_HZ, step_hz=DEFAULT_STEP_HZ, scale="linear"):
         self.fs = fs
         self.period_s = period_s
         self.start_s = start_s
         self.f_min_hz = f_min_hz
         self.f_max_hz = f_max_hz
         self.step_hz = step_hz
-        self.log = log
+        self.scale = scale
 
     def fit(self, X, y=None):
         """Check the waveforms; nothing is learned."""
+        if self.scale not in FEATURE_SCALES:
+            raise ValueError(f"scale must be one of {FEATURE_SCALES}, got {self.scale!r}")
         X = validate_data(self, X, dtype=np.float64)
         self._pad_width(X.shape[1])
         self.feature_frequencies_hz_ = feature_frequencies_hz(self.f_min_hz, self.f_max_hz, self.step_hz)
@@ -68,7 +73,7 @@ class SpectralFeatures(TransformerMixin, BaseEstimator):
                               f_min_hz=self.f_min_hz, f_max_hz=self.f_max_hz, step_hz=self.step_hz)
             for row in X
         ])
-        return np.log10(out + 1e-12) if self.log else out
+        return scale_features(out, self.scale)
 
     def get_feature_names_out(self, input_features=None):
         """Feature names ``amp_3000hz`` ... (frequency in Hz)."""

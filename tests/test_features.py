@@ -109,3 +109,38 @@ def test_transformer_passes_sklearn_estimator_checks():
         results = check_estimator(SpectralFeatures(), on_fail=None)
     failed = [r["check_name"] for r in results if r["status"] == "failed"]
     assert failed == []
+
+
+def test_feature_scales_read_a_known_tone():
+    """A 1e-3 sine on a feature bin reads 1e-3 linear, 60 dB re 1e-6, and unit norm."""
+    from sensors.features import DB_FLOOR, DB_REFERENCE, scale_features
+
+    fs = 44100
+    t = np.arange(fs) / fs
+    x = 1e-3 * np.sin(2 * np.pi * 5000.0 * t)
+    lin = spectral_features(x, fs)
+    k = int(np.argmax(lin))
+    assert feature_frequencies_hz()[k] == 5000.0
+    db = scale_features(lin, "db")
+    assert abs(db[k] - 60.0) < 0.01
+    assert abs(20 * np.log10(DB_FLOOR / DB_REFERENCE) - scale_features(np.zeros(3), "db")[0]) < 1e-12
+    unit = scale_features(lin, "normalized")
+    assert abs(np.linalg.norm(unit) - 1.0) < 1e-12 and unit[k] > 0.99
+    assert np.all(scale_features(np.zeros(140), "normalized") == 0)
+    with pytest.raises(ValueError, match="feature scale"):
+        scale_features(lin, "log")
+
+
+def test_transformer_and_env_config_scale_alike():
+    from sensors import SpectralFeatures
+    from sensors.features import scale_features
+    from sensors.grasp_task import AcousticConfig
+
+    rng = np.random.default_rng(0)
+    X = rng.standard_normal((3, 22050)) * 1e-4
+    for scale in ("linear", "db", "normalized"):
+        got = SpectralFeatures(scale=scale).fit_transform(X)
+        linear = np.stack([spectral_features(r, 44100) for r in X])
+        want = scale_features(linear, scale)
+        np.testing.assert_allclose(got, want, rtol=1e-12)
+        np.testing.assert_allclose(AcousticConfig(feature_scale=scale).scale_features(linear[0]), want[0], rtol=1e-6)

@@ -154,7 +154,7 @@ def test_classifier_trained_on_sim_accepts_real_observations(recordings):
         assert o.features().shape == s.features().shape == (140,)
         assert o.features().dtype == s.features().dtype
     # (a) raw waveforms through sensors.SpectralFeatures
-    raw_clf = make_pipeline(sensors.SpectralFeatures(log=True), StandardScaler(), KNeighborsClassifier(3))
+    raw_clf = make_pipeline(sensors.SpectralFeatures(scale="db"), StandardScaler(), KNeighborsClassifier(3))
     raw_clf.fit(np.stack([o.waveform for o in sim_obs]), y)
     pred_raw = raw_clf.predict(np.stack([o.waveform for o in real_obs]))
     # (b) on .features()
@@ -184,7 +184,7 @@ def test_classifier_trained_on_sim_acoustic_sensor_accepts_real(recordings):
         env.close()
     real_obs = recordings["linear"][0]
     assert X[0].shape == real_obs.waveform.shape and X[0].dtype == real_obs.waveform.dtype
-    clf = make_pipeline(sensors.SpectralFeatures(log=True), KNeighborsClassifier(1))
+    clf = make_pipeline(sensors.SpectralFeatures(scale="db"), KNeighborsClassifier(1))
     clf.fit(np.stack(X), y)
     assert clf.predict(real_obs.waveform[None])[0] in {"aluminium_bar", "wood_bar"}
 
