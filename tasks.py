@@ -23,7 +23,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent
 VENV = ROOT / ".venv"
 STAMP = VENV / ".aas-gym-installed"
-EXTRAS = "dev,real,ray"
+EXTRAS = "dev,real,ray,rl"
 
 # Debian package -> why the project needs it.
 DEBIAN_PACKAGES = {
