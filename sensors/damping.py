@@ -44,22 +44,50 @@ def check_on_surface(model, points_m: np.ndarray, what: str = "contact",
             f"(limit {max_distance_m * 1e3:.3g} mm): is it in the object frame?")
 
 
-def contact_damping_matrix(model, contacts: Sequence[Contact]) -> np.ndarray:
-    """G = sum_p c_p U_p^T (mu_p I + (1 - mu_p) n_p n_p^T) U_p, shape (r, r), units N."""
+def contact_damping_factor(model, contacts: Sequence[Contact]) -> np.ndarray:
+    """F with G = F^T F, shape (3 P, r), units sqrt(N): per contact p the rows
+    sqrt(c_p) W_p^(1/2) U_p, where W_p^(1/2) = sqrt(mu_p) (I - n_p n_p^T) + n_p n_p^T is the
+    square root of the weight (it has eigenvalues 1 along the normal and mu_p across it).
+
+    The contact damping has rank at most 3 P: the synthesis uses this factor to find the
+    complex modes in O(r^2 P^2) instead of O(r^3) (:mod:`sensors.low_rank_modes`)."""
     r = len(model.angular_frequencies_rad_s)
     contacts = [c for c in contacts if c.force_n > 0.0]
     if not contacts:
-        return np.zeros((r, r))
+        return np.zeros((0, r))
     pos = np.array([c.position_m for c in contacts])
     nrm = np.array([c.normal for c in contacts])
     f = np.array([c.force_n for c in contacts])
     mu = np.array([c.friction for c in contacts])
-    U = np.asarray(model.mode_shapes_at(pos), dtype=float)  # (P, 3, r)
-    # c mu U^T U (all directions) + c (1 - mu) (n^T U)^T (n^T U) (normal direction)
-    X = (np.sqrt(f * mu)[:, None, None] * U).reshape(-1, r)
-    Y = np.einsum("pi,pir->pr", nrm, U)
-    G = X.T @ X + (Y.T * (f * (1.0 - mu))) @ Y
-    return 0.5 * (G + G.T)
+    U = np.asarray(model.mode_shapes_at(pos), dtype=float)   # (P, 3, r)
+    along = np.einsum("pi,pir->pr", nrm, U)                   # n^T U
+    normal_part = nrm[:, :, None] * along[:, None, :]         # n n^T U
+    F = np.sqrt(f)[:, None, None] * (np.sqrt(mu)[:, None, None] * (U - normal_part) + normal_part)
+    return F.reshape(-1, r)
+
+
+def contact_damping_matrix(model, contacts: Sequence[Contact]) -> np.ndarray:
+    """G = sum_p c_p U_p^T (mu_p I + (1 - mu_p) n_p n_p^T) U_p, shape (r, r), units N."""
+    F = contact_damping_factor(model, contacts)
+    return F.T @ F
+
+
+def modal_damping_parts(model, contacts: Sequence[Contact] = (), *,
+                        max_surface_distance_m: float = MAX_SURFACE_DISTANCE_M) -> tuple[np.ndarray, np.ndarray]:
+    """``(d, Q)`` with C_m = diag(d) + Q^T Q: the Rayleigh part d = alpha + beta w^2 [1/s]
+    and the contact part's factor Q = sqrt(gamma) F (``contact_damping_factor``), shape
+    (3 P, r). Validates the contacts as :func:`modal_damping_matrix` does."""
+    contacts = list(contacts)
+    for c in contacts:
+        if not isinstance(c, Contact):
+            raise TypeError(f"expected sensors.Contact, got {type(c).__name__}")
+    w = np.asarray(model.angular_frequencies_rad_s, dtype=float)
+    mat = model.material
+    d = float(mat.alpha) + float(mat.beta) * w ** 2
+    if not contacts:
+        return d, np.zeros((0, w.size))
+    check_on_surface(model, np.array([c.position_m for c in contacts]), "contact", max_surface_distance_m)
+    return d, np.sqrt(float(mat.gamma)) * contact_damping_factor(model, contacts)
 
 
 def modal_damping_matrix(model, contacts: Sequence[Contact] = (), *,
@@ -70,15 +98,5 @@ def modal_damping_matrix(model, contacts: Sequence[Contact] = (), *,
     gamma [s/m]) and ``mode_shapes_at``; contacts farther than ``max_surface_distance_m`` from
     the surface raise ``ValueError`` when the model offers ``surface_distance_m``.
     """
-    contacts = list(contacts)
-    for c in contacts:
-        if not isinstance(c, Contact):
-            raise TypeError(f"expected sensors.Contact, got {type(c).__name__}")
-    w = np.asarray(model.angular_frequencies_rad_s, dtype=float)
-    mat = model.material
-    C = np.diag(float(mat.alpha) + float(mat.beta) * w ** 2)
-    if contacts:
-        check_on_surface(model, np.array([c.position_m for c in contacts]), "contact",
-                         max_surface_distance_m)
-        C = C + float(mat.gamma) * contact_damping_matrix(model, contacts)
-    return C
+    d, Q = modal_damping_parts(model, contacts, max_surface_distance_m=max_surface_distance_m)
+    return np.diag(d) + Q.T @ Q

@@ -35,7 +35,7 @@ _TRACE_TOL = 1e-9
 _MAX_CONDITION = 1e8
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")  # a zero gap gives inf, caught below
 def _sweep_terms(L, idx, lam, lp, lm, sp, sm, S1, S2):
     """For each active root L[a]: S1[a, i] = sum over the two poles of mode i of s / (L - pole),
     S2 the same with (L - pole)^2, and return sum_i 1/(L - pole) and the Aberth repulsion
@@ -76,13 +76,44 @@ def low_rank_modes(w: np.ndarray, d: np.ndarray, Q: np.ndarray):
     d = np.asarray(d, float)
     Q = np.asarray(Q, float)
     r = w.size
-    k = Q.shape[0]
+    if r == 0 or Q.ndim != 2 or Q.shape[1] != r or not (np.all(np.isfinite(Q)) and np.all(np.isfinite(d))):
+        return None
     disc = np.sqrt((d * d - 4 * w * w).astype(complex))
     lp, lm = (-d + disc) / 2, (-d - disc) / 2
     # Over- or near-critically damped modes have (nearly) real, defective pairs: dense path.
-    if r == 0 or np.any(np.abs(lp - lm) < 1e-3 * np.abs(lp)) or np.any(lp.imag <= 0):
+    if np.any(np.abs(lp - lm) < 1e-3 * np.abs(lp)) or np.any(lp.imag <= 0):
         return None
     det = w * (lm - lp)
+    # Modes the contacts do not touch are decoupled from all others (their row of Q^T Q is
+    # zero): their closed-form 2 x 2 eigenpairs are exact. The rest go to the root finder.
+    qn = np.einsum("ki,ki->i", Q, Q)
+    coupled = qn > 1e-28 * max(float(qn.max(initial=0.0)), 1e-300)
+    lam = lp.copy()
+    V = np.zeros((2 * r, r), complex)
+    W = np.zeros((r, 2 * r), complex)
+    ii = np.arange(r)
+    # eigenvector [w; l+] of [[0, w], [-w, -d]], left row (1/det) [l-, -w] (unit column norm)
+    scale = np.sqrt(w**2 + np.abs(lp) ** 2)
+    V[ii, ii], V[r + ii, ii] = w / scale, lp / scale
+    W[ii, ii], W[ii, r + ii] = lm / det * scale, -w / det * scale
+    c = np.flatnonzero(coupled)
+    if c.size:
+        out = _coupled_modes(w[c], d[c], Q[:, c], lp[c], lm[c], det[c])
+        if out is None:
+            return None
+        lam[c] = out[0]
+        rows = np.concatenate([c, r + c])
+        V[:, c] = 0.0
+        W[c, :] = 0.0
+        V[np.ix_(rows, c)] = out[1]
+        W[np.ix_(c, rows)] = out[2]
+    return lam, V, W
+
+
+def _coupled_modes(w, d, Q, lp, lm, det):
+    """The root finder and eigenvectors for modes that all touch the contacts."""
+    r = w.size
+    k = Q.shape[0]
     # In A0's eigenbasis the update's row for pole (i, +-) is s_+- q_i q_i^T (q_i = Q[:, i]).
     sp, sm = lp * w / det, -lm * w / det
     QQ = (Q.T[:, :, None] * Q.T[:, None, :]).reshape(r, k * k)

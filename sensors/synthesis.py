@@ -67,7 +67,8 @@ from scipy.sparse.csgraph import connected_components
 from threadpoolctl import ThreadpoolController
 
 from .contact import Contact
-from .damping import check_on_surface, modal_damping_matrix
+from .damping import check_on_surface, modal_damping_matrix, modal_damping_parts
+from .low_rank_modes import low_rank_modes
 
 __all__ = ["ModalSystem", "modal_response", "periodic_response", "modal_state_energy"]
 
@@ -78,6 +79,10 @@ _HOLDS = ("foh", "zoh")
 _MAX_EIGVEC_COND = 1e8
 # Relative size below which a gain or a coupling counts as exactly zero (rounding level).
 _NEGLIGIBLE = 1e-13
+# The low-rank complex-mode path (sensors.low_rank_modes) pays off from about this many
+# modes, while the contact factor has at most this many rows per mode (benchmarks/synthesis.py).
+_LOW_RANK_MIN_MODES = 16
+_LOW_RANK_MAX_RATIO = 0.5
 # Impulse responses are cut once every term is below this fraction of the terms' sum.
 _DECAY_TOL = 1e-17
 
@@ -396,6 +401,8 @@ class _Setup:
     C: np.ndarray      # (r, r) damping
     b: np.ndarray      # (r,) modal input gain per newton
     o: np.ndarray      # (r,) modal output gain (displacement per modal coordinate)
+    d: np.ndarray | None = None  # (r,) Rayleigh part of C and (k, r) the factor of its
+    Q: np.ndarray | None = None  # contact part, C = diag(d) + Q^T Q, when C is not given
 
 
 class ModalSystem:
@@ -445,7 +452,11 @@ class ModalSystem:
 
         w_all = np.asarray(model.angular_frequencies_rad_s, dtype=float)
         r_all = len(w_all)
-        C_all = modal_damping_matrix(model, contacts) if damping is None else np.asarray(damping, float)
+        if damping is None:
+            d_all, Q_all = modal_damping_parts(model, contacts)
+            C_all = np.diag(d_all) + Q_all.T @ Q_all
+        else:
+            d_all, Q_all, C_all = None, None, np.asarray(damping, float)
         Ush = np.asarray(model.mode_shapes_at(np.array([dp, mp])), dtype=float)  # (2, 3, r)
         b_all = -dn @ Ush[0]
         o_all = mn @ Ush[1]
@@ -456,7 +467,8 @@ class ModalSystem:
             x0 = np.asarray(initial_state, dtype=float).reshape(2, r_all)
             excited = np.any(x0 != 0, axis=0)
         kept = _relevant_modes(kept, C_all, b_all, o_all, keep_unobservable, excited)
-        su = _Setup(w_all[kept], C_all[np.ix_(kept, kept)], b_all[kept], o_all[kept])
+        su = _Setup(w_all[kept], C_all[np.ix_(kept, kept)], b_all[kept], o_all[kept],
+                    None if d_all is None else d_all[kept], None if Q_all is None else Q_all[:, kept])
         parts = _build_parts(su, method, output, 1.0 / fs, hold)
         # map part-local state indices (over kept modes) to the global scaled state
         r = len(kept)
@@ -607,6 +619,13 @@ def _build_parts(su: _Setup, method: str, output: str, T: float, hold: str):
         su = _Setup(su.w, np.diag(np.diag(su.C)), su.b, su.o)
         return _diagonal_parts(su, output, T, hold)
     A, B, Cout, D = _state_matrices(su, output)
+    if su.Q is not None and r >= _LOW_RANK_MIN_MODES and su.Q.shape[0] <= _LOW_RANK_MAX_RATIO * r:
+        with _BLAS.limit(limits=1, user_api="blas"):
+            modes = low_rank_modes(su.w, su.d, su.Q)
+        if modes is not None:
+            lam, V, W = modes
+            lam = np.minimum(lam.real, 0.0) + 1j * lam.imag  # passive, as in _lti_parts
+            return [_EigenPart(np.arange(2 * r), lam, V, W, B, Cout, D, T, hold)]
     return _lti_parts(A, B, Cout, D, T, hold, passive=True)
 
 
