@@ -81,8 +81,8 @@ _MAX_EIGVEC_COND = 1e8
 _NEGLIGIBLE = 1e-13
 # The low-rank complex-mode path (sensors.low_rank_modes) pays off from about this many
 # modes, while the contact factor has at most this many rows per mode (benchmarks/synthesis.py).
-_LOW_RANK_MIN_MODES = 16
-_LOW_RANK_MAX_RATIO = 0.5
+LOW_RANK_MIN_MODES = 40
+LOW_RANK_MAX_RATIO = 0.5
 # Impulse responses are cut once every term is below this fraction of the terms' sum.
 _DECAY_TOL = 1e-17
 
@@ -619,7 +619,7 @@ def _build_parts(su: _Setup, method: str, output: str, T: float, hold: str):
         su = _Setup(su.w, np.diag(np.diag(su.C)), su.b, su.o)
         return _diagonal_parts(su, output, T, hold)
     A, B, Cout, D = _state_matrices(su, output)
-    if su.Q is not None and r >= _LOW_RANK_MIN_MODES and su.Q.shape[0] <= _LOW_RANK_MAX_RATIO * r:
+    if su.Q is not None and r >= LOW_RANK_MIN_MODES and su.Q.shape[0] <= LOW_RANK_MAX_RATIO * r:
         with _BLAS.limit(limits=1, user_api="blas"):
             modes = low_rank_modes(su.w, su.d, su.Q)
         if modes is not None:
