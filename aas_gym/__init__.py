@@ -53,6 +53,7 @@ _LAZY = {
     "planar_grasp": "aas_gym.grasp",
     "release": "aas_gym.grasp",
     "DomainRandomization": "aas_gym.envs.base",
+    "MujocoRobot": "aas_gym.robot",
 }
 
 __all__ = sorted(_LAZY)

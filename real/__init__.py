@@ -3,8 +3,9 @@
 - :class:`PyAudioRig`, :func:`list_devices`: the actuator output and contact-microphone input.
 - :class:`RealAcousticSensor`: ``sense(excitation, duration_s) -> sensors.AcousticObservation``.
 - :func:`record_leaks`: the rig's leak per excitation, in the file format the simulator loads.
-- :class:`RealGraspEnv`, :class:`RobotInterface`, :class:`MujocoRobot`: the AcousticGrasp task on
-  a real robot, same spaces as the simulated env.
+- :class:`RealGraspEnv`, :class:`RobotInterface`, :class:`RobotState`: the AcousticGrasp task on
+  a real robot, same spaces as the simulated env (``aas_gym.robot.MujocoRobot`` runs it on
+  the simulated scene; this package never imports ``aas_gym``).
 - :mod:`real.loopback`: a PulseAudio null-sink loopback to run all this without hardware.
 
 PyAudio is imported lazily by the rig; ``import real`` works without it.
@@ -27,4 +28,4 @@ from .rig import (
     recover_partial,
 )
 from .sensor import RealAcousticSensor, record_leaks
-from .env import MujocoRobot, RealGraspEnv, RobotInterface, RobotState
+from .env import RealGraspEnv, RobotInterface, RobotState

@@ -1,16 +1,15 @@
 """``RealGraspEnv``: the ``aas_gym/AcousticGrasp-v0`` task on a real robot and rig.
 
-Same action and observation spaces as the simulated environment, so a policy or classifier
-moves between them unchanged. The robot comes in through :class:`RobotInterface`, which a
-user implements for their driver (e.g. franka_ros / libfranka); :class:`MujocoRobot` is an
-implementation backed by the aas_gym MuJoCo scene, used to test the env's logic end to end
-(with the real audio rig or with the scene's simulated sensor).
+Same action and observation spaces as the simulated environment (both built from
+``sensors.grasp_task``), so a policy or classifier moves between them unchanged. The robot
+comes in through :class:`RobotInterface`, which a user implements for their driver (e.g.
+franka_ros / libfranka); ``aas_gym.robot.MujocoRobot`` implements it on the simulated scene,
+to test the env's logic end to end. This package does not import ``aas_gym``.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
 import gymnasium as gym
@@ -18,35 +17,8 @@ import numpy as np
 from gymnasium import spaces
 
 from sensors import AcousticSensor, Excitation
-
-N_FEATURES = 140
-HOME_TCP = (0.0, 0.0, 0.3, 0.0)
-# Largest TCP change per step for action 1 (as in AcousticGrasp-v0): 10 mm, 0.05 rad.
-MAX_DELTA = (0.01, 0.01, 0.01, 0.05)
-
-
-@dataclass(frozen=True)
-class RobotState:
-    """What the env observes of the robot.
-
-    Attributes:
-        tcp: x, y, z [m], yaw [rad] of the tool centre point in the task frame.
-        tcp_velocity: their rates [m/s, rad/s].
-        gripper_opening_m: distance between the fingertip faces.
-        gripper_speed_m_s: its rate.
-        gripper_force_n: force the gripper motor applies (the grip force when squeezing).
-        object_pose: target object position [m] and quaternion (w, x, y, z) in the task frame,
-            from whatever tracks it (motion capture, vision, a fixture); zeros if unknown.
-        grasped: both sensor fingertips press the object.
-    """
-
-    tcp: np.ndarray
-    tcp_velocity: np.ndarray
-    gripper_opening_m: float
-    gripper_speed_m_s: float
-    gripper_force_n: float
-    object_pose: np.ndarray
-    grasped: bool
+from sensors.grasp_task import (HOME_TCP, MAX_DELTA, AcousticConfig, RobotState, check_action, check_grip_force,
+                                proprio_spaces)
 
 
 @runtime_checkable
@@ -89,10 +61,12 @@ class RealGraspEnv(gym.Env):
         robot: a :class:`RobotInterface`.
         sensor: a ``sensors.AcousticSensor`` (:class:`real.RealAcousticSensor`, or any other).
         excitation: ``sensors.Excitation`` or name.
-        duration_s: recording length.
+        acoustic: ``sensors.grasp_task.AcousticConfig`` (or a dict of its fields): when to
+            record (``cadence``), recording length, waveform in the observation, feature
+            scale; the same configuration as the simulated envs'.
         grip_force_n: grasp force.
-        include_waveform: add the raw recording.
-        sense_mode: ``"action"``, ``"every_step"`` or ``"never"``.
+        duration_s, include_waveform, sense_mode: older spellings of ``acoustic.duration_s``,
+            ``acoustic.waveform`` and ``acoustic.cadence``.
         control_period_s: time each step lets the robot move (the simulated env's 0.05 s).
         max_episode_steps: truncation (200 like the simulated env).
         home_tcp: where ``reset`` moves the TCP if the robot has no ``reset``.
@@ -102,54 +76,44 @@ class RealGraspEnv(gym.Env):
     metadata = {"render_modes": []}
 
     def __init__(self, robot: RobotInterface, sensor: AcousticSensor, *, excitation="linear_sweep",
-                 duration_s: float = 1.0, grip_force_n: float = 40.0, include_waveform: bool = False,
-                 sense_mode: str = "action", control_period_s: float = 0.05, max_episode_steps: int = 200,
+                 acoustic: AcousticConfig | dict | None = None, grip_force_n: float = 40.0,
+                 duration_s: float | None = None, include_waveform: bool | None = None,
+                 sense_mode: str | None = None, control_period_s: float = 0.05, max_episode_steps: int = 200,
                  home_tcp=HOME_TCP, reset_duration_s: float = 3.0) -> None:
         missing = [m for m in ("move", "grasp", "open", "state") if not callable(getattr(robot, m, None))]
         if missing:
             raise TypeError(f"robot does not implement RobotInterface: missing {missing}")
         if not callable(getattr(sensor, "sense", None)):
             raise TypeError("sensor must implement sensors.AcousticSensor (a sense(excitation, duration_s) method)")
-        if sense_mode not in ("action", "every_step", "never"):
-            raise ValueError(f"sense_mode must be 'action', 'every_step' or 'never', got {sense_mode!r}")
         self.robot, self.sensor = robot, sensor
         self.excitation = excitation if isinstance(excitation, Excitation) else Excitation.by_name(excitation)
-        self.duration_s = float(duration_s)
-        if not self.duration_s >= self.excitation.period_s:
+        self.acoustic = AcousticConfig.coerce(acoustic, include_waveform=include_waveform, duration_s=duration_s,
+                                              sense_mode=sense_mode)
+        if not self.acoustic.duration_s >= self.excitation.period_s:
             raise ValueError(f"duration_s must be at least one excitation period ({self.excitation.period_s} s)")
-        if not 0 < grip_force_n <= 140:
-            raise ValueError(f"grip_force_n must be in (0, 140] N, got {grip_force_n}")
-        self.grip_force_n = float(grip_force_n)
-        self.include_waveform = bool(include_waveform)
-        self.sense_mode = sense_mode
+        self.grip_force_n = check_grip_force(grip_force_n)
         self.control_period_s = float(control_period_s)
         self.max_episode_steps = int(max_episode_steps)
         self.home_tcp = np.asarray(home_tcp, dtype=float)
         self.reset_duration_s = float(reset_duration_s)
-        self.n_samples = int(round(self.duration_s * self.excitation.fs))
         self.action_space = spaces.Box(-1.0, 1.0, (6,), np.float32)
-        inf = np.inf
-        obs = {
-            "tcp": spaces.Box(-inf, inf, (4,), np.float32),
-            "tcp_velocity": spaces.Box(-inf, inf, (4,), np.float32),
-            "gripper": spaces.Box(-inf, inf, (3,), np.float32),
-            "object": spaces.Box(-inf, inf, (7,), np.float32),
-            "acoustic": spaces.Box(0.0, inf, (N_FEATURES,), np.float32),
-        }
-        if self.include_waveform:
-            obs["waveform"] = spaces.Box(-inf, inf, (self.n_samples,), np.float32)
-        self.observation_space = spaces.Dict(obs)
+        self.observation_space = spaces.Dict({**proprio_spaces(), **self.acoustic.spaces(self.excitation.fs)})
         self._acoustic = self._empty_acoustic()
         self._target = self.home_tcp.copy()
         self._gripper_closed: bool | None = None
         self._steps = 0
         self.last_recording = None
 
+    @property
+    def duration_s(self) -> float:
+        return self.acoustic.duration_s
+
+    @property
+    def sense_mode(self) -> str:
+        return self.acoustic.cadence
+
     def _empty_acoustic(self) -> dict[str, np.ndarray]:
-        out = {"acoustic": np.zeros(N_FEATURES, np.float32)}
-        if self.include_waveform:
-            out["waveform"] = np.zeros(self.n_samples, np.float32)
-        return out
+        return self.acoustic.empty(self.excitation.fs)
 
     def _obs(self, s: RobotState) -> dict[str, np.ndarray]:
         obs = {
@@ -178,8 +142,8 @@ class RealGraspEnv(gym.Env):
         return self._obs(s), {"grasped": bool(s.grasped)}
 
     def step(self, action):
-        a = np.asarray(action, dtype=np.float64).reshape(6)
-        a = np.clip(a, -1.0, 1.0)
+        # NaN or inf must never reach a real robot: refuse before any command is sent.
+        a = np.clip(check_action(action, (6,)), -1.0, 1.0)
         self._target = self._target + a[:4] * np.asarray(MAX_DELTA)
         close = not a[4] > 0
         if close != self._gripper_closed:  # command changes only: a real gripper re-grasps otherwise
@@ -194,88 +158,17 @@ class RealGraspEnv(gym.Env):
         reward = -dist + (1.0 if grasped else 0.0)
         terminated = False
         info: dict[str, Any] = {"grasped": grasped, "is_success": False}
-        if self.sense_mode == "every_step" or (self.sense_mode == "action" and a[5] > 0):
+        cadence = self.acoustic.cadence if self.acoustic.enabled else "never"
+        if cadence == "every_step" or (cadence == "action" and a[5] > 0):
             rec = self.sensor.sense(self.excitation, self.duration_s)
             self.last_recording = rec
-            self._acoustic = {"acoustic": np.asarray(rec.features(), dtype=np.float32)}
-            if self.include_waveform:
-                w = np.zeros(self.n_samples, np.float32)
-                n = min(self.n_samples, rec.waveform.size)
-                w[:n] = rec.waveform[:n]
-                self._acoustic["waveform"] = w
+            self._acoustic = self.acoustic.entries(rec)
             info["recording_metadata"] = rec.metadata
             s = self.robot.state()  # the grasp may have changed while recording
             info["recording_grasped"] = grasped = grasped and bool(s.grasped)
-            if grasped and self.sense_mode == "action":
+            if grasped and cadence == "action":
                 reward += 10.0
                 terminated = True
                 info["is_success"] = True
         truncated = not terminated and self._steps >= self.max_episode_steps
         return self._obs(s), float(reward), terminated, truncated, info
-
-
-class MujocoRobot:
-    """:class:`RobotInterface` on the aas_gym MuJoCo scene (the floating Franka hand).
-
-    ``reset`` places the objects as ``aas_gym/AcousticGrasp-v0`` does; ``move`` advances the
-    physics by ``duration_s``. ``sim_sensor`` is the scene's ``aas_gym.SimAcousticSensor``, so
-    the same env runs on simulated or real sound.
-
-    Args:
-        objects, scene, **env_kwargs: as for ``aas_gym/AcousticGrasp-v0``.
-    """
-
-    def __init__(self, objects=("aluminium_bar",), *, scene: str = "single", **env_kwargs) -> None:
-        from aas_gym.envs.acoustic_grasp import AcousticGraspEnv
-
-        self._env = AcousticGraspEnv(objects, scene=scene, sense_mode="never", **env_kwargs)
-        self._env.reset(seed=0)
-        self._gripper_force_n = self._env.grip_force_n
-
-    @property
-    def model(self):
-        """The MuJoCo model of the current scene."""
-        return self._env.model
-
-    @property
-    def data(self):
-        """Its MjData."""
-        return self._env.data
-
-    @property
-    def sim_sensor(self):
-        """The scene's simulated acoustic sensor (``aas_gym.SimAcousticSensor``)."""
-        return self._env.sensor
-
-    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
-        """New episode: objects placed, hand home and open."""
-        self._env.reset(seed=seed, options=options)
-
-    def move(self, tcp, duration_s: float) -> None:
-        import mujoco
-
-        self._env.hand.command(self.data, tcp=np.asarray(tcp, float))
-        mujoco.mj_step(self.model, self.data, nstep=max(1, int(round(duration_s / self.model.opt.timestep))))
-
-    def grasp(self, force_n: float) -> None:
-        self._env.hand.set_grip_force(force_n)
-        self._env.hand.command(self.data, opening_m=0.0)
-
-    def open(self) -> None:
-        self._env.hand.command(self.data, opening_m=0.08)
-
-    def state(self) -> RobotState:
-        import mujoco
-
-        hand, d, m = self._env.hand, self.data, self.model
-        sensor = self._env.sensor
-        target = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, sensor.bodies[0])
-        return RobotState(
-            tcp=hand.tcp(d), tcp_velocity=hand.tcp_velocity(d), gripper_opening_m=hand.opening_m(d),
-            gripper_speed_m_s=float(np.sum(hand.finger_velocity(d))),
-            gripper_force_n=float(-d.actuator_force[hand.gripper_actuator]),
-            object_pose=np.concatenate([d.xpos[target], d.xquat[target]]),
-            grasped=sensor.grasped_body() == sensor.bodies[0])
-
-    def close(self) -> None:
-        self._env.close()

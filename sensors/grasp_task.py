@@ -41,6 +41,31 @@ STATE_SIZE = 18
 CADENCES = ("action", "every_step", "never")
 
 
+@dataclass(frozen=True)
+class RobotState:
+    """What the env observes of the robot.
+
+    Attributes:
+        tcp: x, y, z [m], yaw [rad] of the tool centre point in the task frame.
+        tcp_velocity: their rates [m/s, rad/s].
+        gripper_opening_m: distance between the fingertip faces.
+        gripper_speed_m_s: its rate.
+        gripper_force_n: force the gripper motor applies (the grip force when squeezing).
+        object_pose: target object position [m] and quaternion (w, x, y, z) in the task frame,
+            from whatever tracks it (motion capture, vision, a fixture); zeros if unknown.
+        grasped: both sensor fingertips press the object.
+    """
+
+    tcp: np.ndarray
+    tcp_velocity: np.ndarray
+    gripper_opening_m: float
+    gripper_speed_m_s: float
+    gripper_force_n: float
+    object_pose: np.ndarray
+    grasped: bool
+
+
+
 def check_grip_force(grip_force_n: float) -> float:
     """``grip_force_n`` as a float, or ``ValueError`` if it is outside (0, 140] N."""
     f = float(grip_force_n)
@@ -105,15 +130,28 @@ class AcousticConfig:
             raise ValueError(f"duration_s must be > 0 s, got {self.duration_s!r}")
 
     @classmethod
-    def coerce(cls, value: "AcousticConfig | dict | None", **defaults: Any) -> "AcousticConfig":
-        """An ``AcousticConfig`` from ``None`` (``defaults``), a dict of fields or a config."""
+    def coerce(cls, value: "AcousticConfig | dict | None" = None, *, include_waveform: bool | None = None,
+               duration_s: float | None = None, sense_mode: str | None = None,
+               **defaults: Any) -> "AcousticConfig":
+        """The env's config from ``acoustic=`` (``None``, a dict of fields or a config) and
+        the older keywords ``include_waveform``, ``duration_s``, ``sense_mode``, which stay
+        accepted as spellings of ``waveform``, ``duration_s`` and ``cadence``. ``defaults``
+        are the env's own defaults for fields nobody set."""
         if value is None:
-            return cls(**defaults)
-        if isinstance(value, cls):
-            return value
-        if isinstance(value, dict):
-            return cls(**{**defaults, **value})
-        raise TypeError(f"acoustic must be an AcousticConfig, a dict or None, got {type(value).__name__}")
+            fields: dict[str, Any] = {}
+        elif isinstance(value, cls):
+            fields = {f: getattr(value, f) for f in cls.__dataclass_fields__}
+        elif isinstance(value, dict):
+            fields = dict(value)
+        else:
+            raise TypeError(f"acoustic must be an AcousticConfig, a dict or None, got {type(value).__name__}")
+        for name, given in (("waveform", include_waveform), ("duration_s", duration_s), ("cadence", sense_mode)):
+            if given is None:
+                continue
+            if name in fields and fields[name] != given and value is not None:
+                raise ValueError(f"acoustic.{name}={fields[name]!r} contradicts the keyword given as {given!r}")
+            fields[name] = given
+        return cls(**{**defaults, **fields})
 
     def with_(self, **changes: Any) -> "AcousticConfig":
         return replace(self, **changes)

@@ -384,7 +384,8 @@ def test_output_underrun_is_detected_and_raised(audio_loopback, tmp_path):
 
 
 def test_grasp_and_sense_through_the_real_audio_path(audio_loopback):
-    from real.env import MujocoRobot, RealGraspEnv
+    from aas_gym.robot import MujocoRobot
+    from real.env import RealGraspEnv
     from scripted_policy import reach_and_grasp
 
     robot = MujocoRobot(randomization=False)

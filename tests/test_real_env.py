@@ -10,7 +10,8 @@ import pytest
 gym = pytest.importorskip("gymnasium")
 import aas_gym  # noqa: E402,F401
 
-from real.env import MujocoRobot, RealGraspEnv, RobotInterface, RobotState  # noqa: E402
+from aas_gym.robot import MujocoRobot  # noqa: E402
+from real.env import RealGraspEnv, RobotInterface, RobotState  # noqa: E402
 from scripted_policy import reach_and_grasp  # noqa: E402
 
 
@@ -81,3 +82,67 @@ def test_check_env_control_only(robot):
 
     env = RealGraspEnv(robot, _Recorder(), sense_mode="never")
     check_env(env)
+
+
+class _CommandLog:
+    """A user's robot driver as RealGraspEnv sees it: it records every command it receives."""
+
+    def __init__(self):
+        self.commands = []
+
+    def move(self, tcp, duration_s):
+        self.commands.append(("move", np.asarray(tcp, float).copy()))
+
+    def grasp(self, force_n):
+        self.commands.append(("grasp", force_n))
+
+    def open(self):
+        self.commands.append(("open",))
+
+    def state(self):
+        return RobotState(np.zeros(4), np.zeros(4), 0.08, 0.0, 0.0, np.array([0.1, 0, 0, 1, 0, 0, 0.0]), False)
+
+
+@pytest.mark.parametrize("bad", [[np.nan, 0, 0, 0, 0, 0], [0, 0, np.inf, 0, 0, 0], [0, 0, 0, 0, 0], [[0] * 6] * 2])
+def test_nonfinite_or_misshapen_action_never_reaches_the_robot(bad):
+    robot = _CommandLog()
+    env = RealGraspEnv(robot, _Recorder())
+    env.reset(seed=0)
+    sent = len(robot.commands)
+    with pytest.raises(ValueError, match="action"):
+        env.step(np.array(bad, dtype=float))
+    assert len(robot.commands) == sent
+
+
+def test_acoustic_config_and_old_keywords_agree():
+    from sensors.grasp_task import AcousticConfig
+
+    a = RealGraspEnv(_CommandLog(), _Recorder(), include_waveform=True, duration_s=0.5, sense_mode="every_step")
+    b = RealGraspEnv(_CommandLog(), _Recorder(), acoustic=AcousticConfig(waveform=True, duration_s=0.5,
+                                                                         cadence="every_step"))
+    assert a.acoustic == b.acoustic and a.observation_space == b.observation_space
+    c = RealGraspEnv(_CommandLog(), _Recorder(), acoustic={"feature_scale": "db"})
+    obs, _ = c.reset(seed=0)
+    obs, *_ = c.step(np.array([0, 0, 0, 0, 1, 1], np.float32))
+    assert c.observation_space.contains(obs) and obs["acoustic"].max() > 0  # dB re 1e-6: tens of dB
+    with pytest.raises(ValueError, match="contradicts"):
+        RealGraspEnv(_CommandLog(), _Recorder(), acoustic={"waveform": False}, include_waveform=True)
+
+
+def test_real_package_never_imports_aas_gym():
+    """real/ runs on a robot computer without MuJoCo: no module of it may import aas_gym."""
+    import ast
+    from pathlib import Path
+
+    import real
+
+    offenders = []
+    for path in Path(real.__file__).parent.glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            offenders += [f"{path.name}: {n}" for n in names if n.split(".")[0] in ("aas_gym", "mujoco")]
+    assert not offenders, offenders
