@@ -13,31 +13,107 @@ builds or loads its modal model (memory cache here, disk cache in ``sensors``) a
 
 from __future__ import annotations
 
+import math
+from collections import OrderedDict
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import mujoco
 import numpy as np
 
+import sensors
 from aas_gym.contacts import ContactStream, ObjectContacts
 from aas_gym.scene import ObjectSpec, get_object, object_specs_from_model
+from sensors import Contact, Excitation, LeakRecording, load_leak
+from sensors.modal_basis import ModalBasis, scaled_material, with_material
+from sensors.recording import SynthesisCache
 
 
-_MODAL_MEMO: dict[tuple, Any] = {}
-_MODAL_MEMO_SIZE = 32
+class ModalModelStore:
+    """Modal models by (object, build options), least recently used dropped beyond
+    ``maxsize``: scenes and envs holding the same object share one model (the disk cache in
+    ``sensors`` serves new processes). ``MODAL_MODELS`` is the process's store; pass your own
+    to a ``SimAcousticSensor`` to control its size and lifetime."""
+
+    def __init__(self, maxsize: int = 32) -> None:
+        self.maxsize = int(maxsize)
+        self._models: OrderedDict[tuple, Any] = OrderedDict()
+        self.hits = 0
+        self.misses = 0
+
+    def __len__(self) -> int:
+        return len(self._models)
+
+    def __repr__(self) -> str:
+        return f"ModalModelStore({len(self)}/{self.maxsize} models, hits={self.hits}, misses={self.misses})"
+
+    def clear(self) -> None:
+        self._models.clear()
+
+    def get(self, spec: ObjectSpec, **options):
+        """``spec.modal_model(**options)``, built once per store."""
+        key = (spec, tuple(sorted(options.items())))
+        model = self._models.get(key)
+        if model is not None:
+            self.hits += 1
+            self._models.move_to_end(key)
+            return model
+        self.misses += 1
+        model = spec.modal_model(**options)
+        self._models[key] = model
+        while len(self._models) > self.maxsize:
+            self._models.popitem(last=False)
+        return model
+
+
+MODAL_MODELS = ModalModelStore()
 
 
 def shared_modal_model(spec: ObjectSpec, **options):
-    """``spec.modal_model(**options)``, memoized in this process (scenes and envs that hold
-    the same object share one model; the disk cache in ``sensors`` serves new processes)."""
-    key = (spec, tuple(sorted(options.items())))
-    model = _MODAL_MEMO.get(key)
-    if model is None:
-        model = spec.modal_model(**options)
-        if len(_MODAL_MEMO) >= _MODAL_MEMO_SIZE:
-            _MODAL_MEMO.pop(next(iter(_MODAL_MEMO)))
-        _MODAL_MEMO[key] = model
-    return model
+    """``spec.modal_model(**options)`` from the process's store ``MODAL_MODELS``."""
+    return MODAL_MODELS.get(spec, **options)
+
+
+@dataclass(frozen=True)
+class SensorVariation:
+    """Per-episode variation of the simulated sensor (domain randomization), passed to
+    :meth:`SimAcousticSensor.sense` as a value instead of set on the sensor.
+
+    Attributes:
+        noise_std: microphone noise std in waveform units (``None``: the sensor's own).
+        damping_scale: multiplies the material's Rayleigh and contact damping.
+        modulus_scale, density_scale: multiply Young's modulus and density (modes rescaled
+            exactly, no new FEM solve).
+        leak_scale: multiplies the leak recording.
+    """
+
+    noise_std: float | None = None
+    damping_scale: float = 1.0
+    modulus_scale: float = 1.0
+    density_scale: float = 1.0
+    leak_scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.noise_std is not None and not (math.isfinite(self.noise_std) and self.noise_std >= 0):
+            raise ValueError(f"noise_std must be >= 0, got {self.noise_std!r}")
+        for name in ("damping_scale", "modulus_scale", "density_scale"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be > 0, got {v!r}")
+        if not (math.isfinite(self.leak_scale) and self.leak_scale >= 0):
+            raise ValueError(f"leak_scale must be >= 0, got {self.leak_scale!r}")
+
+    @property
+    def material_scales(self) -> tuple[float, float, float]:
+        return (self.damping_scale, self.modulus_scale, self.density_scale)
+
+    def to_dict(self) -> dict:
+        return {"damping_scale": self.damping_scale, "modulus_scale": self.modulus_scale,
+                "density_scale": self.density_scale, "leak_scale": self.leak_scale}
+
+
+NO_VARIATION = SensorVariation()
 
 
 class SensorSitesError(ValueError):
@@ -67,12 +143,13 @@ class SimAcousticSensor:
         on_no_grasp: ``"raise"`` (``NoGraspError``) or ``"silence"``: return what the
             microphone records with nothing in the hand (leak and noise only).
         modal_options: options for ``sensors.ModalModel.bar/tube/rod`` (e.g.
-            ``max_frequency_hz``); models are shared in-process between sensors.
+            ``max_frequency_hz``).
+        models: the :class:`ModalModelStore` models come from (default: the process's
+            ``MODAL_MODELS``, shared between sensors).
 
-    Domain randomization hooks (set by the environments per episode): ``damping_scale``
-    multiplies the material's Rayleigh and contact damping, ``modulus_scale`` and
-    ``density_scale`` its Young's modulus and density (modes rescaled exactly, no new FEM
-    solve), ``leak_scale`` the leak.
+    Per-episode variation (domain randomization) is passed to :meth:`sense` as a
+    :class:`SensorVariation`. ``cache`` (a ``sensors.SynthesisCache``) holds this sensor's
+    per-grasp systems and drive forces.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData,
@@ -80,7 +157,7 @@ class SimAcousticSensor:
                  mic_site: str = "aas_mic", fingertip=None, leak=None, noise_std: float = 0.0,
                  seed: int | None = None, rng: np.random.Generator | None = None,
                  min_force_n: float = 1e-3, on_no_grasp: str = "raise",
-                 modal_options: Mapping[str, Any] | None = None) -> None:
+                 modal_options: Mapping[str, Any] | None = None, models: ModalModelStore | None = None) -> None:
         missing = [s for s in (actuator_site, mic_site)
                    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, s) < 0]
         if missing:
@@ -104,7 +181,7 @@ class SimAcousticSensor:
                 raise ValueError(f"model has no body named {body!r} (objects must map body names)")
             if isinstance(desc, (str, ObjectSpec)):
                 self._specs[body] = get_object(desc)
-            elif hasattr(desc, "mode_shapes_at") and hasattr(desc, "frequencies_hz"):
+            elif isinstance(desc, ModalBasis):
                 self._specs[body] = None
                 self._modal[body] = desc
             else:
@@ -118,11 +195,11 @@ class SimAcousticSensor:
         self.on_no_grasp = on_no_grasp
         self.modal_options = dict(modal_options or {})
         self.stream = ContactStream(model, list(self._specs), actuator_site, mic_site)
-        self.damping_scale = 1.0
-        self.modulus_scale = 1.0
-        self.density_scale = 1.0
-        self.leak_scale = 1.0
-        self._scaled: dict[tuple, Any] = {}
+        self.models = MODAL_MODELS if models is None else models
+        self.cache = SynthesisCache()
+        # material views per (body, scales): the same object for the same episode's grasps, so
+        # the synthesis cache recognizes it across excitations
+        self._views: OrderedDict[tuple, Any] = OrderedDict()
 
     @property
     def bodies(self) -> list[str]:
@@ -139,7 +216,7 @@ class SimAcousticSensor:
             spec = self._specs.get(body)
             if spec is None:
                 raise KeyError(f"{body!r} is not an object of this sensor; known: {self.bodies}")
-            self._modal[body] = shared_modal_model(spec, **self.modal_options)
+            self._modal[body] = self.models.get(spec, **self.modal_options)
         return self._modal[body]
 
     def contacts(self) -> dict[str, ObjectContacts]:
@@ -160,8 +237,6 @@ class SimAcousticSensor:
     def grasp_contacts(self, contacts: Mapping[str, ObjectContacts] | None = None):
         """``(body, actuator_contact, mic_contact, other_contacts)`` as ``sensors.Contact``
         in the grasped object's frame; raises ``NoGraspError`` if nothing is grasped."""
-        from sensors.contact import Contact
-
         contacts = self.contacts() if contacts is None else contacts
         body = self.grasped_body(contacts)
         if body is None:
@@ -182,15 +257,20 @@ class SimAcousticSensor:
         others = c.select(~np.isin(c.kinds, ("actuator", "mic"))).to_sensor_contacts(self.min_force_n)
         return body, merged["actuator"], merged["mic"], others
 
-    def sense(self, excitation, duration_s: float = 1.0):
+    def sense(self, excitation, duration_s: float = 1.0, *, variation: SensorVariation | None = None,
+              rng: np.random.Generator | None = None):
         """Play ``excitation`` (a ``sensors.Excitation`` or its name) for ``duration_s`` seconds
         through the current grasp and return the ``sensors.AcousticObservation``.
 
-        The grasp is taken as constant during the recording (the paper records a static grasp).
+        ``variation``: this episode's :class:`SensorVariation` (default none); ``rng``: the
+        noise generator for this call (default the sensor's own). The grasp is taken as
+        constant during the recording (the paper records a static grasp).
         """
-        import sensors
-        from sensors import Excitation
-
+        variation = NO_VARIATION if variation is None else variation
+        if not isinstance(variation, SensorVariation):
+            raise TypeError(f"variation must be a SensorVariation, got {type(variation).__name__}")
+        rng = self.rng if rng is None else rng
+        noise_std = self.noise_std if variation.noise_std is None else variation.noise_std
         if isinstance(excitation, str):
             excitation = Excitation.by_name(excitation)
         if not isinstance(excitation, Excitation):
@@ -199,7 +279,7 @@ class SimAcousticSensor:
         if not (np.isfinite(duration_s) and duration_s > 0):
             raise ValueError(f"duration_s must be > 0, got {duration_s!r}")
         contacts = self.contacts()
-        leak = self._leak_for(excitation)
+        leak = self._leak_for(excitation, variation.leak_scale)
         try:
             body, act, mic, others = self.grasp_contacts(contacts)
         except NoGraspError:
@@ -207,7 +287,7 @@ class SimAcousticSensor:
                 raise
             # Nothing between the fingertips: the microphone hears the leak and its noise.
             obs = sensors.simulate_recording(None, excitation, duration_s, None, None, leak=leak,
-                                             noise_std=self.noise_std, rng=self.rng)
+                                             noise_std=noise_std, rng=rng)
             obs.metadata.update({"grasped": False})
             return obs
         spec = self._specs.get(body)
@@ -218,8 +298,8 @@ class SimAcousticSensor:
                 changes["object_mass_kg"] = spec.mass_kg
             fingertip = fingertip.with_(**changes)
         obs = sensors.simulate_recording(
-            self._scaled_model(body), excitation, duration_s, act, mic, other_contacts=others,
-            fingertip=fingertip, leak=leak, noise_std=self.noise_std, rng=self.rng)
+            self._scaled_model(body, variation), excitation, duration_s, act, mic, other_contacts=others,
+            fingertip=fingertip, leak=leak, noise_std=noise_std, rng=rng, cache=self.cache)
         obs.metadata.update({
             "source": "sim", "grasped": True, "object_body": body,
             "material": spec.material if spec else None, "shape": spec.shape if spec else None,
@@ -229,10 +309,8 @@ class SimAcousticSensor:
         })
         return obs
 
-    def _leak_for(self, excitation):
+    def _leak_for(self, excitation, leak_scale: float = 1.0):
         """The leak recording for ``excitation`` (scaled by ``leak_scale``), or ``None``."""
-        from sensors import LeakRecording, load_leak
-
         leak = self.leak
         if leak is None:
             return None
@@ -242,58 +320,25 @@ class SimAcousticSensor:
                 return None
         if not isinstance(leak, LeakRecording):
             leak = load_leak(leak)
-        if self.leak_scale != 1.0:
-            leak = LeakRecording(leak.waveform * self.leak_scale, leak.sample_rate_hz, leak.excitation,
+        if leak_scale != 1.0:
+            leak = LeakRecording(leak.waveform * leak_scale, leak.sample_rate_hz, leak.excitation,
                                  dict(leak.metadata))
         return leak
 
-    def _scaled_model(self, body: str):
-        """The modal model of ``body`` with the randomized material (memoized, so the
-        synthesis' per-grasp cache recognizes it across excitations)."""
+    def _scaled_model(self, body: str, variation: SensorVariation):
+        """The modal model of ``body`` in the episode's randomized material (an exact
+        ``sensors.MaterialView``, memoized so the synthesis cache recognizes it)."""
         model = self.modal_model(body)
-        scales = (self.damping_scale, self.modulus_scale, self.density_scale)
+        scales = variation.material_scales
         if scales == (1.0, 1.0, 1.0):
             return model
-        key = (body, *scales)
-        if key not in self._scaled:
-            if len(self._scaled) > 16:
-                self._scaled.clear()
-            self._scaled[key] = ScaledMaterialModel(model, *scales)
-        return self._scaled[key]
-
-
-class ScaledMaterialModel:
-    """A modal model seen with a scaled material, exactly and without a new FEM solve.
-
-    Scaling Young's modulus by ``s_e`` and the density by ``s_rho`` scales K by ``s_e`` and M
-    by ``s_rho``: eigenvalues by ``s_e / s_rho`` with the same shapes, mass-normalized by
-    ``1 / sqrt(s_rho)``. Damping (alpha, beta, gamma) is scaled by ``damping_scale``.
-    Everything else is delegated to the wrapped model.
-    """
-
-    def __init__(self, model, damping_scale: float = 1.0, modulus_scale: float = 1.0,
-                 density_scale: float = 1.0) -> None:
-        import dataclasses
-
-        for name, v in (("damping_scale", damping_scale), ("modulus_scale", modulus_scale),
-                        ("density_scale", density_scale)):
-            if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be > 0, got {v!r}")
-        self._model = model
-        m = model.material
-        self.material = dataclasses.replace(
-            m, alpha=m.alpha * damping_scale, beta=m.beta * damping_scale, gamma=m.gamma * damping_scale,
-            youngs_modulus_pa=m.youngs_modulus_pa * modulus_scale, density_kg_m3=m.density_kg_m3 * density_scale)
-        self._freq_scale = float(np.sqrt(modulus_scale / density_scale))
-        self._shape_scale = float(1.0 / np.sqrt(density_scale))
-        self.frequencies_hz = np.asarray(model.frequencies_hz) * self._freq_scale
-        self.angular_frequencies_rad_s = np.asarray(model.angular_frequencies_rad_s) * self._freq_scale
-        mass = getattr(model, "mass_kg", None)
-        if mass is not None:
-            self.mass_kg = mass * density_scale
-
-    def mode_shapes_at(self, points_m):
-        return self._model.mode_shapes_at(points_m) * self._shape_scale
-
-    def __getattr__(self, name: str):
-        return getattr(self._model, name)
+        key = (body, scales)
+        view = self._views.get(key)
+        if view is None:
+            d, e, rho = scales
+            view = with_material(model, scaled_material(model.material, damping_scale=d, modulus_scale=e,
+                                                        density_scale=rho))
+            self._views[key] = view
+            while len(self._views) > 16:
+                self._views.popitem(last=False)
+        return view

@@ -22,12 +22,11 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT))
 
 from sensors import ModalModel  # noqa: E402
 from sensors.atomic import atomic_write_text  # noqa: E402
-from test_modal_accuracy import BAR, TABLE, TUBE, classify_modes, compare_to_beam  # noqa: E402
+from sensors.beam_theory import BAR, TABLE, TUBE, classify_modes, compare_to_beam  # noqa: E402
 
 BAND_HZ = 10000.0
 

@@ -40,7 +40,7 @@ sys.path.insert(0, str(ROOT))
 from sensors import Contact, Excitation, FingertipModel, ModalSystem  # noqa: E402
 from sensors.atomic import atomic_write_text  # noqa: E402
 from sensors.damping import modal_damping_matrix  # noqa: E402
-from sensors.synthesis import _DensePart, _state_matrices, _Setup  # noqa: E402
+from sensors.synthesis import lti_system, modal_state_matrix  # noqa: E402
 
 FS = 44100
 
@@ -162,11 +162,12 @@ def main(argv=None):
     add("scipy.signal.lsim (continuous, linear interp.)", 0.0, t_lsim, y_lsim, "independent reference, 1 run")
 
     # dense fallback forced (what ill-conditioned eigenvectors use)
-    su = _Setup(w, C, b, o)
-    Am, Bm, Cm, Dm = _state_matrices(su, "displacement")
+    Am = modal_state_matrix(w, C)
+    Bm = np.concatenate([np.zeros(R), b])
+    Cm = np.concatenate([o / w, np.zeros(R)])  # displacement q = (Omega q) / w
 
     def build_dense():
-        return ModalSystem([_DensePart(np.arange(2 * R), Am, Bm, Cm, Dm, 1 / FS, "foh")], R, np.arange(R), FS, "foh")
+        return lti_system(Am, Bm, Cm, 0.0, FS, method="dense")
     t_bd = best_time(build_dense, 1)
     sys_dense = build_dense()
     y_dense = sys_dense.response(u)

@@ -26,7 +26,8 @@ sys.path.insert(0, str(ROOT))
 
 import sensors  # noqa: E402
 from sensors import Contact, Excitation, simulate_recording  # noqa: E402
-from sensors.calibration import calibrate, load_material, save_material, with_material  # noqa: E402
+from sensors import with_material  # noqa: E402
+from sensors.calibration import calibrate, load_material, save_material  # noqa: E402
 from sensors.materials import get_material  # noqa: E402
 
 OUT = ROOT / "outputs" / "calibration"

@@ -38,17 +38,16 @@ import scipy.optimize
 
 from .atomic import atomic_write_text
 from .contact import Contact
-from .damping import contact_damping_matrix, modal_damping_matrix
+from .damping import contact_damping_matrix
 from .materials import Material, get_material
 from .modal_estimation import ModalEstimate, estimate_modes_from_observation
 from .observation import AcousticObservation
+from .synthesis import modal_state_matrix
 
 __all__ = [
     "MATERIAL_FILE_FORMAT",
     "save_material",
     "load_material",
-    "ScaledModalModel",
-    "with_material",
     "RecordingSetup",
     "StiffnessFit",
     "DampingFit",
@@ -105,63 +104,6 @@ def load_material(path: str | os.PathLike) -> Material:
         return Material.from_dict(doc)
     except KeyError as exc:
         raise ValueError(f"{path}: material lacks field {exc.args[0]!r}") from None
-
-
-# -- models with another material ---------------------------------------------------------------
-
-
-class ScaledModalModel:
-    """A modal model re-used with another material of the same density and Poisson ratio.
-
-    K is proportional to E and M to the density; with the density kept, the frequencies
-    scale with sqrt(E / E_base) and the mass-normalised mode shapes are unchanged, so no
-    eigen-solve is needed. Damping comes from the new material. Everything else (mode
-    shapes, surface distance, mass) is delegated to the base model.
-    """
-
-    def __init__(self, base, material: Material):
-        base_mat = base.material
-        if not math.isclose(material.density_kg_m3, base_mat.density_kg_m3, rel_tol=1e-9) or \
-                not math.isclose(material.poisson_ratio, base_mat.poisson_ratio, rel_tol=1e-9):
-            raise ValueError("ScaledModalModel only changes E and damping; density and Poisson ratio must match")
-        self._base = base
-        self.material = material
-        self.frequency_scale = math.sqrt(material.youngs_modulus_pa / base_mat.youngs_modulus_pa)
-        self.angular_frequencies_rad_s = np.asarray(base.angular_frequencies_rad_s, float) * self.frequency_scale
-        self.frequencies_hz = self.angular_frequencies_rad_s / (2 * np.pi)
-
-    @property
-    def decay_rates(self) -> np.ndarray:
-        """Rayleigh decay rates (alpha + beta w^2) / 2 [1/s] of the new material."""
-        return 0.5 * (self.material.alpha + self.material.beta * self.angular_frequencies_rad_s**2)
-
-    @property
-    def eigenvalues(self) -> np.ndarray:
-        """w^2 [rad^2/s^2]."""
-        return self.angular_frequencies_rad_s**2
-
-    @property
-    def n_modes(self) -> int:
-        return int(self.angular_frequencies_rad_s.size)
-
-    def damping_matrix(self, contacts=()) -> np.ndarray:
-        """C_m of the new material (see :func:`sensors.damping.modal_damping_matrix`)."""
-        return modal_damping_matrix(self, contacts)
-
-    def __repr__(self) -> str:
-        return f"ScaledModalModel({self._base!r}, material={self.material.name!r})"
-
-    def __getattr__(self, name: str):
-        return getattr(self._base, name)
-
-
-def with_material(model, material: Material):
-    """``model`` with ``material``: the model's own ``with_material`` if it has one, else a
-    :class:`ScaledModalModel` (exact for a change of E and damping)."""
-    own = getattr(type(model), "with_material", None)
-    if callable(own):
-        return model.with_material(material)
-    return ScaledModalModel(model, material)
 
 
 # -- recordings and their contacts ---------------------------------------------------------------
@@ -529,10 +471,7 @@ def _exact_decay_rates(w: np.ndarray, C: np.ndarray) -> np.ndarray:
     """Decay rate of each mode of ``q'' + C q' + diag(w^2) q = 0``: -Re of the state-space
     eigenvalue assigned to that mode (by damped frequency) [1/s]."""
     r = w.size
-    A = np.zeros((2 * r, 2 * r))
-    A[:r, r:] = np.eye(r)
-    A[r:, :r] = -np.diag(w**2)
-    A[r:, r:] = -C
+    A = modal_state_matrix(w, C)
     lam = np.linalg.eigvals(A)
     lam = lam[lam.imag >= 0]
     # an overdamped mode gives two real eigenvalues; its slower one is what a fit would see

@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.signal import savgol_filter, zoom_fft
 
 DEFAULT_F_MIN_HZ = 3000.0
 DEFAULT_F_MAX_HZ = 10000.0
@@ -105,6 +104,8 @@ def _amplitude_at(windows: np.ndarray, fs: float, freqs_hz: np.ndarray) -> np.nd
         n = np.arange(length)
         spectrum = windows @ np.exp(-2j * np.pi * freqs_hz[0] * n / fs)[:, None]
     else:
+        from scipy.signal import zoom_fft  # ~0.5 s to import (-X importtime): first use only
+
         step = freqs_hz[1] - freqs_hz[0]
         spectrum = zoom_fft(windows, [freqs_hz[0], freqs_hz[-1] + step], m=freqs_hz.size, fs=fs, endpoint=False, axis=1)
     return 2.0 * np.abs(spectrum) / length
@@ -177,4 +178,6 @@ def smooth_spectrum(amplitude: np.ndarray, window_length: int = 51, polyorder: i
     window_length = min(window_length, a.shape[-1] - (1 - a.shape[-1] % 2))
     if window_length <= polyorder:
         return a.copy()
+    from scipy.signal import savgol_filter  # ~0.5 s to import (-X importtime): first use only
+
     return savgol_filter(a, window_length, polyorder, axis=-1)

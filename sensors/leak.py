@@ -25,7 +25,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.signal as ssig
 
 from .atomic import atomic_open
 
@@ -93,6 +92,8 @@ def excitation_lag(signal, excitation_period, max_lag: int | None = None) -> int
     if not np.any(e) or not np.any(x):
         return 0
     # c[k] = sum_n x[n + k] e[n]
+    import scipy.signal as ssig  # ~0.5 s to import (-X importtime): first use only
+
     c = ssig.fftconvolve(x, e[::-1])[len(e) - 1: len(e) + max_lag]
     return int(np.argmax(np.abs(c)))
 

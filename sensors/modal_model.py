@@ -18,9 +18,11 @@ import numpy as np
 
 from . import cache as cache_mod
 from .atomic import atomic_open
+from .damping import modal_damping_matrix
 from .eigen import solve_modes
 from .fem import assemble, shape_functions
 from .materials import Material, get_material
+from .modal_basis import material_scaling
 from .meshing import (
     TetMesh,
     bar_mesh,
@@ -314,15 +316,13 @@ class ModalModel:
         are rebuilt with the stored options (``options`` override them); other meshes raise.
         """
         material = get_material(material)
-        old = self.material
-        if math.isclose(material.poisson_ratio, old.poisson_ratio, rel_tol=0, abs_tol=1e-12):
-            c2 = (material.youngs_modulus_pa / material.density_kg_m3) / (old.youngs_modulus_pa / old.density_kg_m3)
+        if math.isclose(material.poisson_ratio, self.material.poisson_ratio, rel_tol=0, abs_tol=1e-12):
+            freq_scale, shape_scale = material_scaling(self.material, material)
             meta = dict(self.metadata, material=material.name, cache_hit=False)
             if "max_frequency_hz" in meta:
-                meta["max_frequency_hz"] = float(meta["max_frequency_hz"]) * math.sqrt(c2)
-            return ModalModel(self.nodes_m, self.elements, self.frequencies_hz * math.sqrt(c2),
-                              self.mode_shapes * math.sqrt(old.density_kg_m3 / material.density_kg_m3), material,
-                              element=self.element, metadata=meta)
+                meta["max_frequency_hz"] = float(meta["max_frequency_hz"]) * freq_scale
+            return ModalModel(self.nodes_m, self.elements, self.frequencies_hz * freq_scale,
+                              self.mode_shapes * shape_scale, material, element=self.element, metadata=meta)
         builders = {"bar": ModalModel.bar, "tube": ModalModel.tube, "rod": ModalModel.rod}
         if self.kind not in builders:
             raise ValueError("a different Poisson ratio needs a new solve; rebuild the model with from_mesh")
@@ -332,8 +332,6 @@ class ModalModel:
 
     def damping_matrix(self, contacts):
         """Modal damping matrix (r, r) for the given contacts (see :mod:`sensors.damping`)."""
-        from .damping import modal_damping_matrix
-
         return modal_damping_matrix(self, contacts)
 
     # ------------------------------------------------------------------ persistence

@@ -37,7 +37,7 @@ from .leak import LeakRecording, align_leak, excitation_lag, load_leak
 from .observation import AcousticObservation
 from .synthesis import ModalSystem
 
-__all__ = ["MIC_GAIN_PER_M", "mic_gain", "simulate_recording"]
+__all__ = ["MIC_GAIN_PER_M", "SynthesisCache", "mic_gain", "simulate_recording"]
 
 MIC_GAIN_PER_M = 2e5
 _REF_W = 2 * np.pi * 5000.0
@@ -54,7 +54,7 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
                        other_contacts: Sequence[Contact] = (), fingertip: FingertipModel | None = None,
                        leak: LeakRecording | str | os.PathLike | None = None, noise_std: float = 0.0,
                        rng=None, output: str = "displacement", method: str = "exact",
-                       steady_state: bool = False) -> AcousticObservation:
+                       steady_state: bool = False, cache: SynthesisCache | None = None) -> AcousticObservation:
     """Simulate the contact microphone while the actuator plays ``excitation`` in a grasp.
 
     Parameters
@@ -77,6 +77,8 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
     steady_state : if True, the grasp has been vibrating long enough for the transient to
         have decayed: the exact periodic steady state (per harmonic of the loop frequency),
         repeated.  Default False: the recording starts with the excitation, from rest.
+    cache : a :class:`SynthesisCache` to reuse per-grasp systems and drive forces across
+        calls (``None``: nothing is kept).
 
     Returns
     -------
@@ -112,12 +114,15 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
             fingertip = FingertipModel(**kw)
         contacts = [actuator_contact, mic_contact, *others]
         geom = (actuator_contact.position_m, actuator_contact.normal, mic_contact.position_m, mic_contact.normal)
-        sysm = _cached_system(model, fs, geom, contacts, method, output)
+        if cache is None:
+            sysm = ModalSystem.build(model, fs, *geom, contacts, method=method, output=output)
+        else:
+            sysm = cache.system(model, fs, geom, contacts, method, output)
         if steady_state:
             force_p, info = _periodic_fingertip_force(fingertip, excitation)
             y = np.resize(sysm.periodic_response(force_p), n)
         else:
-            force, info = _cached_force(fingertip, excitation, e)
+            force, info = _drive_force(fingertip, excitation, e) if cache is None else cache.force(fingertip, excitation, e)
             y = sysm.response(force)
         meta["fingertip_separated"] = info["separated"]
         meta["fingertip"] = {k: float(v) for k, v in fingertip.__dict__.items()}
@@ -136,42 +141,77 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
     return AcousticObservation(wave.astype(np.float32), fs, excitation, 0.0, meta)
 
 
-# The per-grasp set-up (damping matrix, eigen-decomposition) dominates a short recording;
-# the same grasp is typically sensed with several excitations, so keep the last few systems.
-_CACHE: "OrderedDict[tuple, tuple]" = OrderedDict()
-_CACHE_SIZE = 8
+class SynthesisCache:
+    """What the recording chain may reuse across calls, owned by whoever passes it (a
+    ``SimAcousticSensor`` owns one): the per-grasp modal systems (damping matrix and complex
+    modes dominate a short recording, and one grasp is usually sensed with several
+    excitations) and the fingertip drive forces (they depend on the fingertip model and the
+    excitation only). Least recently used entries go first; ``len``, ``hits`` and ``misses``
+    say how well it works. Systems are keyed by the model object itself (held, so its id
+    cannot be reused) and the grasp's contacts.
+    """
+
+    def __init__(self, maxsize: int = 8) -> None:
+        if int(maxsize) < 1:
+            raise ValueError(f"maxsize must be >= 1, got {maxsize!r}")
+        self.maxsize = int(maxsize)
+        self._systems: OrderedDict[tuple, tuple] = OrderedDict()
+        self._forces: OrderedDict[tuple, tuple] = OrderedDict()
+        self.hits = 0
+        self.misses = 0
+
+    def __len__(self) -> int:
+        return len(self._systems) + len(self._forces)
+
+    def __repr__(self) -> str:
+        return (f"SynthesisCache({len(self._systems)} systems, {len(self._forces)} forces, maxsize={self.maxsize}, "
+                f"hits={self.hits}, misses={self.misses})")
+
+    def clear(self) -> None:
+        self._systems.clear()
+        self._forces.clear()
+
+    def _get(self, table: OrderedDict, key, build):
+        hit = table.get(key)
+        if hit is not None:
+            self.hits += 1
+            table.move_to_end(key)
+            return hit[1]
+        self.misses += 1
+        value = build()
+        table[key] = (key, value)
+        while len(table) > self.maxsize:
+            table.popitem(last=False)
+        return value
+
+    def system(self, model, fs, geom, contacts, method, output) -> ModalSystem:
+        key = (_ModelKey(model), float(fs), method, output,
+               np.concatenate([np.ravel(g) for g in geom]).tobytes(), tuple(contacts))
+        return self._get(self._systems, key,
+                         lambda: ModalSystem.build(model, fs, *geom, contacts, method=method, output=output))
+
+    def force(self, fingertip: FingertipModel, excitation: Excitation, e: np.ndarray):
+        return self._get(self._forces, (fingertip, excitation, len(e)), lambda: _drive_force(fingertip, excitation, e))
 
 
-def _cached_system(model, fs, geom, contacts, method, output) -> ModalSystem:
-    key = (id(model), float(fs), method, output,
-           np.concatenate([np.ravel(g) for g in geom]).tobytes(), tuple(contacts))
-    hit = _CACHE.get(key)
-    if hit is not None and hit[0] is model:
-        _CACHE.move_to_end(key)
-        return hit[1]
-    sysm = ModalSystem.build(model, fs, *geom, contacts, method=method, output=output)
-    _CACHE[key] = (model, sysm)
-    while len(_CACHE) > _CACHE_SIZE:
-        _CACHE.popitem(last=False)
-    return sysm
+class _ModelKey:
+    """Hashes a model by identity while holding it (so the id stays its own)."""
+
+    __slots__ = ("model",)
+
+    def __init__(self, model) -> None:
+        self.model = model
+
+    def __hash__(self) -> int:
+        return id(self.model)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, _ModelKey) and other.model is self.model
 
 
-_FORCE_CACHE: "OrderedDict[tuple, tuple]" = OrderedDict()
-
-
-def _cached_force(fingertip: FingertipModel, excitation: Excitation, e: np.ndarray):
-    """The drive force depends on the fingertip model and the excitation only, not on the
-    grasp: computed once per (fingertip, excitation, length)."""
-    key = (fingertip, excitation, len(e))
-    hit = _FORCE_CACHE.get(key)
-    if hit is not None:
-        _FORCE_CACHE.move_to_end(key)
-        return hit
+def _drive_force(fingertip: FingertipModel, excitation: Excitation, e: np.ndarray):
     force, info = fingertip.contact_force(e, excitation.fs, return_info=True)
     force.setflags(write=False)
-    _FORCE_CACHE[key] = (force, info)
-    while len(_FORCE_CACHE) > _CACHE_SIZE:
-        _FORCE_CACHE.popitem(last=False)
     return force, info
 
 

@@ -62,7 +62,6 @@ from typing import Sequence
 
 import numpy as np
 import scipy.linalg as sla
-import scipy.signal as ssig
 from scipy.sparse.csgraph import connected_components
 from threadpoolctl import ThreadpoolController
 
@@ -70,7 +69,7 @@ from .contact import Contact
 from .damping import check_on_surface, modal_damping_matrix, modal_damping_parts
 from .low_rank_modes import low_rank_modes
 
-__all__ = ["ModalSystem", "modal_response", "periodic_response", "modal_state_energy"]
+__all__ = ["ModalSystem", "modal_response", "periodic_response", "modal_state_energy", "modal_state_matrix"]
 
 _OUTPUTS = ("displacement", "velocity", "acceleration")
 _METHODS = ("exact", "diagonal")
@@ -151,6 +150,8 @@ def _convolve(u: np.ndarray, h: np.ndarray, n: int) -> np.ndarray:
     """First n samples of the linear convolution u * h."""
     if len(h) == 0:
         return np.zeros(n)
+    import scipy.signal as ssig  # ~0.5 s to import (-X importtime): first use only
+
     if len(h) * 8 < len(u) and len(h) > 64:
         return ssig.oaconvolve(u, h)[:n]
     return ssig.fftconvolve(u, h)[:n]
@@ -471,7 +472,6 @@ class ModalSystem:
                     None if d_all is None else d_all[kept], None if Q_all is None else Q_all[:, kept])
         parts = _build_parts(su, method, output, 1.0 / fs, hold)
         # map part-local state indices (over kept modes) to the global scaled state
-        r = len(kept)
         glob = np.concatenate([kept, r_all + kept])
         for p in parts:
             p.idx = glob[p.idx]
@@ -595,12 +595,21 @@ def _relevant_modes(kept, C, b, o, keep_unobservable, excited):
     return kept[keep]
 
 
+def modal_state_matrix(w: np.ndarray, C: np.ndarray) -> np.ndarray:
+    """State matrix A = [[0, Omega], [-Omega, -C]] of q'' + C q' + Omega^2 q = 0 in the scaled
+    state x = [Omega q; q'] (see the module docstring): the one place it is built."""
+    w = np.asarray(w, dtype=float)
+    r = w.size
+    A = np.zeros((2 * r, 2 * r))
+    A[:r, r:] = np.diag(w)
+    A[r:, :r] = -np.diag(w)
+    A[r:, r:] = -np.asarray(C, dtype=float)
+    return A
+
+
 def _state_matrices(su: _Setup, output: str):
     r = len(su.w)
-    A = np.zeros((2 * r, 2 * r))
-    A[:r, r:] = np.diag(su.w)
-    A[r:, :r] = -np.diag(su.w)
-    A[r:, r:] = -su.C
+    A = modal_state_matrix(su.w, su.C)
     B = np.concatenate([np.zeros(r), su.b])
     if output == "displacement":
         Cout, D = np.concatenate([su.o / su.w, np.zeros(r)]), 0.0
@@ -718,15 +727,22 @@ def _diagonal_parts(su: _Setup, output: str, T: float, hold: str):
 # public functions
 # ----------------------------------------------------------------------------------------
 
-def lti_system(A, B, Cout, D, fs: float, hold: str = "foh") -> "ModalSystem":
+def lti_system(A, B, Cout, D, fs: float, hold: str = "foh", method: str = "auto") -> "ModalSystem":
     """Exact discretisation of a small LTI system x' = A x + B u, y = Cout x + D u (even
-    state size) with the same machinery (used by the fingertip model)."""
+    state size) with the same machinery (used by the fingertip model). ``method="dense"``
+    forces the matrix-exponential form that ill-conditioned eigenvectors fall back to
+    (``"auto"``: complex modes unless they are ill-conditioned)."""
     A = np.asarray(A, dtype=float)
     n = A.shape[0]
     if n % 2:
         raise ValueError("lti_system needs an even state size")
-    parts = _lti_parts(A, np.asarray(B, float).reshape(n), np.asarray(Cout, float).reshape(n),
-                       float(D), 1.0 / float(fs), hold)
+    if method not in ("auto", "dense"):
+        raise ValueError(f"method must be 'auto' or 'dense', got {method!r}")
+    B, Cout, T = np.asarray(B, float).reshape(n), np.asarray(Cout, float).reshape(n), 1.0 / float(fs)
+    if method == "dense":
+        parts = [_DensePart(np.arange(n), A, B, Cout, float(D), T, hold)]
+    else:
+        parts = _lti_parts(A, B, Cout, float(D), T, hold)
     return ModalSystem(parts, n // 2, np.arange(n // 2), fs, hold)
 
 

@@ -16,10 +16,11 @@ from scipy.signal import lfilter
 from calibration_fakes import AnalyticBar
 from sensors import Contact, Excitation, LeakRecording, save_leak, simulate_recording
 from sensors.calibration import (
-    RecordingSetup, ScaledModalModel, calibrate, fit_damping, fit_stiffness, load_material, log_spectral_distance_db,
-    save_material, with_material,
+    RecordingSetup, calibrate, fit_damping, fit_stiffness, load_material, log_spectral_distance_db,
+    save_material,
 )
 from sensors.materials import Material, get_material
+from sensors.modal_basis import MaterialView, with_material
 from sensors.modal_estimation import ModalEstimate
 
 SNR_DB = 30.0
@@ -179,14 +180,20 @@ def test_scaled_model_is_exact_for_a_change_of_e():
     stiff = dataclasses.replace(base, youngs_modulus_pa=base.youngs_modulus_pa * 1.44, alpha=3.0)
     bar = AnalyticBar(0.2, 0.02, 0.02, base)
     scaled = with_material(bar, stiff)
-    assert isinstance(scaled, ScaledModalModel)
+    assert isinstance(scaled, MaterialView)
     rebuilt = AnalyticBar(0.2, 0.02, 0.02, stiff, f_max_hz=1.2 * 12000.0)
     np.testing.assert_allclose(scaled.frequencies_hz, rebuilt.frequencies_hz[:len(scaled.frequencies_hz)], rtol=1e-12)
     p = np.array([[0.05, 0.0, 0.01]])
     np.testing.assert_allclose(scaled.mode_shapes_at(p), bar.mode_shapes_at(p))
     assert scaled.material.alpha == 3.0 and scaled.mass_kg == bar.mass_kg
-    with pytest.raises(ValueError):
-        with_material(bar, dataclasses.replace(base, density_kg_m3=1000.0))
+    # a density change is exact too: against the beam formula rebuilt in the lighter material
+    light = dataclasses.replace(base, density_kg_m3=1000.0)
+    view = with_material(bar, light)
+    rebuilt = AnalyticBar(0.2, 0.02, 0.02, light, f_max_hz=40000.0)
+    np.testing.assert_allclose(view.frequencies_hz, rebuilt.frequencies_hz[:len(view.frequencies_hz)], rtol=1e-12)
+    assert view.mass_kg == pytest.approx(bar.mass_kg * 1000.0 / base.density_kg_m3)
+    with pytest.raises(ValueError, match="Poisson"):
+        with_material(bar, dataclasses.replace(base, poisson_ratio=0.2))
 
 
 def test_cli_writes_a_loadable_material(tmp_path, monkeypatch, capsys, abs_case):

@@ -185,12 +185,14 @@ def test_material_scaling_equals_a_new_fem_solve():
     """Domain randomization rescales modes exactly: compare with a solve of the scaled material."""
     import dataclasses
 
-    from aas_gym.sim_sensor import ScaledMaterialModel, shared_modal_model
+    from aas_gym.sim_sensor import shared_modal_model
+    from sensors.modal_basis import scaled_material, with_material
     from sensors.modal_model import ModalModel
 
     spec = ObjectSpec.bar("steel")
     base = shared_modal_model(spec)
-    scaled = ScaledMaterialModel(base, damping_scale=1.2, modulus_scale=1.1, density_scale=0.95)
+    scaled = with_material(base, scaled_material(base.material, damping_scale=1.2, modulus_scale=1.1,
+                                                 density_scale=0.95))
     m = base.material
     material = dataclasses.replace(m, youngs_modulus_pa=m.youngs_modulus_pa * 1.1, density_kg_m3=m.density_kg_m3 * 0.95,
                                    alpha=m.alpha * 1.2, beta=m.beta * 1.2, gamma=m.gamma * 1.2)
@@ -225,8 +227,9 @@ def test_leak_is_added_and_chosen_per_excitation(al_bar):
     leaky = SimAcousticSensor(m, d, leak=leaks)
     with_leak = leaky.sense(LINEAR, DURATION_S).waveform
     assert 0 < np.max(np.abs(with_leak - plain)) <= 1.01e-3
-    leaky.leak_scale = 2.0
-    doubled = leaky.sense(LINEAR, DURATION_S).waveform
+    from aas_gym.sim_sensor import SensorVariation
+
+    doubled = leaky.sense(LINEAR, DURATION_S, variation=SensorVariation(leak_scale=2.0)).waveform
     np.testing.assert_allclose(doubled - plain, 2 * (with_leak - plain), atol=1e-6)
     # Empty hand: only the leak is heard.
     empty = build_scene(["wood_bar"])
