@@ -19,6 +19,7 @@ falls at the same sample in both signals.
 from __future__ import annotations
 
 import json
+import zipfile
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -72,8 +73,17 @@ def save_leak(path: str | os.PathLike, waveform, sample_rate_hz: int, excitation
 
 
 def load_leak(path: str | os.PathLike) -> LeakRecording:
-    """Read a leak recording written by :func:`save_leak`."""
-    with np.load(path, allow_pickle=False) as z:
+    """Read a leak recording written by :func:`save_leak`; ``ValueError`` naming the file
+    for anything that is not one (corrupt, truncated, another .npz)."""
+    try:
+        z = np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        raise ValueError(f"{path}: not a readable leak recording ({type(exc).__name__}: {exc})") from None
+    if not hasattr(z, "files"):
+        raise ValueError(f"{path}: not a leak recording (a single array, not an .npz archive)")
+    with z:
         missing = {"waveform", "sample_rate_hz", "excitation"} - set(z.files)
         if missing:
             raise ValueError(f"{path}: not a leak recording (missing {sorted(missing)})")

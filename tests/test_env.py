@@ -97,16 +97,24 @@ def test_same_seed_same_acoustic_observation():
 
 
 def test_grasp_position_info_and_reward():
-    env = gym.make("aas_gym/GraspPosition-v0", duration_s=0.5, randomization=DomainRandomization.off())
+    env = gym.make("aas_gym/GraspPosition-v0", duration_s=0.5, randomization=DomainRandomization.off(),
+                   action_format="metres")
     obs, info = env.reset(seed=0, options={"position_index": 4})
     assert info["grasp_position_m"] == pytest.approx(0.02) and info["grasp_success"]
     assert info["label"] == "wood_bar" and info["material"] == "wood" and info["shape"] == "bar"
     _, reward, terminated, _, step_info = env.step(np.array([0.025], np.float32))
     assert terminated and reward == pytest.approx(-0.005, abs=1e-6)
+    # the default, SB3-friendly action: [-1, 1] onto 0 .. 60 mm, so 0.025 m is -1/6
+    env = gym.make("aas_gym/GraspPosition-v0", duration_s=0.5, randomization=DomainRandomization.off())
+    assert env.action_space == gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+    env.reset(seed=0, options={"position_index": 4})
+    _, reward, _, _, step_info = env.step(np.array([2 * 0.025 / 0.06 - 1], np.float32))
+    assert step_info["estimate_m"] == pytest.approx(0.025, abs=1e-6) and reward == pytest.approx(-0.005, abs=1e-6)
 
 
 def test_recognition_probe_then_answer():
-    env = gym.make("aas_gym/ObjectRecognition-v0", objects=["aluminium_bar", "aluminium_tube"], duration_s=0.5)
+    env = gym.make("aas_gym/ObjectRecognition-v0", objects=["aluminium_bar", "aluminium_tube"], duration_s=0.5,
+                   action_format="dict")
     obs, info = env.reset(seed=1)
     assert obs["n_probes"][0] == 0 and not obs["acoustic"].any()
     probe = {"command": 0, "position": np.array([0.4], np.float32), "excitation": 2, "label": 0}
@@ -116,3 +124,62 @@ def test_recognition_probe_then_answer():
     answer = dict(probe, command=1, label=info["label_index"])
     _, reward, terminated, _, ainfo = env.step(answer)
     assert terminated and reward == 1.0 and ainfo["is_success"]
+
+
+def test_recognition_box_action_decodes_like_the_dict():
+    env = gym.make("aas_gym/ObjectRecognition-v0", objects=["aluminium_bar", "aluminium_tube"], duration_s=0.5)
+    assert env.action_space == gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
+    obs, info = env.reset(seed=1)
+    # probe at 0.4 with the exponential sweep (top third of [-1, 1]), then answer the true label
+    obs, reward, terminated, _, pinfo = env.step(np.array([-1.0, 0.4, 0.9, -1.0], np.float32))
+    assert pinfo["excitation"] == "exponential_sweep" and not terminated and obs["acoustic"].max() > 0
+    label = -0.5 if info["label_index"] == 0 else 0.5
+    _, reward, terminated, _, ainfo = env.step(np.array([1.0, 0.0, 0.0, label], np.float32))
+    assert terminated and reward == 1.0 and ainfo["guess"] == info["label_index"]
+
+
+@pytest.mark.parametrize("env_id, n", [("aas_gym/AcousticGrasp-v0", 6), ("aas_gym/GraspPosition-v0", 1),
+                                       ("aas_gym/ObjectRecognition-v0", 4)])
+@pytest.mark.parametrize("bad", [np.nan, np.inf, "shape"])
+def test_nonfinite_or_misshapen_actions_are_refused(env_id, n, bad):
+    """max(-1, min(1, nan)) is 1: a NaN would be a full-speed move or NaN in MuJoCo's ctrl."""
+    env = gym.make(env_id, duration_s=0.5, disable_env_checker=True).unwrapped
+    env.reset(seed=0)
+    qpos = env.data.qpos.copy()
+    action = np.zeros(n + 1 if bad == "shape" else n, np.float32)
+    if bad != "shape":
+        action[0] = bad
+    with pytest.raises(ValueError, match="action"):
+        env.step(action)
+    np.testing.assert_array_equal(env.data.qpos, qpos)
+
+
+@pytest.mark.parametrize("env_id", ["aas_gym/AcousticGrasp-v0", "aas_gym/GraspPosition-v0",
+                                    "aas_gym/ObjectRecognition-v0"])
+def test_stable_baselines3_accepts_the_default_spaces(env_id):
+    """SB3's own checker, warnings as errors: symmetric Box actions, no Dict action."""
+    import warnings
+
+    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    env = gym.make(env_id, duration_s=0.5, acoustic={"feature_scale": "db"}).unwrapped
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sb3_checker.check_env(env, warn=True)
+
+
+def test_every_env_renders_human_on_reset():
+    """The reset template renders for render_mode="human" in every env (headless: it warns)."""
+    for env_id in ("aas_gym/AcousticGrasp-v0", "aas_gym/GraspPosition-v0", "aas_gym/ObjectRecognition-v0"):
+        env = gym.make(env_id, duration_s=0.5, render_mode="human", disable_env_checker=True).unwrapped
+        env._warned_no_display = False
+        with pytest.warns(UserWarning, match="no display"):
+            env.reset(seed=0)
+
+
+def test_missing_leak_file_fails_at_make(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nope.npz"):
+        gym.make("aas_gym/AcousticGrasp-v0", leak=str(tmp_path / "nope.npz"))
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"not a zip at all")
+    with pytest.raises(ValueError, match="bad.npz"):
+        gym.make("aas_gym/AcousticGrasp-v0", leak=str(bad))

@@ -8,10 +8,8 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
-from aas_gym.envs.base import HOME_TCP, AasEnv
-
-# Largest TCP change per env step (action 1, dt = 0.05 s): 10 mm, 0.05 rad.
-MAX_DELTA = (0.01, 0.01, 0.01, 0.05)
+from aas_gym.envs.base import _OBJECT, _TCP, AasEnv
+from sensors.grasp_task import HOME_TCP, MAX_DELTA, MAX_OPENING_M, check_action
 
 
 class AcousticGraspEnv(AasEnv):
@@ -24,28 +22,27 @@ class AcousticGraspEnv(AasEnv):
 
     Observation (Dict): ``tcp`` (x, y, z [m], yaw [rad]), ``tcp_velocity``, ``gripper``
     (opening [m], opening speed [m/s], motor force [N]), ``object`` (target position [m] and
-    quaternion), ``acoustic`` (140-d features of the latest recording, zeros before the first),
-    ``waveform`` (its raw samples, with ``include_waveform=True``).
+    quaternion), ``acoustic`` (140-d features of the latest recording, zeros before the first,
+    scaled per ``acoustic.feature_scale``), ``waveform`` (its raw samples, with
+    ``acoustic.waveform``).
 
     Reward: minus the TCP-object distance [m], +1 while both sensor fingertips press the
     object, +10 for a recording of the grasped object, which ends the episode (success).
-    ``sense_mode="every_step"`` records every step, ``"never"`` never (pure control).
+    ``acoustic.cadence`` (or ``sense_mode``) ``"every_step"`` records every step, ``"never"``
+    never (pure control); ``acoustic=False``-like ``{"enabled": False}`` drops the entries.
     """
 
-    def __init__(self, objects=("aluminium_bar",), *, sense_mode: str = "action", **kwargs) -> None:
+    _acoustic_defaults = {"cadence": "action"}
+
+    def __init__(self, objects=("aluminium_bar",), **kwargs) -> None:
         super().__init__(objects, **kwargs)
-        if sense_mode not in ("action", "every_step", "never"):
-            raise ValueError(f"sense_mode must be 'action', 'every_step' or 'never', got {sense_mode!r}")
-        self.sense_mode = sense_mode
         self.action_space = spaces.Box(-1.0, 1.0, (6,), np.float32)
-        obs = self._proprio_spaces()
-        obs["object"] = spaces.Box(-np.inf, np.inf, (7,), np.float32)
-        obs.update(self._acoustic_spaces())
-        self.observation_space = spaces.Dict(obs)
+        self.observation_space = spaces.Dict({**self._proprio_spaces(with_object=True), **self._acoustic_spaces()})
         self._last_acoustic = self._empty_acoustic()
 
-    def _obs(self) -> dict:
-        return self._obs_and_values()[0]
+    @property
+    def sense_mode(self) -> str:
+        return self.acoustic.cadence if self.acoustic.enabled else "never"
 
     def _obs_and_values(self):
         obs, values = self._state_obs(True)
@@ -53,27 +50,16 @@ class AcousticGraspEnv(AasEnv):
             obs[key] = value.copy()
         return obs, values
 
-    def reset(self, *, seed=None, options=None):
-        super().reset(seed=seed)
-        options = options or {}
-        target = self._target_object(options)
-        self._get_scene(self._choose_objects(target))
-        self._place_objects()
-        self.hand.teleport(self.data, HOME_TCP, 0.08)
+    def _reset_episode(self, options: dict):
+        self.hand.teleport(self.data, HOME_TCP, MAX_OPENING_M)
         self.hand.set_grip_force(self._episode_grip_force())
-        self._randomize_sensor()
         self._last_acoustic = self._empty_acoustic()
         info = self._ground_truth(contacts=True)
         info["grip_force_n"] = self.hand.grip_force_n
-        if self.render_mode == "human":
-            self.render()
-        return self._obs(), info
+        return self._obs_and_values()[0], info
 
     def step(self, action):
-        try:
-            a = np.asarray(action, dtype=np.float64).reshape(6).tolist()
-        except ValueError:
-            raise ValueError(f"action must have 6 entries, got shape {np.shape(action)}") from None
+        a = check_action(action, (6,)).tolist()
         sc = self._scene
         ctrl, low, high = sc.ctrl, sc.tcp_low, sc.tcp_high
         target = ctrl[sc.tcp_ctrl].tolist()
@@ -82,10 +68,11 @@ class AcousticGraspEnv(AasEnv):
             v = target[i] + max(-1.0, min(1.0, a[i])) * MAX_DELTA[i]
             target[i] = min(max(v, low[i]), high[i])
         ctrl[sc.tcp_ctrl] = target
-        ctrl[sc.gripper] = 0.08 if a[4] > 0 else 0.0
+        ctrl[sc.gripper] = MAX_OPENING_M if a[4] > 0 else 0.0
         mujoco.mj_step(sc.model, sc.data, nstep=self.frame_skip)
         grasped = self._is_grasped()
-        sense = self.sense_mode == "every_step" or (self.sense_mode == "action" and a[5] > 0)
+        mode = self.sense_mode
+        sense = mode == "every_step" or (mode == "action" and a[5] > 0)
         info = {"grasped": grasped, "is_success": False}
         terminated = False
         bonus = 0.0
@@ -97,13 +84,14 @@ class AcousticGraspEnv(AasEnv):
             # Where along the object's main axis the TCP is (the grasp position when grasped).
             rot = sc.data.xmat[sc.target_body].reshape(3, 3)
             info["grasp_position_m"] = float((rot.T @ (sc.site_xpos[sc.tcp_site] - sc.xpos[sc.target_body]))[0])
-            if grasped and info["recording_grasped"] and self.sense_mode == "action":
+            if grasped and info["recording_grasped"] and mode == "action":
                 bonus = 10.0
                 terminated = True
                 info["is_success"] = True
         obs, v = self._obs_and_values()
-        # TCP and object centre from the state: the carriage joints are the TCP coordinates.
-        dist = math.sqrt((v[0] - v[11]) ** 2 + (v[1] - v[12]) ** 2 + (v[2] - v[13]) ** 2)
+        # TCP and object centre from the state vector's named entries.
+        dist = math.sqrt((v[_TCP] - v[_OBJECT]) ** 2 + (v[_TCP + 1] - v[_OBJECT + 1]) ** 2
+                         + (v[_TCP + 2] - v[_OBJECT + 2]) ** 2)
         reward = -dist + (1.0 if grasped else 0.0) + bonus
         if self.render_mode == "human":
             self.render()

@@ -17,18 +17,25 @@ from dataclasses import asdict, dataclass
 import gymnasium as gym
 import mujoco
 import numpy as np
-from gymnasium import spaces
 
 from aas_gym import _has_display
 from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
 from aas_gym.scene import (DEFAULT_OBJECT_NAMES, ObjectSpec, build_scene, euler_to_quat, get_object,
                            touch_sensor_name)
-from aas_gym.sim_sensor import SimAcousticSensor
+from aas_gym.sim_sensor import SensorVariation, SimAcousticSensor
+from sensors import LeakRecording, load_leak
+from sensors.grasp_task import (HOME_TCP, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT, STATE_SIZE,
+                                AcousticConfig, check_grip_force, proprio_spaces)
 
-N_FEATURES = 140
-HOME_TCP = np.array([0.0, 0.0, 0.3, 0.0])
+__all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "N_FEATURES", "resolve_excitation"]
+
 EXCITATION_NAMES = ("impulse", "linear_sweep", "exponential_sweep")
+# Where the proprioceptive entries sit in the state vector (sensors.grasp_task.STATE_LAYOUT),
+# as plain ints for the per-step code.
+_TCP = STATE_LAYOUT["tcp"].start
+_OBJECT = STATE_LAYOUT["object"].start
+_MOTOR_FORCE = STATE_LAYOUT["gripper"].stop - 1
 
 
 @dataclass(frozen=True)
@@ -78,6 +85,23 @@ class DomainRandomization:
         if value is False:
             return cls.off()
         raise TypeError(f"randomization must be a DomainRandomization, a dict, None or False, got {value!r}")
+
+
+_LAYOUT_ITEMS = tuple(STATE_LAYOUT.items())
+
+
+def _load_leaks(leak):
+    """Leak recordings loaded at construction, so a missing or foreign file fails at
+    ``gym.make`` naming the file, not at the first reset inside numpy."""
+    if leak is None or isinstance(leak, LeakRecording):
+        return leak
+    if isinstance(leak, dict):
+        return {k: _load_leaks(v) for k, v in leak.items()}
+    try:
+        return load_leak(leak)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"leak file {leak!s} does not exist: record one with `aas real leak` "
+                                "or pass leak=None") from None
 
 
 def resolve_excitation(excitation):
@@ -132,13 +156,14 @@ class _Scene:
         # opening speed (sums of the finger joints), a placeholder for the motor force, then
         # the target's free-joint position and quaternion (= its body pose).
         nq, nv = self.model.nq, self.model.nv
-        obs_map = np.zeros((18, nq + nv))
+        obs_map = np.zeros((STATE_SIZE, nq + nv))
+        tcp, vel, grip, obj = (STATE_LAYOUT[k] for k in ("tcp", "tcp_velocity", "gripper", "object"))
         for row, (qa, va) in enumerate(zip(self.hand.tcp_qpos, self.hand.tcp_qvel)):
-            obs_map[row, qa] = 1.0
-            obs_map[4 + row, nq + va] = 1.0
-        obs_map[8, self.hand.finger_qpos] = 1.0
-        obs_map[9, nq + self.hand.finger_qvel] = 1.0
-        obs_map[np.arange(11, 18), np.arange(self.free_qpos[0], self.free_qpos[0] + 7)] = 1.0
+            obs_map[tcp.start + row, qa] = 1.0
+            obs_map[vel.start + row, nq + va] = 1.0
+        obs_map[grip.start, self.hand.finger_qpos] = 1.0
+        obs_map[grip.start + 1, nq + self.hand.finger_qvel] = 1.0
+        obs_map[np.arange(obj.start, obj.stop), np.arange(self.free_qpos[0], self.free_qpos[0] + 7)] = 1.0
         self.obs_map = obs_map
         self.state = np.empty(nq + nv)
 
@@ -165,10 +190,14 @@ class AasEnv(gym.Env):
     #: Distractors only at the target's -x end (tasks that grasp on the +x half).
     _far_end_only = False
 
+    #: The acoustic observation's defaults for this task (subclasses override ``cadence``).
+    _acoustic_defaults: dict = {}
+
     def __init__(self, objects: Sequence[str | ObjectSpec] = DEFAULT_OBJECT_NAMES, *,
                  scene: str = "single", distractors: Sequence[str | ObjectSpec] | None = None,
-                 excitation="linear_sweep", duration_s: float = 1.0,
-                 grip_force_n: float = DEFAULT_GRIP_FORCE_N, include_waveform: bool = False,
+                 excitation="linear_sweep", acoustic: AcousticConfig | dict | None = None,
+                 grip_force_n: float = DEFAULT_GRIP_FORCE_N, duration_s: float | None = None,
+                 include_waveform: bool | None = None, sense_mode: str | None = None,
                  randomization=None, frame_skip: int = 25, render_mode: str | None = None,
                  width: int = 480, height: int = 480, camera_name: str = "closeup",
                  leak=None, fingertip=None) -> None:
@@ -182,28 +211,59 @@ class AasEnv(gym.Env):
         self.distractors = [get_object(o) for o in (distractors if distractors is not None else
                                                     [n for n in DEFAULT_OBJECT_NAMES if n.endswith("_bar")])]
         self.excitation = resolve_excitation(excitation)
-        self.duration_s = float(duration_s)
-        if not (self.duration_s >= self.excitation.period_s):
+        self.acoustic = AcousticConfig.coerce(acoustic, include_waveform=include_waveform, duration_s=duration_s,
+                                              sense_mode=sense_mode, **self._acoustic_defaults)
+        if not (self.acoustic.duration_s >= self.excitation.period_s):
             raise ValueError(f"duration_s must be at least one excitation period ({self.excitation.period_s} s)")
-        if not 0 < grip_force_n <= 140:
-            raise ValueError(f"grip_force_n must be in (0, 140] N, got {grip_force_n}")
-        self.grip_force_n = float(grip_force_n)
-        self.include_waveform = bool(include_waveform)
+        self.grip_force_n = check_grip_force(grip_force_n)
         self.randomization = DomainRandomization.coerce(randomization)
         self.frame_skip = int(frame_skip)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
         self.width, self.height, self.camera_name = int(width), int(height), camera_name
-        self.leak, self.fingertip = leak, fingertip
-        self._material_scales: dict = {}
+        self.leak, self.fingertip = _load_leaks(leak), fingertip
+        self._variation = SensorVariation()
         self._scenes: OrderedDict[tuple, _Scene] = OrderedDict()
         self._renderer = None
         self._viewer = None
         self._warned_no_display = False
         self._scene: _Scene = self._get_scene((self.objects[0],))
         self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self.dt)))
-        self.n_samples = int(round(self.duration_s * self.excitation.fs))
+
+    @property
+    def duration_s(self) -> float:
+        """Length of one recording [s] (``acoustic.duration_s``)."""
+        return self.acoustic.duration_s
+
+    @property
+    def include_waveform(self) -> bool:
+        return self.acoustic.enabled and self.acoustic.waveform
+
+    @property
+    def n_samples(self) -> int:
+        """Samples in one recording."""
+        return self.acoustic.n_samples(self.excitation.fs)
+
+    # --- reset template ---------------------------------------------------------------------
+    def reset(self, *, seed=None, options=None):
+        """New episode: draw the target and its scene, place everything and let it settle
+        (``mj_resetData`` first), draw the sensor's variation, then the task's own
+        ``_reset_episode(options)``; renders for ``render_mode="human"``."""
+        super().reset(seed=seed)
+        options = dict(options or {})
+        target = self._target_object(options)
+        self._get_scene(self._choose_objects(target))
+        self._place_objects()
+        self._variation = self._draw_variation()
+        obs, info = self._reset_episode(options)
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def _reset_episode(self, options: dict) -> tuple[dict, dict]:
+        """The task's part of ``reset`` after placement: returns ``(observation, info)``."""
+        raise NotImplementedError
 
     # --- scenes -----------------------------------------------------------------------------
     def _get_scene(self, objects: tuple[ObjectSpec, ...]) -> _Scene:
@@ -268,7 +328,7 @@ class AasEnv(gym.Env):
         sc, m, d, r = self._scene, self._scene.model, self._scene.data, self.randomization
         mujoco.mj_resetData(m, d)
         sc.hand.set_grip_force(self.grip_force_n)
-        sc.hand.teleport(d, HOME_TCP, 0.08)
+        sc.hand.teleport(d, HOME_TCP, MAX_OPENING_M)
         rng = self.np_random
         target = sc.objects[0]
         xy = rng.uniform(-r.placement_m, r.placement_m, 2) if r.placement_m > 0 else np.zeros(2)
@@ -307,24 +367,22 @@ class AasEnv(gym.Env):
     def _episode_grip_force(self) -> float:
         r = self.randomization.grip_force_rel
         f = self.grip_force_n * (1 + self.np_random.uniform(-r, r)) if r > 0 else self.grip_force_n
-        return float(np.clip(f, 1.0, 140.0))
+        return float(np.clip(f, 1.0, MAX_GRIP_FORCE_N))
 
-    def _randomize_sensor(self) -> None:
-        """Per-episode sensor randomization (noise, leak scale, material scales)."""
-        r, rng, sensor = self.randomization, self.np_random, self.sensor
+    def _draw_variation(self) -> SensorVariation:
+        """This episode's sensor variation (noise, leak scale, material scales), a value the
+        env passes to every ``sense`` call."""
+        r, rng = self.randomization, self.np_random
 
         def scale(rel: float) -> float:
             return float(rng.uniform(1 - rel, 1 + rel)) if rel > 0 else 1.0
 
-        sensor.rng = rng
-        sensor.noise_std = r.sensor_noise_std
-        sensor.damping_scale = scale(r.damping_rel)
-        sensor.modulus_scale = scale(r.modulus_rel)
-        sensor.density_scale = scale(r.density_rel)
+        damping, modulus, density = scale(r.damping_rel), scale(r.modulus_rel), scale(r.density_rel)
         lo, hi = r.leak_scale
-        sensor.leak_scale = float(rng.uniform(lo, hi)) if hi > lo else float(lo)
-        self._material_scales = {"damping_scale": sensor.damping_scale, "modulus_scale": sensor.modulus_scale,
-                                 "density_scale": sensor.density_scale, "leak_scale": sensor.leak_scale}
+        leak = float(rng.uniform(lo, hi)) if hi > lo else float(lo)
+        noise = self.acoustic.noise_std + r.sensor_noise_std
+        return SensorVariation(noise_std=noise, damping_scale=damping, modulus_scale=modulus,
+                               density_scale=density, leak_scale=leak)
 
     def _grasp(self, position_m: float, grip_force_n: float) -> dict:
         """Scripted planar grasp of the target at ``position_m`` (+ noise) along its axis."""
@@ -337,19 +395,11 @@ class AasEnv(gym.Env):
                 "grip_force_n": grip_force_n}
 
     # --- observation parts ------------------------------------------------------------------
-    def _proprio_spaces(self) -> dict:
-        inf = np.inf
-        return {
-            "tcp": spaces.Box(-inf, inf, (4,), np.float32),
-            "tcp_velocity": spaces.Box(-inf, inf, (4,), np.float32),
-            "gripper": spaces.Box(-inf, inf, (3,), np.float32),
-        }
+    def _proprio_spaces(self, with_object: bool = False) -> dict:
+        return proprio_spaces(with_object)
 
     def _acoustic_spaces(self) -> dict:
-        out = {"acoustic": spaces.Box(0.0, np.inf, (N_FEATURES,), np.float32)}
-        if self.include_waveform:
-            out["waveform"] = spaces.Box(-np.inf, np.inf, (self.n_samples,), np.float32)
-        return out
+        return self.acoustic.spaces(self.excitation.fs)
 
     def _state_obs(self, with_object: bool) -> tuple[dict, np.ndarray]:
         """Proprioception (``tcp``, ``tcp_velocity``, ``gripper`` = opening [m], opening speed
@@ -360,12 +410,10 @@ class AasEnv(gym.Env):
         state = sc.state
         state[:nq] = sc.qpos
         state[nq:] = sc.qvel
-        values = sc.obs_map @ state if with_object else sc.obs_map[:11] @ state
-        values[10] = -sc.actuator_force[sc.gripper]
+        values = sc.obs_map @ state if with_object else sc.obs_map[:_OBJECT] @ state
+        values[_MOTOR_FORCE] = -sc.actuator_force[sc.gripper]
         buf = values.astype(np.float32)
-        obs = {"tcp": buf[0:4], "tcp_velocity": buf[4:8], "gripper": buf[8:11]}
-        if with_object:
-            obs["object"] = buf[11:18]
+        obs = {name: buf[sl] for name, sl in _LAYOUT_ITEMS if with_object or name != "object"}
         return obs, values
 
     def _proprio(self) -> dict:
@@ -373,22 +421,14 @@ class AasEnv(gym.Env):
         return self._state_obs(False)[0]
 
     def _sense(self, excitation=None) -> tuple[dict, object]:
-        """Record through the current grasp: observation entries and the AcousticObservation."""
+        """Record through the current grasp with this episode's variation: observation
+        entries (per ``acoustic``) and the AcousticObservation."""
         excitation = self.excitation if excitation is None else excitation
-        rec = self.sensor.sense(excitation, self.duration_s)
-        out = {"acoustic": np.asarray(rec.features(), dtype=np.float32)}
-        if self.include_waveform:
-            w = np.zeros(self.n_samples, np.float32)
-            n = min(self.n_samples, rec.waveform.size)
-            w[:n] = rec.waveform[:n]
-            out["waveform"] = w
-        return out, rec
+        rec = self.sensor.sense(excitation, self.duration_s, variation=self._variation, rng=self.np_random)
+        return self.acoustic.entries(rec), rec
 
     def _empty_acoustic(self) -> dict:
-        out = {"acoustic": np.zeros(N_FEATURES, np.float32)}
-        if self.include_waveform:
-            out["waveform"] = np.zeros(self.n_samples, np.float32)
-        return out
+        return self.acoustic.empty(self.excitation.fs)
 
     def _is_grasped(self) -> bool:
         """Both sensor fingertips touch the target (this runs every step: MuJoCo's contact
@@ -404,8 +444,7 @@ class AasEnv(gym.Env):
                 "object_body": sc.bodies[0], "objects": [o.label for o in sc.objects],
                 "object_pose": np.concatenate([self.data.xpos[sc.body_ids[0]],
                                                self.data.xquat[sc.body_ids[0]]]).astype(np.float64)}
-        if self._material_scales:
-            info["randomization"] = dict(self._material_scales)
+        info["randomization"] = self._variation.to_dict()
         if contacts:
             info["contacts"] = {b: c.as_dict() for b, c in sc.stream.read(self.data).items()}
         return info

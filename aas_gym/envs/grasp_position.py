@@ -6,6 +6,9 @@ import numpy as np
 from gymnasium import spaces
 
 from aas_gym.envs.base import AasEnv
+from sensors.grasp_task import check_action
+
+ACTION_FORMATS = ("normalized", "metres")
 
 
 class GraspPositionEnv(AasEnv):
@@ -16,8 +19,10 @@ class GraspPositionEnv(AasEnv):
     from ``np_random`` (or ``options={"position_index": k}``), and records the excitation.
 
     Observation (Dict): proprioception (``tcp``, ``tcp_velocity``, ``gripper``), ``acoustic``
-    (140-d), ``waveform`` (with ``include_waveform=True``).
-    Action (Box, 1): the estimated grasp position [m] along the axis from the centre.
+    (140-d), ``waveform`` (with ``acoustic.waveform``).
+    Action (Box, 1): the estimated grasp position. ``action_format="normalized"`` (default,
+    what Stable-Baselines3 expects): -1 .. 1 maps linearly onto 0 .. the last position [m];
+    ``"metres"``: the position in metres from the centre, Box(0, last position).
     Reward: minus the absolute error [m]; the episode ends after the estimate.
     ``info``: ``grasp_position_m`` (true, including the randomized placement error),
     ``position_index``, label, material, shape, object pose, contacts.
@@ -25,31 +30,36 @@ class GraspPositionEnv(AasEnv):
 
     _far_end_only = True
 
-    def __init__(self, objects=("wood_bar",), *, n_positions: int = 13, spacing_m: float = 0.005, **kwargs) -> None:
+    def __init__(self, objects=("wood_bar",), *, n_positions: int = 13, spacing_m: float = 0.005,
+                 action_format: str = "normalized", **kwargs) -> None:
         super().__init__(objects, **kwargs)
         if n_positions < 1 or spacing_m <= 0:
             raise ValueError("n_positions must be >= 1 and spacing_m > 0")
+        if action_format not in ACTION_FORMATS:
+            raise ValueError(f"action_format must be one of {ACTION_FORMATS}, got {action_format!r}")
         self.positions_m = np.arange(n_positions) * float(spacing_m)
         half = min(o.length_m for o in self.objects) / 2
         if self.positions_m[-1] > half - 0.02:
             raise ValueError(f"grasp positions up to {self.positions_m[-1]:.3f} m do not fit on a "
                              f"{2 * half:.3f} m object (fingertip needs 20 mm)")
-        self.action_space = spaces.Box(0.0, float(self.positions_m[-1]), (1,), np.float32)
-        obs = self._proprio_spaces()
-        obs.update(self._acoustic_spaces())
-        self.observation_space = spaces.Dict(obs)
+        self.action_format = action_format
+        top = float(self.positions_m[-1])
+        self.action_space = (spaces.Box(-1.0, 1.0, (1,), np.float32) if action_format == "normalized"
+                             else spaces.Box(0.0, top, (1,), np.float32))
+        self.observation_space = spaces.Dict({**self._proprio_spaces(), **self._acoustic_spaces()})
         self._true_position = 0.0
 
-    def reset(self, *, seed=None, options=None):
-        super().reset(seed=seed)
-        options = options or {}
-        target = self._target_object(options)
+    def position_from_action(self, action) -> float:
+        """The position estimate [m] an action stands for."""
+        a = float(check_action(action, (1,))[0])
+        if self.action_format == "normalized":
+            return (float(np.clip(a, -1.0, 1.0)) + 1.0) / 2.0 * float(self.positions_m[-1])
+        return a
+
+    def _reset_episode(self, options: dict):
         k = int(options.get("position_index", self.np_random.integers(len(self.positions_m))))
         if not 0 <= k < len(self.positions_m):
             raise ValueError(f"position_index must be in [0, {len(self.positions_m)}), got {k}")
-        self._get_scene(self._choose_objects(target))
-        self._place_objects()
-        self._randomize_sensor()
         grasp = self._grasp(float(self.positions_m[k]), self._episode_grip_force())
         acoustic, rec = self._sense()
         self._true_position = grasp["grasp_position_m"]
@@ -58,14 +68,12 @@ class GraspPositionEnv(AasEnv):
         info = self._ground_truth(contacts=True)
         info.update(grasp, position_index=k, nominal_position_m=float(self.positions_m[k]),
                     recording_grasped=bool(rec.metadata.get("grasped", False)))
-        if self.render_mode == "human":
-            self.render()
         return obs, info
 
     def step(self, action):
-        estimate = float(np.asarray(action, dtype=np.float64).reshape(-1)[0])
+        estimate = self.position_from_action(action)
         error = abs(estimate - self._true_position)
         obs = self._proprio()
         obs.update(self._empty_acoustic())
-        info = {"grasp_position_m": self._true_position, "abs_error_m": error}
+        info = {"grasp_position_m": self._true_position, "estimate_m": estimate, "abs_error_m": error}
         return obs, -error, True, False, info

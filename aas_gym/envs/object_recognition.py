@@ -7,15 +7,22 @@ from gymnasium import spaces
 
 from aas_gym.envs.base import EXCITATION_NAMES, AasEnv, resolve_excitation
 from aas_gym.scene import DEFAULT_OBJECT_NAMES
+from sensors.grasp_task import check_action
+
+ACTION_FORMATS = ("box", "dict")
+_DICT_KEYS = ("command", "position", "excitation", "label")
 
 
 class ObjectRecognitionEnv(AasEnv):
     """Probe an unknown object by grasping it where you choose and playing the excitation you
     choose; finally name it.
 
-    Action (Dict): ``command`` (0 = probe, 1 = answer), ``position`` (Box [-1, 1]: grasp point
-    along the main axis as a fraction of ``max_position_m``), ``excitation`` (0 impulse,
-    1 linear sweep, 2 exponential sweep), ``label`` (index into ``labels``, used on answer).
+    Action, ``action_format="box"`` (default; any Stable-Baselines3 algorithm trains it):
+    Box(4) in [-1, 1] = ``command`` (> 0 answer, else probe), ``position`` (grasp point along
+    the main axis as a fraction of ``max_position_m``), ``excitation`` and ``label`` (the
+    interval [-1, 1] cut into equal bins: 3 excitations impulse / linear / exponential, then
+    one bin per label). ``action_format="dict"``: Dict ``command`` Discrete(2), ``position``
+    Box(1), ``excitation`` Discrete(3), ``label`` Discrete(len(labels)).
     Observation (Dict): proprioception, ``acoustic`` (140-d, latest probe), ``waveform``
     (optional), ``probe`` (position fraction and excitation one-hot of the latest probe),
     ``n_probes``.
@@ -24,25 +31,47 @@ class ObjectRecognitionEnv(AasEnv):
     ``info``: true ``label`` / ``label_index``, material, shape, grasp position, contacts.
     """
 
-    def __init__(self, objects=None, *, probe_cost: float = 0.01, max_position_m: float = 0.05, **kwargs) -> None:
+    _acoustic_defaults = {"cadence": "every_step"}
+
+    def __init__(self, objects=None, *, probe_cost: float = 0.01, max_position_m: float = 0.05,
+                 action_format: str = "box", **kwargs) -> None:
         super().__init__(objects if objects is not None else DEFAULT_OBJECT_NAMES, **kwargs)
+        if action_format not in ACTION_FORMATS:
+            raise ValueError(f"action_format must be one of {ACTION_FORMATS}, got {action_format!r}")
         self.labels = [o.label for o in self.objects]
         if len(set(self.labels)) != len(self.labels):
             raise ValueError(f"object labels must be unique, got {self.labels}")
         self.probe_cost = float(probe_cost)
         self.max_position_m = float(max_position_m)
         self.excitations = [resolve_excitation(n) for n in EXCITATION_NAMES]
-        self.action_space = spaces.Dict({
-            "command": spaces.Discrete(2),
-            "position": spaces.Box(-1.0, 1.0, (1,), np.float32),
-            "excitation": spaces.Discrete(len(self.excitations)),
-            "label": spaces.Discrete(len(self.labels)),
-        })
-        obs = self._proprio_spaces()
-        obs.update(self._acoustic_spaces())
+        self.action_format = action_format
+        if action_format == "box":
+            self.action_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
+        else:
+            self.action_space = spaces.Dict({
+                "command": spaces.Discrete(2),
+                "position": spaces.Box(-1.0, 1.0, (1,), np.float32),
+                "excitation": spaces.Discrete(len(self.excitations)),
+                "label": spaces.Discrete(len(self.labels)),
+            })
+        obs = {**self._proprio_spaces(), **self._acoustic_spaces()}
         obs["probe"] = spaces.Box(-1.0, 1.0, (1 + len(self.excitations),), np.float32)
         obs["n_probes"] = spaces.Box(0.0, np.inf, (1,), np.float32)
         self.observation_space = spaces.Dict(obs)
+
+    def decode_action(self, action) -> tuple[int, float, int, int]:
+        """``(command, position fraction, excitation index, label index)`` of an action;
+        ``ValueError`` for NaN/inf, a wrong shape or missing keys."""
+        if self.action_format == "box":
+            a = np.clip(check_action(action, (4,)), -1.0, 1.0)
+            return (int(a[0] > 0), float(a[1]), _bin(a[2], len(self.excitations)), _bin(a[3], len(self.labels)))
+        if not isinstance(action, dict) or not set(_DICT_KEYS) <= set(action):
+            raise ValueError("action must be a dict with keys command, position, excitation, label")
+        position = float(np.clip(check_action(action["position"], (1,))[0], -1.0, 1.0))
+        command, e, label = (int(check_action(action[k], ())) for k in ("command", "excitation", "label"))
+        if not 0 <= e < len(self.excitations):
+            raise ValueError(f"excitation must be in [0, {len(self.excitations)}), got {e}")
+        return command, position, e, label
 
     def _obs(self) -> dict:
         obs = self._proprio()
@@ -51,38 +80,30 @@ class ObjectRecognitionEnv(AasEnv):
         obs["n_probes"] = np.array([self._n_probes], np.float32)
         return obs
 
-    def reset(self, *, seed=None, options=None):
-        super().reset(seed=seed)
-        options = options or {}
+    def _target_object(self, options: dict):
+        """The target by ``options["label_index"]`` or drawn from ``objects``."""
         k = int(options.get("label_index", self.np_random.integers(len(self.objects))))
         if not 0 <= k < len(self.objects):
             raise ValueError(f"label_index must be in [0, {len(self.objects)}), got {k}")
         self._label_index = k
-        self._get_scene(self._choose_objects(self.objects[k]))
-        self._place_objects()
-        self._randomize_sensor()
+        return self.objects[k]
+
+    def _reset_episode(self, options: dict):
         self._grip = self._episode_grip_force()
         self._acoustic = self._empty_acoustic()
         self._probe = np.zeros(1 + len(self.excitations), np.float32)
         self._n_probes = 0
         info = self._ground_truth(contacts=False)
-        info["label_index"] = k
+        info["label_index"] = self._label_index
         return self._obs(), info
 
     def step(self, action):
-        if not isinstance(action, dict) or not {"command", "position", "excitation", "label"} <= set(action):
-            raise ValueError("action must be a dict with keys command, position, excitation, label")
-        command = int(action["command"])
+        command, fraction, e, guess = self.decode_action(action)
         if command == 1:
-            guess = int(action["label"])
             correct = guess == self._label_index
             info = {"label": self.labels[self._label_index], "label_index": self._label_index,
                     "guess": guess, "is_success": correct}
             return self._obs(), 1.0 if correct else 0.0, True, False, info
-        fraction = float(np.clip(np.asarray(action["position"], dtype=np.float64).reshape(-1)[0], -1, 1))
-        e = int(action["excitation"])
-        if not 0 <= e < len(self.excitations):
-            raise ValueError(f"excitation must be in [0, {len(self.excitations)}), got {e}")
         grasp = self._grasp(fraction * self.max_position_m, self._grip)
         self._acoustic, rec = self._sense(self.excitations[e])
         self._probe = np.zeros_like(self._probe)
@@ -94,3 +115,8 @@ class ObjectRecognitionEnv(AasEnv):
         if self.render_mode == "human":
             self.render()
         return self._obs(), -self.probe_cost, False, False, info
+
+
+def _bin(value: float, n: int) -> int:
+    """Index of the bin of [-1, 1] cut into ``n`` equal bins that holds ``value``."""
+    return min(n - 1, int((float(value) + 1.0) / 2.0 * n))
