@@ -52,7 +52,7 @@ _LAZY = {
     "Hand": "aas_gym.grasp",
     "planar_grasp": "aas_gym.grasp",
     "release": "aas_gym.grasp",
-    "DomainRandomization": "aas_gym.envs.base",
+    "DomainRandomization": "aas_gym.scenario",
     "MujocoRobot": "aas_gym.robot",
 }
 

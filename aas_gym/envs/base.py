@@ -9,10 +9,8 @@ imageio). All randomness comes from ``self.np_random``.
 
 from __future__ import annotations
 
-import math
 from collections import OrderedDict
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
 
 import gymnasium as gym
 import mujoco
@@ -21,8 +19,9 @@ import numpy as np
 from aas_gym import _has_display
 from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
-from aas_gym.scene import (DEFAULT_OBJECT_NAMES, ObjectSpec, build_scene, euler_to_quat, get_object,
+from aas_gym.scene import (DEFAULT_OBJECT_NAMES, ObjectSpec, build_scene, get_object,
                            touch_sensor_name)
+from aas_gym.scenario import DomainRandomization, choose_objects, default_distractors, place_objects, settle
 from aas_gym.sim_sensor import SensorVariation, SimAcousticSensor
 from sensors import LeakRecording, load_leak
 from sensors.grasp_task import (HOME_TCP, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT, STATE_SIZE,
@@ -36,55 +35,6 @@ EXCITATION_NAMES = ("impulse", "linear_sweep", "exponential_sweep")
 _TCP = STATE_LAYOUT["tcp"].start
 _OBJECT = STATE_LAYOUT["object"].start
 _MOTOR_FORCE = STATE_LAYOUT["gripper"].stop - 1
-
-
-@dataclass(frozen=True)
-class DomainRandomization:
-    """Domain-randomization knobs; every draw uses the env's ``np_random`` (seeded by
-    ``reset(seed=...)``). Set a knob to 0 to switch it off (``DomainRandomization.off()``).
-
-    Attributes:
-        grip_force_rel: grip force drawn uniformly in ``F (1 +- grip_force_rel)``.
-        position_noise_m: std of the grasp point's error along the object axis.
-        placement_m: object centre drawn uniformly in ``+- placement_m`` on the table (x, y).
-        yaw_rad: object yaw drawn uniformly in ``+- yaw_rad``.
-        damping_rel: Rayleigh and contact damping (alpha, beta, gamma) scaled by
-            ``1 +- damping_rel`` per episode.
-        modulus_rel, density_rel: Young's modulus and density scaled by ``1 +- x`` per
-            episode (modal frequencies move by sqrt(E / rho)).
-        sensor_noise_std: std of additive microphone noise (units of the waveform).
-        leak_scale: leak recording scaled uniformly in this range (if a leak is given).
-    """
-
-    grip_force_rel: float = 0.05
-    position_noise_m: float = 0.0005
-    placement_m: float = 0.02
-    yaw_rad: float = 0.3
-    damping_rel: float = 0.05
-    modulus_rel: float = 0.02
-    density_rel: float = 0.01
-    sensor_noise_std: float = 0.0
-    leak_scale: tuple[float, float] = (1.0, 1.0)
-
-    @classmethod
-    def off(cls) -> "DomainRandomization":
-        """No randomization at all (every reset gives the same scene)."""
-        return cls(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, (1.0, 1.0))
-
-    @classmethod
-    def coerce(cls, value) -> "DomainRandomization":
-        if value is None:
-            return cls()
-        if isinstance(value, cls):
-            return value
-        if isinstance(value, dict):
-            unknown = set(value) - set(asdict(cls()))
-            if unknown:
-                raise ValueError(f"unknown randomization knobs {sorted(unknown)}; known: {sorted(asdict(cls()))}")
-            return cls(**value)
-        if value is False:
-            return cls.off()
-        raise TypeError(f"randomization must be a DomainRandomization, a dict, None or False, got {value!r}")
 
 
 _LAYOUT_ITEMS = tuple(STATE_LAYOUT.items())
@@ -131,6 +81,7 @@ class _Scene:
         self.body_ids = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, b) for b in self.bodies]
         self.free_qpos = [int(self.model.jnt_qposadr[self.model.body_jntadr[b]]) for b in self.body_ids]
         self.free_qvel = [int(self.model.jnt_dofadr[self.model.body_jntadr[b]]) for b in self.body_ids]
+        self.free_joints = list(zip(self.free_qpos, self.free_qvel))
         # Contact-count sensors of the target with each fingertip: build_scene adds them to
         # every object, so the per-step grasp test is two reads of sensordata.
         self.touch_adr = tuple(
@@ -207,9 +158,8 @@ class AasEnv(gym.Env):
         if scene not in ("single", "multi"):
             raise ValueError(f"scene must be 'single' or 'multi', got {scene!r}")
         self.scene_kind = scene
-        # Default distractors: the paper's bars (a leaning tube rolls away before it settles).
-        self.distractors = [get_object(o) for o in (distractors if distractors is not None else
-                                                    [n for n in DEFAULT_OBJECT_NAMES if n.endswith("_bar")])]
+        self.distractors = ([get_object(o) for o in distractors] if distractors is not None else
+                            default_distractors([get_object(n) for n in DEFAULT_OBJECT_NAMES]))
         self.excitation = resolve_excitation(excitation)
         self.acoustic = AcousticConfig.coerce(acoustic, include_waveform=include_waveform, duration_s=duration_s,
                                               sense_mode=sense_mode, **self._acoustic_defaults)
@@ -311,58 +261,20 @@ class AasEnv(gym.Env):
         return target
 
     def _choose_objects(self, target: ObjectSpec) -> tuple[ObjectSpec, ...]:
-        """Target first, then distractors for multi-object scenes (1 or 2, random)."""
-        if self.scene_kind == "single":
-            return (target,)
-        pool = [d for d in self.distractors if d != target] or self.distractors
-        k = 1 if self._far_end_only else int(self.np_random.integers(1, 3))  # one per target end
-        picks = self.np_random.choice(len(pool), size=min(k, len(pool)), replace=False)
-        return (target,) + tuple(pool[int(i)] for i in sorted(picks))
+        """Target first, then distractors for multi-object scenes (``aas_gym.scenario``)."""
+        return choose_objects(self.np_random, target, self.distractors, self.scene_kind,
+                              max_others=1 if self._far_end_only else 2)
 
-    # --- placement --------------------------------------------------------------------------
     def _place_objects(self, settle_s: float = 0.4) -> None:
-        """Reset the data, put the hand home (open), the target on the table with random pose,
-        distractors lying across one end of the target (random contacts), then let it settle.
-        ``self._far_end_only`` keeps distractors on the target's -x end (grasps on the +x half)."""
-        far_end_only = self._far_end_only
-        sc, m, d, r = self._scene, self._scene.model, self._scene.data, self.randomization
+        """Reset the data, put the hand home (open), place the objects as
+        ``aas_gym.scenario.place_objects`` says, then let them settle."""
+        sc, m, d = self._scene, self._scene.model, self._scene.data
         mujoco.mj_resetData(m, d)
         sc.hand.set_grip_force(self.grip_force_n)
         sc.hand.teleport(d, HOME_TCP, MAX_OPENING_M)
-        rng = self.np_random
-        target = sc.objects[0]
-        xy = rng.uniform(-r.placement_m, r.placement_m, 2) if r.placement_m > 0 else np.zeros(2)
-        yaw = float(rng.uniform(-r.yaw_rad, r.yaw_rad)) if r.yaw_rad > 0 else 0.0
-        self._set_free_pose(0, [xy[0], xy[1], target.half_extents_m[2]], euler_to_quat(yaw))
-        axis = np.array([math.cos(yaw), math.sin(yaw), 0.0])
-        across = np.array([-axis[1], axis[0], 0.0])
-        top = 2 * target.half_extents_m[2]
-        ends = [-1.0] if far_end_only else ([-1.0, 1.0] if rng.random() < 0.5 else [1.0, -1.0])
-        for i, obj in enumerate(sc.objects[1:], start=1):
-            end = ends[(i - 1) % len(ends)]
-            # Crossing point near one end of the target, clear of the grasp region.
-            u = end * rng.uniform(0.072, 0.088) * target.length_m / 0.2
-            angle = rng.uniform(math.radians(60), math.radians(120)) * (1 if rng.random() < 0.5 else -1)
-            direction = math.cos(angle) * axis + math.sin(angle) * across
-            dyaw = math.atan2(direction[1], direction[0])
-            # Centre beyond the target: the distractor leans with its bottom face on the
-            # target's top and its far end on the table (its analytic rest pose; settling
-            # then only removes small overlaps).
-            side = rng.uniform(0.03, 0.06) * obj.length_m / 0.2
-            half_len, half_h = obj.length_m / 2, obj.half_extents_m[2]
-            pitch = math.atan2(top, half_len + side)
-            bottom = top * half_len / (half_len + side)
-            centre = np.array([xy[0], xy[1], 0.0]) + axis * u + direction * (side + half_h * math.sin(pitch))
-            centre[2] = bottom + half_h * math.cos(pitch) + 0.0003
-            self._set_free_pose(i, centre, euler_to_quat(dyaw, pitch))
-        mujoco.mj_forward(m, d)
-        mujoco.mj_step(m, d, nstep=max(1, int(settle_s / m.opt.timestep)))
-
-    def _set_free_pose(self, index: int, pos, quat) -> None:
-        a, v = self._scene.free_qpos[index], self._scene.free_qvel[index]
-        self.data.qpos[a:a + 3] = pos
-        self.data.qpos[a + 3:a + 7] = quat
-        self.data.qvel[v:v + 6] = 0.0
+        self._layout = place_objects(m, d, sc.objects, sc.free_joints, self.np_random, self.randomization,
+                                     far_end_only=self._far_end_only)
+        settle(m, d, settle_s)
 
     def _episode_grip_force(self) -> float:
         r = self.randomization.grip_force_rel

@@ -1,12 +1,11 @@
-"""One dataset task: build the scene, grasp, record every excitation, return the rows.
+"""One dataset task: draw the scene, grasp, record every excitation, return the rows.
 
-Scripted grasps follow the paper: planar antipodal grasps across the object's main axis,
-sampled along the object's extent (its "segmentation": the part of the axis where both
-fingertip pads fit on the object), closing on the two parallel faces with the grip force (the
-faces' normals are opposite, so the grasp has force closure for any friction > 0).
-
-Multi-object scenes add one or two other objects lying across the target, so that the target
-carries their weight at random places: contacts that damp some modes and not others.
+The scene comes from ``aas_gym.scenario``, the same module the Gymnasium envs draw theirs
+from: the target on the table, in multi-object scenes one or two other objects leaning
+across its ends (random contacts that damp some modes and not others). Scripted grasps
+follow the paper: planar antipodal grasps across the object's main axis, on its
+"segmentation" (where both fingertip pads fit, between the crossing objects), closing on the
+two parallel faces with the grip force (opposite normals: force closure for any friction > 0).
 """
 
 from __future__ import annotations
@@ -19,82 +18,62 @@ import mujoco
 import numpy as np
 
 from aas_gym.experiments.config import DatasetConfig, Task
-from aas_gym.grasp import planar_grasp
+from aas_gym.grasp import Hand, planar_grasp
+from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, grasp_position,
+                              place_objects, settle)
 from aas_gym.scene import Placement, build_scene, get_object
 from aas_gym.sim_sensor import SimAcousticSensor
 from sensors import Excitation
+from sensors.grasp_task import HOME_TCP, MAX_OPENING_M
 
-# Keep the fingertip pads (20 mm wide) on the object and away from its ends.
-_END_MARGIN_M = 0.02
-# Crossing objects rest this far from the target's centre, at least.
-_CROSSING_MIN_OFFSET_M = 0.045
+# Datasets vary the grasp (jitter, position, contacts), not the table pose: the target lies at
+# the origin, axis along x, as in the paper's recordings.
+DATASET_PLACEMENT = DomainRandomization.off()
 
 
 @lru_cache(maxsize=16)
-def _single_scene(object_name: str) -> mujoco.MjModel:
-    return build_scene([object_name])
-
-
-def _multi_scene(task: Task, config: DatasetConfig, rng: np.random.Generator
-                 ) -> tuple[mujoco.MjModel, list[float]]:
-    """Target at the origin, 1-2 other objects lying across it on either side of the centre."""
-    target = get_object(task.object_name)
-    others = [o for o in config.objects if o != task.object_name] or [task.object_name]
-    n_others = int(rng.integers(1, 3))
-    names = [task.object_name]
-    placements = [Placement(0.0, 0.0)]
-    offsets = []
-    half = target.length_m / 2
-    for k in range(n_others):
-        other = get_object(others[int(rng.integers(len(others)))])
-        side = 1.0 if k == 0 else -1.0
-        x = side * rng.uniform(_CROSSING_MIN_OFFSET_M, half - 0.015)
-        placements.append(crossing_placement(target, other, x, rng.uniform(-0.3, 0.3)))
-        names.append(other.label)
-        offsets.append(x)
-    return build_scene(names, placements=placements), offsets
+def compiled_scene(object_names: tuple[str, ...]) -> mujoco.MjModel:
+    """The compiled scene of these objects, per process (``compiled_scene.cache_info()`` and
+    ``cache_clear()`` show and end its lifetime); poses are set per task."""
+    return build_scene(list(object_names))
 
 
 def crossing_placement(target, other, x_m: float, skew_rad: float = 0.0) -> Placement:
     """``other`` lying across ``target`` (which rests on the table at the origin), 1 mm above
-    contact, ``x_m`` from the target's centre, turned ``skew_rad`` from perpendicular."""
+    contact, ``x_m`` from the target's centre, turned ``skew_rad`` from perpendicular (for
+    hand-made figures; datasets and envs draw their scenes with ``aas_gym.scenario``)."""
     top_m = 2 * target.half_extents_m[2] + other.half_extents_m[2] + 0.001
     return Placement(x_m, 0.0, z_m=top_m, yaw_rad=math.pi / 2 + skew_rad)
-
-
-def _grasp_position(task: Task, config: DatasetConfig, rng: np.random.Generator, avoid: list[float]) -> float:
-    if task.position_m is not None:
-        return float(task.position_m)
-    half = get_object(task.object_name).length_m / 2 - _END_MARGIN_M
-    if not avoid:
-        return float(rng.uniform(-half, half))
-    # Between the crossing objects, clear of them by the pad half-width plus a margin.
-    lo = min([x for x in avoid if x < 0], default=-half - 0.02) + 0.025
-    hi = max([x for x in avoid if x > 0], default=half + 0.02) - 0.025
-    return float(rng.uniform(max(lo, -half), min(hi, half)))
 
 
 def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
     """Simulate ``task`` and return one row per excitation."""
     rng = task.rng(config.seed)
-    if task.scene == "multi":
-        model, avoid = _multi_scene(task, config, rng)
-    else:
-        model, avoid = _single_scene(task.object_name), []
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
     spec = get_object(task.object_name)
-    body = spec.label
-    position_m = _grasp_position(task, config, rng, avoid)
+    kind = "multi" if task.scene == "multi" else "single"
+    objects = choose_objects(rng, spec, default_distractors([get_object(o) for o in config.objects]), kind)
+    model = compiled_scene(tuple(o.label for o in objects))
+    data = mujoco.MjData(model)
+    hand = Hand(model)
+    hand.set_grip_force(config.grip_force_n)
+    hand.teleport(data, HOME_TCP, MAX_OPENING_M)
+    sensor = SimAcousticSensor(model, data, noise_std=config.noise_std, rng=rng)
+    joints = []
+    for name in sensor.bodies:  # the scene's object bodies, in the order of ``objects``
+        jnt = model.body_jntadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)]
+        joints.append((int(model.jnt_qposadr[jnt]), int(model.jnt_dofadr[jnt])))
+    layout = place_objects(model, data, objects, joints, rng, DATASET_PLACEMENT)
+    settle(model, data)
+    body = sensor.bodies[0]
+    position_m = float(task.position_m) if task.position_m is not None else grasp_position(rng, spec, layout)
     # Re-grasping is never exact: the pads land a little off the commanded point along the axis
     # and in height, as on the robot (the label stays the commanded position).
     jitter_m = float(rng.uniform(-config.grasp_jitter_m, config.grasp_jitter_m))
     height_offset_m = float(rng.uniform(-0.002, 0.002))
     grasp = planar_grasp(model, data, body, position_m + jitter_m, grip_force_n=config.grip_force_n,
-                         height_offset_m=height_offset_m)
+                         height_offset_m=height_offset_m, hand=hand)
     if not grasp.success:
         raise RuntimeError(f"task {task.task_id}: the scripted grasp did not hold the object ({grasp})")
-    sensor = SimAcousticSensor(model, data, noise_std=config.noise_std, rng=rng)
     rows = []
     for name in config.excitations:
         obs = sensor.sense(Excitation.by_name(name), config.duration_s)

@@ -1,0 +1,171 @@
+"""One place that says what "a scene of this kind with this randomization" is, used by the
+Gymnasium envs and by dataset generation alike (so the report's numbers come from the
+scenes users are pointed to).
+
+A scenario is drawn from a numpy Generator in a fixed order:
+1. objects: the target alone (``"single"``) or with one or two others (``"multi"``), drawn
+   from a pool without the target;
+2. placement: the target lies on the table, its centre uniformly within +- ``placement_m``
+   and its yaw within +- ``yaw_rad``; each other object leans across one end of the target
+   (crossing point 72-88 mm from the centre on a 200 mm object, crossing angle 60-120 deg),
+   its bottom face on the target's top and its far end on the table: its analytic rest
+   pose, so settling only removes small overlaps. These are random contacts that damp some
+   modes and not others (the paper's multi-object scenes);
+3. the grasp position along the target's main axis, between the crossing objects and clear
+   of them and of the ends, then the re-grasp error (jitter along the axis and in height).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+
+import mujoco
+import numpy as np
+
+from aas_gym.scene import ObjectSpec, euler_to_quat
+
+SCENE_KINDS = ("single", "multi")
+# Keep the fingertip pads (20 mm wide) on the object and away from its ends.
+END_MARGIN_M = 0.02
+# Pads stay this far from a crossing object's contact line.
+CROSSING_CLEARANCE_M = 0.025
+
+
+@dataclass(frozen=True)
+class DomainRandomization:
+    """Domain-randomization knobs; every draw uses the caller's Generator (an env's
+    ``np_random``, seeded by ``reset(seed=...)``; a dataset task's own stream). Set a knob to 0
+    to switch it off (``DomainRandomization.off()``).
+
+    Attributes:
+        grip_force_rel: grip force drawn uniformly in ``F (1 +- grip_force_rel)``.
+        position_noise_m: std of the grasp point's error along the object axis.
+        placement_m: object centre drawn uniformly in ``+- placement_m`` on the table (x, y).
+        yaw_rad: object yaw drawn uniformly in ``+- yaw_rad``.
+        damping_rel: Rayleigh and contact damping (alpha, beta, gamma) scaled by
+            ``1 +- damping_rel`` per episode.
+        modulus_rel, density_rel: Young's modulus and density scaled by ``1 +- x`` per
+            episode (modal frequencies move by sqrt(E / rho)).
+        sensor_noise_std: std of additive microphone noise (units of the waveform).
+        leak_scale: leak recording scaled uniformly in this range (if a leak is given).
+    """
+
+    grip_force_rel: float = 0.05
+    position_noise_m: float = 0.0005
+    placement_m: float = 0.02
+    yaw_rad: float = 0.3
+    damping_rel: float = 0.05
+    modulus_rel: float = 0.02
+    density_rel: float = 0.01
+    sensor_noise_std: float = 0.0
+    leak_scale: tuple[float, float] = (1.0, 1.0)
+
+    @classmethod
+    def off(cls) -> "DomainRandomization":
+        """No randomization at all (every reset gives the same scene)."""
+        return cls(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, (1.0, 1.0))
+
+    @classmethod
+    def coerce(cls, value) -> "DomainRandomization":
+        if value is None:
+            return cls()
+        if isinstance(value, cls):
+            return value
+        if isinstance(value, dict):
+            unknown = set(value) - set(asdict(cls()))
+            if unknown:
+                raise ValueError(f"unknown randomization knobs {sorted(unknown)}; known: {sorted(asdict(cls()))}")
+            return cls(**value)
+        if value is False:
+            return cls.off()
+        raise TypeError(f"randomization must be a DomainRandomization, a dict, None or False, got {value!r}")
+
+
+def default_distractors(pool: Sequence[ObjectSpec]) -> list[ObjectSpec]:
+    """The objects that may lean on a target: the bars of ``pool`` (a leaning tube or rod
+    rolls away before it settles), or the whole pool if it has no bar."""
+    bars = [o for o in pool if o.shape == "bar"]
+    return bars or list(pool)
+
+
+def choose_objects(rng: np.random.Generator, target: ObjectSpec, pool: Sequence[ObjectSpec], kind: str,
+                   max_others: int = 2) -> tuple[ObjectSpec, ...]:
+    """Target first, then for ``"multi"`` 1 to ``max_others`` others drawn from ``pool``
+    without the target (one per target end)."""
+    if kind not in SCENE_KINDS:
+        raise ValueError(f"scene must be one of {SCENE_KINDS}, got {kind!r}")
+    if kind == "single":
+        return (target,)
+    others = [o for o in pool if o != target] or list(pool)
+    k = 1 if max_others <= 1 else int(rng.integers(1, max_others + 1))
+    picks = rng.choice(len(others), size=min(k, len(others)), replace=False)
+    return (target,) + tuple(others[int(i)] for i in sorted(picks))
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where a drawn scene put things: the target's centre (x, y) [m] and yaw [rad], and
+    where each other object crosses the target, in the target's frame along its axis [m]."""
+
+    target_xy_m: tuple[float, float]
+    target_yaw_rad: float
+    crossings_m: tuple[float, ...]
+
+
+def place_objects(model: mujoco.MjModel, data: mujoco.MjData, objects: Sequence[ObjectSpec],
+                  free_joints: Sequence[tuple[int, int]], rng: np.random.Generator,
+                  randomization: DomainRandomization, *, far_end_only: bool = False) -> Layout:
+    """Pose the objects (target first) through their free joints ``(qpos address, qvel
+    address)`` as the module docstring says; ``far_end_only`` keeps the others at the
+    target's -x end (tasks that grasp on the +x half). Does not step the physics."""
+    r = randomization
+    target = objects[0]
+    xy = rng.uniform(-r.placement_m, r.placement_m, 2) if r.placement_m > 0 else np.zeros(2)
+    yaw = float(rng.uniform(-r.yaw_rad, r.yaw_rad)) if r.yaw_rad > 0 else 0.0
+    _set_free_pose(data, free_joints[0], [xy[0], xy[1], target.half_extents_m[2]], euler_to_quat(yaw))
+    axis = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    across = np.array([-axis[1], axis[0], 0.0])
+    top = 2 * target.half_extents_m[2]
+    ends = [-1.0] if far_end_only else ([-1.0, 1.0] if rng.random() < 0.5 else [1.0, -1.0])
+    crossings = []
+    for i, obj in enumerate(objects[1:], start=1):
+        end = ends[(i - 1) % len(ends)]
+        # Crossing point near one end of the target, clear of the grasp region.
+        u = end * rng.uniform(0.072, 0.088) * target.length_m / 0.2
+        angle = rng.uniform(math.radians(60), math.radians(120)) * (1 if rng.random() < 0.5 else -1)
+        direction = math.cos(angle) * axis + math.sin(angle) * across
+        dyaw = math.atan2(direction[1], direction[0])
+        # Centre beyond the target: bottom face on the target's top, far end on the table.
+        side = rng.uniform(0.03, 0.06) * obj.length_m / 0.2
+        half_len, half_h = obj.length_m / 2, obj.half_extents_m[2]
+        pitch = math.atan2(top, half_len + side)
+        bottom = top * half_len / (half_len + side)
+        centre = np.array([xy[0], xy[1], 0.0]) + axis * u + direction * (side + half_h * math.sin(pitch))
+        centre[2] = bottom + half_h * math.cos(pitch) + 0.0003
+        _set_free_pose(data, free_joints[i], centre, euler_to_quat(dyaw, pitch))
+        crossings.append(float(u))
+    return Layout((float(xy[0]), float(xy[1])), yaw, tuple(crossings))
+
+
+def settle(model: mujoco.MjModel, data: mujoco.MjData, duration_s: float = 0.4) -> None:
+    """Let the placed scene come to rest."""
+    mujoco.mj_forward(model, data)
+    mujoco.mj_step(model, data, nstep=max(1, int(duration_s / model.opt.timestep)))
+
+
+def grasp_position(rng: np.random.Generator, target: ObjectSpec, layout: Layout) -> float:
+    """A grasp position along the target's axis [m]: uniform over the part where both pads
+    fit, between the crossing objects and clear of them."""
+    half = target.length_m / 2 - END_MARGIN_M
+    lo = max([x for x in layout.crossings_m if x < 0], default=-half - 1.0) + CROSSING_CLEARANCE_M
+    hi = min([x for x in layout.crossings_m if x > 0], default=half + 1.0) - CROSSING_CLEARANCE_M
+    return float(rng.uniform(max(lo, -half), min(hi, half)))
+
+
+def _set_free_pose(data: mujoco.MjData, joint: tuple[int, int], pos, quat) -> None:
+    a, v = joint
+    data.qpos[a:a + 3] = pos
+    data.qpos[a + 3:a + 7] = quat
+    data.qvel[v:v + 6] = 0.0
