@@ -93,7 +93,7 @@ class ObjectContacts:
             return None
         return point, normal / norm, total, float(w @ sel.friction)
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Plain arrays (for ``info`` and datasets)."""
         return {"positions_m": self.positions_m.copy(), "normals": self.normals.copy(),
                 "normal_forces_n": self.normal_forces_n.copy(), "forces_n": self.forces_n.copy(),

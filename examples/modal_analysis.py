@@ -39,7 +39,7 @@ for name, model in (("bar", bar), ("tube", tube)):
     print(f"  FE modes below 10 kHz [Hz]: {np.round(f).astype(int)}")
     print(f"  Euler-Bernoulli bending [Hz] (thin-beam theory; 3D modes of a stubby bar are lower): "
           f"{np.round([x for x in theory[name] if x < 10000]).astype(int)}")
-    print(f"  decay rates [1/s]: {np.round(model.decay_rates[: len(f)], 1)}")
+    print(f"  decay rates [1/s]: {np.round(model.decay_rates_per_s[: len(f)], 1)}")
 
 # First bending mode along the top edge of the bar, 5 mm apart (interpolated, not snapped).
 x = np.linspace(-0.1, 0.1, 41)

@@ -240,14 +240,14 @@ def undamped_frequencies_hz(estimate: ModalEstimate) -> np.ndarray:
     """Undamped natural frequencies |s| / 2 pi = sqrt(f_d^2 + (sigma / 2 pi)^2) [Hz] of
     estimated modes (exact for a viscously damped single mode)."""
     f = np.asarray(estimate.frequencies_hz, float)
-    return np.sqrt(f**2 + (np.asarray(estimate.decay_rates, float) / (2 * np.pi)) ** 2)
+    return np.sqrt(f**2 + (np.asarray(estimate.decay_rates_per_s, float) / (2 * np.pi)) ** 2)
 
 
 def _decay_terms(est: ModalEstimate, priors: Sequence[np.ndarray] | None, k: int):
     if priors is None:
         return None, None
     with np.errstate(divide="ignore"):
-        return np.log(np.maximum(est.decay_rates, 1e-9)), np.log(np.maximum(np.asarray(priors[k], float), 1e-9))
+        return np.log(np.maximum(est.decay_rates_per_s, 1e-9)), np.log(np.maximum(np.asarray(priors[k], float), 1e-9))
 
 
 def fit_stiffness(
@@ -332,7 +332,7 @@ class DampingFit:
         gamma_fitted: False when gamma was held at its given value.
         n_modes: rows used (after outlier rejection); n_rejected: rows dropped as outliers.
         chi2_reduced: weighted residual sum of squares per degree of freedom.
-        frequencies_hz, decay_rates, predicted: the rows used and the fit's prediction.
+        frequencies_hz, decay_rates_per_s, predicted: the rows used and the fit's prediction.
         used: mask over the input rows of those used.
         damping_model: ``"diagonal"`` (first order: sigma = C_cc / 2) or ``"exact"`` (the
             eigenvalues of the full damped system, see :func:`calibrate`).
@@ -348,7 +348,7 @@ class DampingFit:
     n_rejected: int
     chi2_reduced: float
     frequencies_hz: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
-    decay_rates: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    decay_rates_per_s: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
     predicted: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
     used: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0, bool))
     damping_model: str = "diagonal"
@@ -361,8 +361,8 @@ class DampingFit:
 
 def fit_damping(
     frequencies_hz: np.ndarray,
-    decay_rates: np.ndarray,
-    decay_rate_std: np.ndarray | None = None,
+    decay_rates_per_s: np.ndarray,
+    decay_rate_std_per_s: np.ndarray | None = None,
     contact_terms: np.ndarray | None = None,
     *,
     gamma: float | None = None,
@@ -375,8 +375,8 @@ def fit_damping(
 
     Args:
         frequencies_hz: modal frequencies [Hz] (w = 2 pi f).
-        decay_rates: measured decay rates sigma [1/s].
-        decay_rate_std: their standard deviations [1/s] (default: only the floor).
+        decay_rates_per_s: measured decay rates sigma [1/s].
+        decay_rate_std_per_s: their standard deviations [1/s] (default: only the floor).
         contact_terms: g per row, the diagonal of the contact damping matrix per unit gamma
             [N/kg = m/s^2, so gamma g is in 1/s]; ``None`` means no contact damping term.
         gamma: hold gamma at this value instead of fitting it (needs ``contact_terms``).
@@ -391,10 +391,10 @@ def fit_damping(
     from a robust Cauchy-loss fit are dropped first, then the worst remaining row at a time.
     """
     f = np.asarray(frequencies_hz, float)
-    sig = np.asarray(decay_rates, float)
+    sig = np.asarray(decay_rates_per_s, float)
     if f.shape != sig.shape or f.ndim != 1:
-        raise ValueError("frequencies_hz and decay_rates must be 1-D arrays of the same length")
-    sd = np.zeros_like(sig) if decay_rate_std is None else np.asarray(decay_rate_std, float)
+        raise ValueError("frequencies_hz and decay_rates_per_s must be 1-D arrays of the same length")
+    sd = np.zeros_like(sig) if decay_rate_std_per_s is None else np.asarray(decay_rate_std_per_s, float)
     sd = np.sqrt(np.where(np.isfinite(sd), sd, np.inf) ** 2 + (rel_floor * np.abs(sig)) ** 2)
     w2 = (2 * np.pi * f) ** 2
     g = None if contact_terms is None else np.asarray(contact_terms, float)
@@ -534,7 +534,7 @@ def _refine_exact(fit: DampingFit, w_model: np.ndarray, G_list: list[np.ndarray]
         fit, alpha=float(x[0]), beta=float(x[1]), gamma=float(x[2]) if gamma_held is None else float(gamma_held),
         covariance=cov, chi2_reduced=chi2, predicted=predict(x, keep_rows), damping_model="exact",
         n_modes=int(keep_rows.size), n_rejected=int(finite.sum() - keep_rows.size), used=used,
-        frequencies_hz=freqs_hz[keep_rows], decay_rates=sigma[keep_rows])
+        frequencies_hz=freqs_hz[keep_rows], decay_rates_per_s=sigma[keep_rows])
 
 
 # -- the whole calibration ------------------------------------------------------------------------------
@@ -699,8 +699,8 @@ def calibrate(
         for i, c_local in m:
             c = clusters[ids[c_local]]
             rows_f.append(f_undamped[i])
-            rows_sig.append(est.decay_rates[i])
-            rows_sd.append(est.decay_rate_std[i])
+            rows_sig.append(est.decay_rates_per_s[i])
+            rows_sd.append(est.decay_rate_std_per_s[i])
             rows_g.append(float(np.trace(G[np.ix_(c, c)]) / c.size))
             rec_of_row.append(r)
             members.append(c)

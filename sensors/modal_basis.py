@@ -28,7 +28,7 @@ class ModalBasis(Protocol):
 
     Optional members the code uses when present: ``surface_distance_m(points_m)`` (contacts
     off the surface are refused), ``mass_kg`` (the fingertip drive model), ``n_modes``,
-    ``decay_rates`` (Rayleigh decay rates [1/s]).
+    ``decay_rates_per_s`` (Rayleigh decay rates [1/s]).
     """
 
     frequencies_hz: np.ndarray
@@ -87,7 +87,7 @@ class MaterialView:
         return self.angular_frequencies_rad_s ** 2
 
     @property
-    def decay_rates(self) -> np.ndarray:
+    def decay_rates_per_s(self) -> np.ndarray:
         """Rayleigh decay rates (alpha + beta w^2) / 2 [1/s] of the new material."""
         return self.material.decay_rate(self.angular_frequencies_rad_s)
 

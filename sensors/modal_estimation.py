@@ -22,7 +22,7 @@ The chain:
    honest, larger error bars), and each sub-band reports how much of the signal the fit
    explains.
 
-Conventions: a mode is ``a exp((-sigma + j 2 pi f) t)``; ``decay_rates`` are sigma in 1/s
+Conventions: a mode is ``a exp((-sigma + j 2 pi f) t)``; ``decay_rates_per_s`` are sigma in 1/s
 (the modal model's ``(alpha + beta w^2) / 2``), frequencies in Hz.
 """
 
@@ -248,20 +248,20 @@ class ModalEstimate:
 
     Attributes:
         frequencies_hz: damped natural frequencies [Hz].
-        decay_rates: decay rates sigma [1/s] (amplitude ~ exp(-sigma t)).
+        decay_rates_per_s: decay rates sigma [1/s] (amplitude ~ exp(-sigma t)).
         amplitudes: complex amplitude ``A`` of each mode in the impulse response per unit
             excitation, ``h(t) = sum Re(A exp((-sigma + j 2 pi f) t))``.
-        frequency_std_hz, decay_rate_std: one-sigma uncertainty from the Fisher information
+        frequency_std_hz, decay_rate_std_per_s: one-sigma uncertainty from the Fisher information
             of the fitted model (Cramer-Rao bound at the estimate) [Hz], [1/s].
         snr_db: mode energy over the residual noise in its sub-band [dB].
         bands: per-sub-band diagnostics.
     """
 
     frequencies_hz: np.ndarray
-    decay_rates: np.ndarray
+    decay_rates_per_s: np.ndarray
     amplitudes: np.ndarray
     frequency_std_hz: np.ndarray
-    decay_rate_std: np.ndarray
+    decay_rate_std_per_s: np.ndarray
     snr_db: np.ndarray
     bands: list[BandFit] = field(default_factory=list)
 
@@ -271,23 +271,23 @@ class ModalEstimate:
     @property
     def loss_factors(self) -> np.ndarray:
         """Modal loss factor eta = 2 sigma / omega (dimensionless)."""
-        return 2.0 * self.decay_rates / (2 * np.pi * self.frequencies_hz)
+        return 2.0 * self.decay_rates_per_s / (2 * np.pi * self.frequencies_hz)
 
     def select(self, mask: np.ndarray) -> ModalEstimate:
         """The subset of modes where ``mask`` is true (bands kept as they are)."""
         m = np.asarray(mask)
-        return ModalEstimate(self.frequencies_hz[m], self.decay_rates[m], self.amplitudes[m],
-                             self.frequency_std_hz[m], self.decay_rate_std[m], self.snr_db[m], self.bands)
+        return ModalEstimate(self.frequencies_hz[m], self.decay_rates_per_s[m], self.amplitudes[m],
+                             self.frequency_std_hz[m], self.decay_rate_std_per_s[m], self.snr_db[m], self.bands)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly form (complex amplitudes as magnitude and phase)."""
         return {
             "frequencies_hz": self.frequencies_hz.tolist(),
-            "decay_rates": self.decay_rates.tolist(),
+            "decay_rates_per_s": self.decay_rates_per_s.tolist(),
             "amplitude_abs": np.abs(self.amplitudes).tolist(),
             "amplitude_phase_rad": np.angle(self.amplitudes).tolist(),
             "frequency_std_hz": self.frequency_std_hz.tolist(),
-            "decay_rate_std": self.decay_rate_std.tolist(),
+            "decay_rate_std_per_s": self.decay_rate_std_per_s.tolist(),
             "snr_db": self.snr_db.tolist(),
         }
 
@@ -295,7 +295,7 @@ class ModalEstimate:
     def concatenate(estimates: list[ModalEstimate]) -> ModalEstimate:
         """Pool several estimates (e.g. of several recordings) into one, sorted by frequency."""
         cat = {k: np.concatenate([getattr(e, k) for e in estimates]) if estimates else np.zeros(0)
-               for k in ("frequencies_hz", "decay_rates", "amplitudes", "frequency_std_hz", "decay_rate_std", "snr_db")}
+               for k in ("frequencies_hz", "decay_rates_per_s", "amplitudes", "frequency_std_hz", "decay_rate_std_per_s", "snr_db")}
         order = np.argsort(cat["frequencies_hz"])
         return ModalEstimate(**{k: v[order] for k, v in cat.items()},
                              bands=[b for e in estimates for b in e.bands])

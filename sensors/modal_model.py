@@ -145,7 +145,7 @@ class ModalModel:
         return self.angular_frequencies_rad_s**2
 
     @property
-    def decay_rates(self) -> np.ndarray:
+    def decay_rates_per_s(self) -> np.ndarray:
         """Modal decay rates from Rayleigh damping, (alpha + beta w^2) / 2 [1/s]."""
         return self.material.decay_rate(self.angular_frequencies_rad_s)
 

@@ -68,11 +68,11 @@ def test_modes_with_a_close_pair_at_30_db(kind):
     assert len(set(i)) == f.size, "every true mode found once"
     np.testing.assert_allclose(est.frequencies_hz[i], f, atol=1.0)
     isolated = np.abs(f - 3010) > 50
-    np.testing.assert_allclose(est.decay_rates[i][isolated], sigma[isolated], rtol=0.03)
-    np.testing.assert_allclose(est.decay_rates[i][~isolated], sigma[~isolated], rtol=0.10)
+    np.testing.assert_allclose(est.decay_rates_per_s[i][isolated], sigma[isolated], rtol=0.03)
+    np.testing.assert_allclose(est.decay_rates_per_s[i][~isolated], sigma[~isolated], rtol=0.10)
     np.testing.assert_allclose(np.abs(est.amplitudes[i][isolated]), amp[isolated], rtol=0.05)
     # the Fisher standard deviations are honest: errors within 4 of them
-    assert np.all(np.abs(est.decay_rates[i] - sigma) < 4 * est.decay_rate_std[i] + 1e-3 * sigma)
+    assert np.all(np.abs(est.decay_rates_per_s[i] - sigma) < 4 * est.decay_rate_std_per_s[i] + 1e-3 * sigma)
     # nothing spurious of any weight
     extra = np.setdiff1d(np.arange(len(est)), i)
     assert np.all(np.abs(est.amplitudes[extra]) < 0.05 * amp.min())
@@ -87,7 +87,7 @@ def test_noise_free_estimates_are_exact_including_a_2_hz_pair():
     f, sigma, amp, _ = modes
     i = match(est, f)
     np.testing.assert_allclose(est.frequencies_hz[i], f, atol=1e-3)
-    np.testing.assert_allclose(est.decay_rates[i], sigma, rtol=1e-3)
+    np.testing.assert_allclose(est.decay_rates_per_s[i], sigma, rtol=1e-3)
     # amplitudes are those of the steady state: only modes that have died out within a
     # period are free of the start-from-rest transient that the first periods carry
     settled = sigma * exc.period_s > 3.5
@@ -103,7 +103,7 @@ def test_heavily_damped_modes_use_wider_sub_bands():
     f, sigma, _, _ = modes
     i = match(est, f)
     np.testing.assert_allclose(est.frequencies_hz[i], f, rtol=0.01)
-    np.testing.assert_allclose(est.decay_rates[i], sigma, rtol=0.05)
+    np.testing.assert_allclose(est.decay_rates_per_s[i], sigma, rtol=0.05)
 
 
 def test_fit_check_flags_what_is_not_modal():
@@ -157,8 +157,8 @@ def test_many_modes_across_the_band():
     gap = np.minimum(np.diff(f, prepend=-np.inf), np.diff(f, append=np.inf))
     overlapping = gap < modes[1] / np.pi
     assert overlapping.sum() == 4  # 6660 / 6671 and 8040 / 8068 Hz
-    np.testing.assert_allclose(est.decay_rates[i][~overlapping], modes[1][~overlapping], rtol=0.05)
-    np.testing.assert_allclose(est.decay_rates[i][overlapping], modes[1][overlapping], rtol=0.10)
+    np.testing.assert_allclose(est.decay_rates_per_s[i][~overlapping], modes[1][~overlapping], rtol=0.05)
+    np.testing.assert_allclose(est.decay_rates_per_s[i][overlapping], modes[1][overlapping], rtol=0.10)
 
 
 def test_leak_is_removed_at_its_delay():
@@ -198,9 +198,9 @@ def test_stated_standard_deviations_match_the_scatter():
                              f_min_hz=900.0, f_max_hz=1150.0)
         i = match(est, modes[0])
         f_est.append(est.frequencies_hz[i])
-        s_est.append(est.decay_rates[i])
+        s_est.append(est.decay_rates_per_s[i])
         f_sd.append(est.frequency_std_hz[i])
-        s_sd.append(est.decay_rate_std[i])
+        s_sd.append(est.decay_rate_std_per_s[i])
     ratio_f = np.std(f_est, axis=0) / np.mean(f_sd, axis=0)
     ratio_s = np.std(s_est, axis=0) / np.mean(s_sd, axis=0)
     # 16 draws estimate a standard deviation to about +-18 %; allow for that and a little more

@@ -33,7 +33,7 @@ def check_modes(model: ModalModel):
     orth = np.linalg.norm(U.T @ (M @ U) - np.eye(model.n_modes))
     assert orth < 1e-8, orth
     assert mode_residuals(K, M, model.eigenvalues, U).max() < 1e-6
-    assert np.all(model.decay_rates >= 0)
+    assert np.all(model.decay_rates_per_s >= 0)
 
 
 @settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -125,7 +125,7 @@ def test_cache_save_load_and_queries(tmp_path):
     loaded = ModalModel.load(path)
     np.testing.assert_array_equal(loaded.mode_shapes, m.mode_shapes)
     assert loaded.material == m.material and loaded.kind == "bar" and loaded.dimensions_m["width_m"] == 0.025
-    np.testing.assert_allclose(loaded.decay_rates, (m.material.alpha + m.material.beta * m.angular_frequencies_rad_s**2) / 2)
+    np.testing.assert_allclose(loaded.decay_rates_per_s, (m.material.alpha + m.material.beta * m.angular_frequencies_rad_s**2) / 2)
 
     # Interpolation reproduces nodal values and varies smoothly between nodes (5 mm steps).
     nodes = m.nodes_m[:5]

@@ -358,7 +358,7 @@ class AasEnv(gym.Env):
                                                self.data.xquat[sc.body_ids[0]]]).astype(np.float64)}
         info["randomization"] = self._variation.to_dict()
         if contacts:
-            info["contacts"] = {b: c.as_dict() for b, c in sc.stream.read(self.data).items()}
+            info["contacts"] = {b: c.to_dict() for b, c in sc.stream.read(self.data).items()}
         return info
 
     # --- rendering --------------------------------------------------------------------------
