@@ -22,14 +22,14 @@ def render_signals(out_dir: Path) -> Path:
     freqs = feature_frequencies_hz()
     for row, exc in zip(axes, excitations):
         x = exc.loop(1.0)
-        t_ms = np.arange(exc.period_samples) / exc.fs * 1e3
+        t_ms = np.arange(exc.period_samples) / exc.sample_rate_hz * 1e3
         row[0].plot(t_ms, exc.signal, lw=0.5)
         row[0].set(title=f"{exc.name}: one period", xlabel="time [ms]", ylabel="amplitude")
-        f, a = amplitude_spectrum(x, exc.fs)
+        f, a = amplitude_spectrum(x, exc.sample_rate_hz)
         band = (f >= 2500) & (f <= 10500)
         row[1].semilogy(f[band], a[band], lw=0.4, color="0.6", label="spectrum")
         row[1].semilogy(f[band], np.maximum(smooth_spectrum(a)[band], 1e-12), lw=1.0, label="Savitzky-Golay")
-        row[1].semilogy(freqs, spectral_features(x, exc.fs), ".", ms=3, label="140 features")
+        row[1].semilogy(freqs, spectral_features(x, exc.sample_rate_hz), ".", ms=3, label="140 features")
         row[1].set(title=f"{exc.name}: amplitude spectrum", xlabel="frequency [Hz]", ylabel="amplitude")
         row[1].legend(fontsize=7)
     out_dir.mkdir(parents=True, exist_ok=True)

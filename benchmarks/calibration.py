@@ -71,10 +71,10 @@ def gripper_leak(exc, level):
     x = exc.loop(3.0)
     y = np.zeros(x.size)
     for f, s in ((1800.0, 150.0), (4600.0, 250.0)):
-        z = np.exp((-s + 2j * np.pi * f) / exc.fs)
+        z = np.exp((-s + 2j * np.pi * f) / exc.sample_rate_hz)
         y += lfilter([1.0, -z.real], [1.0, -2 * z.real, abs(z) ** 2], x)
     y = y[exc.period_samples:]  # the rig records the leak in steady state: drop the start-up
-    return LeakRecording((level * y / np.sqrt(np.mean(y**2))).astype(np.float32), exc.fs, exc)
+    return LeakRecording((level * y / np.sqrt(np.mean(y**2))).astype(np.float32), exc.sample_rate_hz, exc)
 
 
 def record(model, exc, snr_db, seed):

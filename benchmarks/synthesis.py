@@ -94,14 +94,14 @@ def lsim_displacement(w, C, b, o, u):
     return y
 
 
-def per_mode_lfilter(model, C, b, o, u, fs):
+def per_mode_lfilter(model, C, b, o, u, sample_rate_hz):
     """Baseline: each mode (diagonal damping) discretised with FOH by scipy, one lfilter call
     per mode, outputs summed."""
     w = model.angular_frequencies_rad_s
     coefs = []
     for k in range(len(w)):
         # q'' + c q' + w^2 q = b u,  y = o q
-        num, den, _ = ss.cont2discrete(([b[k] * o[k]], [1.0, C[k, k], w[k] ** 2]), 1 / fs, method="foh")
+        num, den, _ = ss.cont2discrete(([b[k] * o[k]], [1.0, C[k, k], w[k] ** 2]), 1 / sample_rate_hz, method="foh")
         coefs.append((np.atleast_1d(np.squeeze(num)), den))
 
     def run():

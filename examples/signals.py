@@ -9,6 +9,6 @@ import sensors
 from aas_gym.demo import render_signals
 
 for exc in (sensors.Excitation.impulse(), sensors.Excitation.linear_sweep(), sensors.Excitation.exponential_sweep()):
-    features = sensors.spectral_features(exc.loop(1.0), exc.fs)
+    features = sensors.spectral_features(exc.loop(1.0), exc.sample_rate_hz)
     print(f"{exc.name:12s} features {features.shape}, mean amplitude {features.mean():.3g}")
 print("wrote", render_signals(Path("outputs")))

@@ -27,7 +27,7 @@ def _device(value: str | None):
 def _rig_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--input", default=None, help="input device: index or name substring (default: system default)")
     p.add_argument("--output", default=None, help="output device: index or name substring (default: system default)")
-    p.add_argument("--fs", type=int, default=44100, help="sample rate, Hz (default %(default)s)")
+    p.add_argument("--sample-rate-hz", type=int, default=44100, help="sample rate, Hz (default %(default)s)")
     p.add_argument("--mic-channel", type=int, default=0, help="input channel of the contact microphone")
     p.add_argument("--actuator-channel", type=int, default=0, help="output channel of the actuator")
     p.add_argument("--gain", type=float, default=1.0, help="output gain in (0, 1] (default %(default)s)")
@@ -41,7 +41,7 @@ def _make_sensor(args, save_dir=None):
     from .rig import PyAudioRig
     from .sensor import RealAcousticSensor
 
-    rig = PyAudioRig(_device(args.input), _device(args.output), args.fs, actuator_channel=args.actuator_channel,
+    rig = PyAudioRig(_device(args.input), _device(args.output), args.sample_rate_hz, actuator_channel=args.actuator_channel,
                      mic_channel=args.mic_channel, output_gain=args.gain, stream_mode=args.stream_mode,
                      xrun_policy=args.xruns)
     return RealAcousticSensor(rig, retries=args.retries, save_dir=save_dir)
@@ -50,7 +50,7 @@ def _make_sensor(args, save_dir=None):
 def _excitation(args):
     from sensors import Excitation
 
-    return Excitation.by_name(args.excitation, fs=args.fs)
+    return Excitation.by_name(args.excitation, sample_rate_hz=args.sample_rate_hz)
 
 
 def cmd_devices(args) -> int:
@@ -118,7 +118,7 @@ def cmd_record_leak(args) -> int:
         sensor = _make_sensor(args)
         from sensors import Excitation
 
-        paths = record_leaks(sensor, args.output_dir, [Excitation.by_name(n, fs=args.fs) for n in args.excitations],
+        paths = record_leaks(sensor, args.output_dir, [Excitation.by_name(n, sample_rate_hz=args.sample_rate_hz) for n in args.excitations],
                              args.seconds)
     except RigError as exc:
         print(f"aas record-leak: {exc}", file=sys.stderr)

@@ -75,7 +75,7 @@ class RealGraspEnv(gym.Env):
 
     metadata = {"render_modes": []}
 
-    def __init__(self, robot: RobotInterface, sensor: AcousticSensor, *, excitation="linear_sweep",
+    def __init__(self, robot: RobotInterface, sensor: AcousticSensor, *, excitation="linear",
                  acoustic: AcousticConfig | dict | None = None, grip_force_n: float = 40.0,
                  duration_s: float | None = None, include_waveform: bool | None = None,
                  sense_mode: str | None = None, control_period_s: float = 0.05, max_episode_steps: int = 200,
@@ -97,7 +97,7 @@ class RealGraspEnv(gym.Env):
         self.home_tcp = np.asarray(home_tcp, dtype=float)
         self.reset_duration_s = float(reset_duration_s)
         self.action_space = spaces.Box(-1.0, 1.0, (6,), np.float32)
-        self.observation_space = spaces.Dict({**proprio_spaces(), **self.acoustic.spaces(self.excitation.fs)})
+        self.observation_space = spaces.Dict({**proprio_spaces(), **self.acoustic.spaces(self.excitation.sample_rate_hz)})
         self._acoustic = self._empty_acoustic()
         self._target = self.home_tcp.copy()
         self._gripper_closed: bool | None = None
@@ -113,7 +113,7 @@ class RealGraspEnv(gym.Env):
         return self.acoustic.cadence
 
     def _empty_acoustic(self) -> dict[str, np.ndarray]:
-        return self.acoustic.empty(self.excitation.fs)
+        return self.acoustic.empty(self.excitation.sample_rate_hz)
 
     def _obs(self, s: RobotState) -> dict[str, np.ndarray]:
         obs = {

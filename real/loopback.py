@@ -130,16 +130,16 @@ def sink_loaded(sink: str = DEFAULT_SINK, runtime_dir: str | os.PathLike | None 
     return any(line.split("\t")[1:2] == [sink] for line in out.splitlines())
 
 
-def load_sink(sink: str = DEFAULT_SINK, fs: int = DEFAULT_FS, channels: int = 2,
+def load_sink(sink: str = DEFAULT_SINK, sample_rate_hz: int = DEFAULT_FS, channels: int = 2,
               runtime_dir: str | os.PathLike | None = None) -> None:
-    """Load the null sink (float32, ``fs``, ``channels``) if absent and make it and its
+    """Load the null sink (float32, ``sample_rate_hz``, ``channels``) if absent and make it and its
     monitor the server's defaults."""
     runtime_dir = Path(runtime_dir) if runtime_dir else default_runtime_dir()
     if not sink_loaded(sink, runtime_dir):
         # float32 so nothing is quantized to 16 bit on the way round; same rate as the rig
         # so the server never resamples.
         _pactl(runtime_dir, "load-module", "module-null-sink", f"sink_name={sink}",
-               "format=float32le", f"rate={int(fs)}", f"channels={int(channels)}")
+               "format=float32le", f"rate={int(sample_rate_hz)}", f"channels={int(channels)}")
     _pactl(runtime_dir, "set-default-sink", sink)
     _pactl(runtime_dir, "set-default-source", f"{sink}.monitor")
 
@@ -154,7 +154,7 @@ def unload_sink(sink: str = DEFAULT_SINK, runtime_dir: str | os.PathLike | None 
             _pactl(runtime_dir, "unload-module", fields[0])
 
 
-def start_loopback(sink: str = DEFAULT_SINK, fs: int = DEFAULT_FS, channels: int = 2,
+def start_loopback(sink: str = DEFAULT_SINK, sample_rate_hz: int = DEFAULT_FS, channels: int = 2,
                    runtime_dir: str | os.PathLike | None = None, *, set_environ: bool = True,
                    timeout_s: float = 10.0) -> Loopback:
     """Start (or reuse) the private PulseAudio server with a null sink whose monitor is the
@@ -162,7 +162,7 @@ def start_loopback(sink: str = DEFAULT_SINK, fs: int = DEFAULT_FS, channels: int
 
     Args:
         sink: null sink name.
-        fs: its sample rate in Hz (make it the rig's, so nothing is resampled).
+        sample_rate_hz: its sample rate in Hz (make it the rig's, so nothing is resampled).
         channels: its channel count.
         runtime_dir: the server's private folder (default :func:`default_runtime_dir`).
         set_environ: set ``PULSE_SERVER`` in ``os.environ`` so PyAudio in this process uses it.
@@ -184,7 +184,7 @@ def start_loopback(sink: str = DEFAULT_SINK, fs: int = DEFAULT_FS, channels: int
                 raise LoopbackError(f"PulseAudio did not start in {timeout_s} s (exit {proc.returncode}): "
                                     f"{proc.stderr.strip()} {tail}")
             time.sleep(0.05)
-    load_sink(sink, fs, channels, runtime_dir)
+    load_sink(sink, sample_rate_hz, channels, runtime_dir)
     pid = _pid(runtime_dir)
     lb = Loopback(runtime_dir=runtime_dir, server=f"unix:{runtime_dir / 'pulse' / 'native'}",
                   sink=sink, source=f"{sink}.monitor", pid=pid or -1)
@@ -213,11 +213,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m real.loopback", description=__doc__.split("\n\n")[0])
     ap.add_argument("action", choices=["start", "stop", "status"])
     ap.add_argument("--sink", default=DEFAULT_SINK)
-    ap.add_argument("--fs", type=int, default=DEFAULT_FS, help="null sink sample rate, Hz")
+    ap.add_argument("--sample_rate_hz", type=int, default=DEFAULT_FS, help="null sink sample rate, Hz")
     ap.add_argument("--dir", default=None, help="private runtime folder (default %(default)s)")
     args = ap.parse_args(argv)
     if args.action == "start":
-        lb = start_loopback(args.sink, args.fs, runtime_dir=args.dir, set_environ=False)
+        lb = start_loopback(args.sink, args.sample_rate_hz, runtime_dir=args.dir, set_environ=False)
         print(f"export PULSE_SERVER={lb.server}  # pid {lb.pid}, sink {lb.sink}, source {lb.source}")
         return 0
     if args.action == "stop":

@@ -253,17 +253,17 @@ def resolve_device(pa, spec: int | str | None, kind: str, channels: int) -> Audi
     return dev
 
 
-def check_sample_rate(pa, device: AudioDevice, kind: str, fs: int, channels: int) -> None:
-    """Raise :class:`UnsupportedSampleRateError` naming ``device`` if it refuses ``fs``."""
+def check_sample_rate(pa, device: AudioDevice, kind: str, sample_rate_hz: int, channels: int) -> None:
+    """Raise :class:`UnsupportedSampleRateError` naming ``device`` if it refuses ``sample_rate_hz``."""
     kw = ({"input_device": device.index, "input_channels": channels, "input_format": pyaudio.paFloat32}
           if kind == "input" else
           {"output_device": device.index, "output_channels": channels, "output_format": pyaudio.paFloat32})
     try:
         with _captured_stderr() as lines:
-            pa.is_format_supported(float(fs), **kw)
+            pa.is_format_supported(float(sample_rate_hz), **kw)
     except ValueError as exc:
         raise UnsupportedSampleRateError(
-            f"{kind} device {device} does not support a sample rate of {fs} Hz ({exc.args[0] if exc.args else exc}); "
+            f"{kind} device {device} does not support a sample rate of {sample_rate_hz} Hz ({exc.args[0] if exc.args else exc}); "
             f"its default rate is {device.default_sample_rate_hz:g} Hz{_alsa_hint(lines)}", device=device.name) from None
 
 
@@ -386,7 +386,7 @@ class RigRecording:
                        extra_metadata: dict[str, Any] | None = None) -> AcousticObservation:
         """The :class:`sensors.AcousticObservation`.
 
-        ``trim=True``: exactly ``round(duration_s * fs)`` samples starting at the first
+        ``trim=True``: exactly ``round(duration_s * sample_rate_hz)`` samples starting at the first
         excitation period, ``start_time_s = 0`` -- the simulated sensor's layout, so raw
         waveforms from both stack into one classifier input. ``trim=False``: everything
         recorded, ``start_time_s`` = the latency (feature windows start there).
@@ -488,7 +488,7 @@ class PyAudioRig:
     Args:
         input_device, output_device: ``None`` (system default), a PortAudio index, or a
             (case-insensitive) name or name substring, see :func:`list_devices`.
-        fs: sample rate in Hz (the paper's 44.1 kHz).
+        sample_rate_hz: sample rate in Hz (the paper's 44.1 kHz).
         actuator_channel: output channel of the actuator (others play silence).
         mic_channel: input channel of the contact microphone.
         output_channels, input_channels: channels to open (default: just enough).
@@ -507,11 +507,11 @@ class PyAudioRig:
             steady state when the first aligned period starts.
 
     Raises at construction if PortAudio finds no device, the named device does not exist, or
-    it refuses ``fs``; every error names the device.
+    it refuses ``sample_rate_hz``; every error names the device.
     """
 
     def __init__(self, input_device: int | str | None = None, output_device: int | str | None = None,
-                 fs: int = 44100, *, actuator_channel: int = 0, mic_channel: int = 0,
+                 sample_rate_hz: int = 44100, *, actuator_channel: int = 0, mic_channel: int = 0,
                  output_channels: int | None = None, input_channels: int | None = None,
                  frames_per_buffer: int = 1024, stream_mode: str = "separate", output_gain: float = 1.0,
                  max_latency_s: float = 2.0, start_timeout_s: float = 5.0, stall_timeout_s: float = 1.0,
@@ -520,15 +520,15 @@ class PyAudioRig:
             raise ValueError(f"stream_mode must be 'separate' or 'duplex', got {stream_mode!r}")
         if xrun_policy not in ("raise", "warn", "ignore"):
             raise ValueError(f"xrun_policy must be 'raise', 'warn' or 'ignore', got {xrun_policy!r}")
-        if isinstance(fs, bool) or int(fs) != fs or fs <= 0:
-            raise ValueError(f"fs must be a positive integer sample rate in Hz, got {fs!r}")
+        if isinstance(sample_rate_hz, bool) or int(sample_rate_hz) != sample_rate_hz or sample_rate_hz <= 0:
+            raise ValueError(f"sample_rate_hz must be a positive integer sample rate in Hz, got {sample_rate_hz!r}")
         if not (math.isfinite(output_gain) and 0 < output_gain <= 1):
             raise ValueError(f"output_gain must be in (0, 1], got {output_gain!r}")
         for name, v in (("actuator_channel", actuator_channel), ("mic_channel", mic_channel)):
             if int(v) != v or v < 0:
                 raise ValueError(f"{name} must be a channel index >= 0, got {v!r}")
         self.input_spec, self.output_spec = input_device, output_device
-        self.fs = int(fs)
+        self.sample_rate_hz = int(sample_rate_hz)
         self.actuator_channel, self.mic_channel = int(actuator_channel), int(mic_channel)
         self.output_channels = int(output_channels or self.actuator_channel + 1)
         self.input_channels = int(input_channels or self.mic_channel + 1)
@@ -553,12 +553,12 @@ class PyAudioRig:
     def _resolve(self, pa) -> tuple[AudioDevice, AudioDevice]:
         din = resolve_device(pa, self.input_spec, "input", self.input_channels)
         dout = resolve_device(pa, self.output_spec, "output", self.output_channels)
-        check_sample_rate(pa, din, "input", self.fs, self.input_channels)
-        check_sample_rate(pa, dout, "output", self.fs, self.output_channels)
+        check_sample_rate(pa, din, "input", self.sample_rate_hz, self.input_channels)
+        check_sample_rate(pa, dout, "output", self.sample_rate_hz, self.output_channels)
         return din, dout
 
     def __repr__(self) -> str:
-        return (f"PyAudioRig(input={self.input_device}, output={self.output_device}, fs={self.fs}, "
+        return (f"PyAudioRig(input={self.input_device}, output={self.output_device}, sample_rate_hz={self.sample_rate_hz}, "
                 f"mode={self.stream_mode})")
 
     # -- recording ------------------------------------------------------------------------
@@ -581,8 +581,8 @@ class PyAudioRig:
         """
         if not isinstance(excitation, Excitation):
             raise TypeError(f"excitation must be a sensors.Excitation, got {type(excitation).__name__}")
-        if excitation.fs != self.fs:
-            raise ValueError(f"excitation sampled at {excitation.fs} Hz, rig runs at {self.fs} Hz")
+        if excitation.sample_rate_hz != self.sample_rate_hz:
+            raise ValueError(f"excitation sampled at {excitation.sample_rate_hz} Hz, rig runs at {self.sample_rate_hz} Hz")
         duration_s = float(duration_s)
         if not (math.isfinite(duration_s) and duration_s > 0):
             raise ValueError(f"duration_s must be > 0, got {duration_s!r}")
@@ -608,7 +608,7 @@ class _Session:
         self.on_progress = on_progress
         self.excitation, self.duration_s = excitation, duration_s
         self.labels = labels
-        self.n_target = int(round(duration_s * rig.fs))
+        self.n_target = int(round(duration_s * rig.sample_rate_hz))
         # One period, actuator channel only, interleaved; tiled so any callback's block is a
         # contiguous slice.
         P = excitation.period_samples
@@ -617,7 +617,7 @@ class _Session:
         reps = 2 + (rig.frames_per_buffer + P - 1) // P
         self.out_tiled = np.tile(frame, (reps, 1))
         self.P = P
-        self.lead_in = min(int(round(rig.lead_in_s * rig.fs)), P)
+        self.lead_in = min(int(round(rig.lead_in_s * rig.sample_rate_hz)), P)
         self.out_pos = (-self.lead_in) % P
         self.in_chunks: deque[bytes] = deque()
         self.in_frames = 0
@@ -630,7 +630,7 @@ class _Session:
         self.writer = None
         if save_path is not None:
             self.writer = _PartialWriter(Path(save_path), {
-                "channels": rig.input_channels, "mic_channel": rig.mic_channel, "sample_rate_hz": rig.fs,
+                "channels": rig.input_channels, "mic_channel": rig.mic_channel, "sample_rate_hz": rig.sample_rate_hz,
                 "dtype": "float32le interleaved", "excitation": excitation.to_dict(),
                 "metadata": {"source": "real", "device": {"input": din.to_dict(), "output": dout.to_dict()},
                              "recorded_at": self.started_at, "labels": dict(labels or {}),
@@ -680,13 +680,13 @@ class _Session:
         dev = self.din if kw.get("input") else self.dout
         try:
             with _captured_stderr() as lines:
-                return self.pa.open(rate=rig.fs, format=pyaudio.paFloat32, frames_per_buffer=rig.frames_per_buffer,
+                return self.pa.open(rate=rig.sample_rate_hz, format=pyaudio.paFloat32, frames_per_buffer=rig.frames_per_buffer,
                                     start=False, **kw)
         except (OSError, ValueError) as exc:
             err = exc.args[1] if isinstance(exc, OSError) and len(exc.args) > 1 else exc
             which = "duplex" if kw.get("input") and kw.get("output") else ("input" if kw.get("input") else "output")
             cls = UnsupportedSampleRateError if "sample rate" in str(err).lower() else RigError
-            raise cls(f"cannot open the {which} stream on device {dev} at {rig.fs} Hz: {err}{_alsa_hint(lines)}",
+            raise cls(f"cannot open the {which} stream on device {dev} at {rig.sample_rate_hz} Hz: {err}{_alsa_hint(lines)}",
                       device=dev.name) from None
 
     def _start(self) -> None:
@@ -768,7 +768,7 @@ class _Session:
         latency = None
         target = None
         next_detect = 0.0
-        give_up = int((rig.max_latency_s + 2 * self.excitation.period_s) * rig.fs) + self.n_target
+        give_up = int((rig.max_latency_s + 2 * self.excitation.period_s) * rig.sample_rate_hz) + self.n_target
         reported = {}
         try:
             self._start()
@@ -813,7 +813,7 @@ class _Session:
             if isinstance(exc, RigError):
                 exc.recording, exc.partial_path = rec, path
                 if path is not None:
-                    exc.args = (f"{exc.args[0]} -- the {rec.input.shape[0] / rig.fs:.2f} s recorded so far "
+                    exc.args = (f"{exc.args[0]} -- the {rec.input.shape[0] / rig.sample_rate_hz:.2f} s recorded so far "
                                 f"are saved in {path}",)
             rig.last_recording = rec
             raise
@@ -859,7 +859,7 @@ class _Session:
                 flags[f"{ev['stream']} {ev['flag']}"] = flags.get(f"{ev['stream']} {ev['flag']}", 0) + 1
         problems += [f"{n} callback(s) flagged {k}" for k, n in sorted(flags.items())]
         return RigRecording(
-            input=data, mic_channel=rig.mic_channel, sample_rate_hz=rig.fs, excitation=self.excitation,
+            input=data, mic_channel=rig.mic_channel, sample_rate_hz=rig.sample_rate_hz, excitation=self.excitation,
             duration_s=self.duration_s, latency_samples=latency, period_lags_samples=lags, events=list(self.events),
             input_device=self.din, output_device=self.dout, stream_mode=rig.stream_mode,
             reported_latency_s=reported, started_at=self.started_at, complete=complete, problems=problems,

@@ -26,7 +26,7 @@ def _excitation(excitation: Excitation | str) -> Excitation:
 class RealAcousticSensor:
     """The physical active acoustic sensor: ``sense`` plays and records through a
     :class:`PyAudioRig` and returns the same :class:`sensors.AcousticObservation` as the
-    simulated sensor (float32 waveform of ``round(duration_s * fs)`` samples aligned to the
+    simulated sensor (float32 waveform of ``round(duration_s * sample_rate_hz)`` samples aligned to the
     excitation, ``start_time_s = 0``, the same 140 features), with ``metadata["source"] ==
     "real"`` and the rig's facts (devices, latency, xruns, synchronization, time, labels).
 
@@ -56,7 +56,7 @@ class RealAcousticSensor:
     @property
     def sample_rate_hz(self) -> int:
         """The rig's sample rate."""
-        return self.rig.fs
+        return self.rig.sample_rate_hz
 
     def record(self, excitation: Excitation | str, duration_s: float, *,
                save_path: str | os.PathLike | None = None, labels: dict[str, Any] | None = None) -> RigRecording:

@@ -17,7 +17,9 @@ from typing import Any
 
 import numpy as np
 
-KINDS = ("impulse", "linear_sweep", "exponential_sweep")
+KINDS = ("impulse", "linear", "exponential")
+# Files written before the names were unified say "fs" and "linear_sweep"/"exponential_sweep".
+_LEGACY_KINDS = {"linear_sweep": "linear", "exponential_sweep": "exponential"}
 IMPULSE_SHAPES = ("rect", "click")
 
 DEFAULT_FS = 44100
@@ -33,7 +35,7 @@ def _require_finite_positive(name: str, value: float) -> float:
 
 def _sweep_args(args: dict[str, Any]) -> dict[str, Any]:
     """A sweep constructor's keyword arguments, as the dataclass fields they set."""
-    return {k: args[k] for k in ("fs", "duration_s", "period_s", "amplitude", "f0_hz", "f1_hz", "fade_s")}
+    return {k: args[k] for k in ("sample_rate_hz", "duration_s", "period_s", "amplitude", "f0_hz", "f1_hz", "fade_s")}
 
 
 @dataclass(frozen=True)
@@ -43,8 +45,9 @@ class Excitation:
     Build one with :meth:`impulse`, :meth:`linear_sweep` or :meth:`exponential_sweep`.
 
     Attributes:
-        kind: ``"impulse"``, ``"linear_sweep"`` or ``"exponential_sweep"``.
-        fs: sample rate in Hz.
+        kind: ``"impulse"``, ``"linear"`` (sweep) or ``"exponential"`` (sweep): the one
+            spelling used in datasets, reports, env info and the CLI.
+        sample_rate_hz: sample rate in Hz.
         duration_s: active part of each period (pulse length or sweep length), seconds.
         period_s: loop period in seconds (>= ``duration_s``); silence fills the rest.
         amplitude: peak amplitude (full scale is 1.0).
@@ -55,7 +58,7 @@ class Excitation:
     """
 
     kind: str
-    fs: int = DEFAULT_FS
+    sample_rate_hz: int = DEFAULT_FS
     duration_s: float = 0.5
     period_s: float = DEFAULT_PERIOD_S
     amplitude: float = 1.0
@@ -65,11 +68,12 @@ class Excitation:
     shape: str = "click"
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "kind", _LEGACY_KINDS.get(self.kind, self.kind))
         if self.kind not in KINDS:
             raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
-        if isinstance(self.fs, bool) or int(self.fs) != self.fs or self.fs <= 0:
-            raise ValueError(f"fs must be a positive integer sample rate in Hz, got {self.fs!r}")
-        object.__setattr__(self, "fs", int(self.fs))
+        if isinstance(self.sample_rate_hz, bool) or int(self.sample_rate_hz) != self.sample_rate_hz or self.sample_rate_hz <= 0:
+            raise ValueError(f"sample_rate_hz must be a positive integer sample rate in Hz, got {self.sample_rate_hz!r}")
+        object.__setattr__(self, "sample_rate_hz", int(self.sample_rate_hz))
         _require_finite_positive("duration_s", self.duration_s)
         _require_finite_positive("period_s", self.period_s)
         _require_finite_positive("amplitude", self.amplitude)
@@ -77,8 +81,8 @@ class Excitation:
             raise ValueError(
                 f"period_s ({self.period_s} s) must be >= duration_s ({self.duration_s} s)"
             )
-        if round(self.duration_s * self.fs) < 1:
-            raise ValueError(f"duration_s={self.duration_s} s is shorter than one sample at fs={self.fs} Hz")
+        if round(self.duration_s * self.sample_rate_hz) < 1:
+            raise ValueError(f"duration_s={self.duration_s} s is shorter than one sample at sample_rate_hz={self.sample_rate_hz} Hz")
         if not math.isfinite(self.fade_s) or self.fade_s < 0 or 2 * self.fade_s > self.duration_s:
             raise ValueError(f"fade_s must be in [0, duration_s / 2], got {self.fade_s!r}")
         if self.kind == "impulse":
@@ -87,18 +91,18 @@ class Excitation:
             return
         if self.f0_hz is None or self.f1_hz is None:
             raise ValueError(f"a {self.kind} needs f0_hz and f1_hz")
-        nyquist = self.fs / 2.0
+        nyquist = self.sample_rate_hz / 2.0
         f0, f1 = float(self.f0_hz), float(self.f1_hz)
         if not (math.isfinite(f0) and math.isfinite(f1)):
             raise ValueError(f"f0_hz and f1_hz must be finite, got {f0!r}, {f1!r}")
-        if self.kind == "exponential_sweep" and f0 <= 0:
+        if self.kind == "exponential" and f0 <= 0:
             raise ValueError(f"f0_hz must be > 0 for an exponential sweep, got {f0}")
         if f0 < 0:
             raise ValueError(f"f0_hz must be >= 0, got {f0}")
         if not f0 < f1:
             raise ValueError(f"f0_hz ({f0} Hz) must be below f1_hz ({f1} Hz)")
         if not f1 < nyquist:
-            raise ValueError(f"f1_hz ({f1} Hz) must be below the Nyquist frequency fs/2 = {nyquist} Hz")
+            raise ValueError(f"f1_hz ({f1} Hz) must be below the Nyquist frequency sample_rate_hz/2 = {nyquist} Hz")
 
     # -- constructors ---------------------------------------------------------------------
 
@@ -107,14 +111,14 @@ class Excitation:
         cls,
         duration_s: float = 0.01,
         *,
-        fs: int = DEFAULT_FS,
+        sample_rate_hz: int = DEFAULT_FS,
         period_s: float = DEFAULT_PERIOD_S,
         amplitude: float = 1.0,
         shape: str = "click",
     ) -> Excitation:
         """The paper's impulse of ``duration_s`` (0.01 s) per period: a click opening a
         0.01 s slot (``shape="click"``) or a rectangular pulse filling it (``"rect"``)."""
-        return cls("impulse", fs=fs, duration_s=duration_s, period_s=period_s, amplitude=amplitude, shape=shape)
+        return cls("impulse", sample_rate_hz=sample_rate_hz, duration_s=duration_s, period_s=period_s, amplitude=amplitude, shape=shape)
 
     @classmethod
     def linear_sweep(
@@ -123,13 +127,13 @@ class Excitation:
         f1_hz: float = 10_000.0,
         duration_s: float = 0.5,
         *,
-        fs: int = DEFAULT_FS,
+        sample_rate_hz: int = DEFAULT_FS,
         period_s: float = DEFAULT_PERIOD_S,
         amplitude: float = 1.0,
         fade_s: float = 0.0,
     ) -> Excitation:
         """Linear sweep: instantaneous frequency f0 + (f1 - f0) t / T."""
-        return cls("linear_sweep", **_sweep_args(locals()))
+        return cls("linear", **_sweep_args(locals()))
 
     @classmethod
     def exponential_sweep(
@@ -138,54 +142,54 @@ class Excitation:
         f1_hz: float = 10_000.0,
         duration_s: float = 0.5,
         *,
-        fs: int = DEFAULT_FS,
+        sample_rate_hz: int = DEFAULT_FS,
         period_s: float = DEFAULT_PERIOD_S,
         amplitude: float = 1.0,
         fade_s: float = 0.0,
     ) -> Excitation:
         """Exponential sweep: instantaneous frequency f0 (f1 / f0)^(t / T)."""
-        return cls("exponential_sweep", **_sweep_args(locals()))
+        return cls("exponential", **_sweep_args(locals()))
 
     @classmethod
     def by_name(cls, name: str, **kwargs: Any) -> Excitation:
         """Paper-default excitation by name (``impulse``, ``linear``/``linear_sweep``,
         ``exponential``/``exponential_sweep``); keyword arguments override defaults."""
         key = name.lower().replace("-", "_")
-        aliases = {"linear": "linear_sweep", "exponential": "exponential_sweep", "exp": "exponential_sweep"}
+        aliases = {"linear_sweep": "linear", "exponential_sweep": "exponential", "exp": "exponential"}
         key = aliases.get(key, key)
         if key not in KINDS:
             raise ValueError(f"unknown excitation {name!r}; known: impulse, linear, exponential")
-        return getattr(cls, key)(**kwargs)
+        return {"impulse": cls.impulse, "linear": cls.linear_sweep, "exponential": cls.exponential_sweep}[key](**kwargs)
 
     # -- signals --------------------------------------------------------------------------
 
     @property
     def name(self) -> str:
         """Short name: ``impulse``, ``linear`` or ``exponential``."""
-        return {"impulse": "impulse", "linear_sweep": "linear", "exponential_sweep": "exponential"}[self.kind]
+        return self.kind
 
     @property
     def period_samples(self) -> int:
         """Samples in one loop period."""
-        return int(round(self.period_s * self.fs))
+        return int(round(self.period_s * self.sample_rate_hz))
 
     @property
     def active_samples(self) -> int:
         """Samples of the active part (pulse or sweep) at the start of each period."""
-        return int(round(self.duration_s * self.fs))
+        return int(round(self.duration_s * self.sample_rate_hz))
 
     def instantaneous_frequency_hz(self, t_s: np.ndarray) -> np.ndarray:
         """Analytic instantaneous frequency of a sweep at times ``t_s`` in [0, duration_s]."""
         if self.kind == "impulse":
             raise ValueError("an impulse has no instantaneous frequency")
         t = np.asarray(t_s, dtype=float) / self.duration_s
-        if self.kind == "linear_sweep":
+        if self.kind == "linear":
             return self.f0_hz + (self.f1_hz - self.f0_hz) * t
         return self.f0_hz * (self.f1_hz / self.f0_hz) ** t
 
     def _phase_rad(self, t_s: np.ndarray) -> np.ndarray:
         T = self.duration_s
-        if self.kind == "linear_sweep":
+        if self.kind == "linear":
             return 2 * np.pi * (self.f0_hz * t_s + (self.f1_hz - self.f0_hz) * t_s**2 / (2 * T))
         log_ratio = math.log(self.f1_hz / self.f0_hz)
         return 2 * np.pi * self.f0_hz * T / log_ratio * np.expm1(t_s / T * log_ratio)
@@ -201,9 +205,9 @@ class Excitation:
             else:
                 out[0] = self.amplitude
             return out
-        t = np.arange(n) / self.fs
+        t = np.arange(n) / self.sample_rate_hz
         active = self.amplitude * np.sin(self._phase_rad(t))
-        n_fade = int(round(self.fade_s * self.fs))
+        n_fade = int(round(self.fade_s * self.sample_rate_hz))
         if n_fade > 0:
             ramp = 0.5 - 0.5 * np.cos(np.pi * np.arange(n_fade) / n_fade)
             active[:n_fade] *= ramp
@@ -212,9 +216,9 @@ class Excitation:
         return out
 
     def loop(self, duration_s: float) -> np.ndarray:
-        """The excitation looped for ``duration_s`` seconds (``round(duration_s * fs)`` samples)."""
+        """The excitation looped for ``duration_s`` seconds (``round(duration_s * sample_rate_hz)`` samples)."""
         _require_finite_positive("duration_s", duration_s)
-        n = int(round(duration_s * self.fs))
+        n = int(round(duration_s * self.sample_rate_hz))
         return np.resize(self.signal, n)
 
     # -- metadata -------------------------------------------------------------------------
@@ -225,5 +229,8 @@ class Excitation:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Excitation:
-        """Inverse of :meth:`to_dict`."""
+        """Inverse of :meth:`to_dict` (also reads files that say ``fs`` for the sample rate)."""
+        data = dict(data)
+        if "fs" in data and "sample_rate_hz" not in data:
+            data["sample_rate_hz"] = data.pop("fs")
         return cls(**data)

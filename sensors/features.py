@@ -58,19 +58,19 @@ def _validate_waveform(waveform: np.ndarray, name: str = "waveform") -> np.ndarr
     return x
 
 
-def _validate_fs(fs: float, f_needed_hz: float) -> float:
-    fs = float(fs)
-    if not math.isfinite(fs) or fs <= 0:
-        raise ValueError(f"fs must be a positive sample rate in Hz, got {fs!r}")
-    if f_needed_hz >= fs / 2:
+def _validate_fs(sample_rate_hz: float, f_needed_hz: float) -> float:
+    sample_rate_hz = float(sample_rate_hz)
+    if not math.isfinite(sample_rate_hz) or sample_rate_hz <= 0:
+        raise ValueError(f"sample_rate_hz must be a positive sample rate in Hz, got {sample_rate_hz!r}")
+    if f_needed_hz >= sample_rate_hz / 2:
         raise ValueError(
-            f"fs={fs:g} Hz is too low for the feature band: f_max_hz reaches {f_needed_hz:g} Hz, "
-            f"above the Nyquist frequency {fs / 2:g} Hz"
+            f"sample_rate_hz={sample_rate_hz:g} Hz is too low for the feature band: f_max_hz reaches {f_needed_hz:g} Hz, "
+            f"above the Nyquist frequency {sample_rate_hz / 2:g} Hz"
         )
-    return fs
+    return sample_rate_hz
 
 
-def segment(waveform: np.ndarray, fs: float, period_s: float = 0.5, start_s: float = 0.0) -> np.ndarray:
+def segment(waveform: np.ndarray, sample_rate_hz: float, period_s: float = 0.5, start_s: float = 0.0) -> np.ndarray:
     """Windows of one excitation period, shape ``(n_windows, window_samples)``.
 
     ``start_s`` is where the first excitation period begins in the recording (latency).
@@ -81,39 +81,39 @@ def segment(waveform: np.ndarray, fs: float, period_s: float = 0.5, start_s: flo
         raise ValueError(f"period_s must be a positive duration, got {period_s!r}")
     if not math.isfinite(start_s) or start_s < 0:
         raise ValueError(f"start_s must be >= 0, got {start_s!r}")
-    length = int(round(period_s * fs))
-    start = int(round(start_s * fs))
+    length = int(round(period_s * sample_rate_hz))
+    start = int(round(start_s * sample_rate_hz))
     if length < 2:
-        raise ValueError(f"period_s={period_s} s is shorter than two samples at fs={fs:g} Hz")
+        raise ValueError(f"period_s={period_s} s is shorter than two samples at sample_rate_hz={sample_rate_hz:g} Hz")
     n_windows = (x.size - start) // length if x.size > start else 0
     if n_windows < 1:
         raise ValueError(
-            f"recording too short: {x.size} samples ({x.size / fs:.4g} s) from start_s={start_s} s "
+            f"recording too short: {x.size} samples ({x.size / sample_rate_hz:.4g} s) from start_s={start_s} s "
             f"hold no complete window of period_s={period_s} s ({length} samples)"
         )
     return x[start:start + n_windows * length].reshape(n_windows, length)
 
 
-def _amplitude_at(windows: np.ndarray, fs: float, freqs_hz: np.ndarray) -> np.ndarray:
+def _amplitude_at(windows: np.ndarray, sample_rate_hz: float, freqs_hz: np.ndarray) -> np.ndarray:
     """|DTFT| of each window at ``freqs_hz`` (equally spaced), scaled to sine amplitude."""
     length = windows.shape[1]
-    bins = freqs_hz * length / fs
+    bins = freqs_hz * length / sample_rate_hz
     if np.allclose(bins, np.round(bins), rtol=0, atol=1e-9):
         spectrum = np.fft.rfft(windows, axis=1)[:, np.round(bins).astype(int)]
     elif freqs_hz.size == 1:
         n = np.arange(length)
-        spectrum = windows @ np.exp(-2j * np.pi * freqs_hz[0] * n / fs)[:, None]
+        spectrum = windows @ np.exp(-2j * np.pi * freqs_hz[0] * n / sample_rate_hz)[:, None]
     else:
         from scipy.signal import zoom_fft  # ~0.5 s to import (-X importtime): first use only
 
         step = freqs_hz[1] - freqs_hz[0]
-        spectrum = zoom_fft(windows, [freqs_hz[0], freqs_hz[-1] + step], m=freqs_hz.size, fs=fs, endpoint=False, axis=1)
+        spectrum = zoom_fft(windows, [freqs_hz[0], freqs_hz[-1] + step], m=freqs_hz.size, fs=sample_rate_hz, endpoint=False, axis=1)
     return 2.0 * np.abs(spectrum) / length
 
 
 def spectral_features(
     waveform: np.ndarray,
-    fs: float = 44100,
+    sample_rate_hz: float = 44100,
     *,
     period_s: float = 0.5,
     start_s: float = 0.0,
@@ -126,7 +126,7 @@ def spectral_features(
 
     Args:
         waveform: one-channel recording.
-        fs: its sample rate in Hz.
+        sample_rate_hz: its sample rate in Hz.
         period_s: excitation period = window length, seconds.
         start_s: where the first excitation period starts in the recording, seconds.
         f_min_hz, f_max_hz, step_hz: feature band (``f_max_hz`` excluded) and spacing.
@@ -134,9 +134,9 @@ def spectral_features(
             per window (shape ``(n_windows, n_features)``).
     """
     freqs = feature_frequencies_hz(f_min_hz, f_max_hz, step_hz)
-    fs = _validate_fs(fs, freqs[-1])
-    windows = segment(waveform, fs, period_s, start_s)
-    amplitude = _amplitude_at(windows, fs, freqs)
+    sample_rate_hz = _validate_fs(sample_rate_hz, freqs[-1])
+    windows = segment(waveform, sample_rate_hz, period_s, start_s)
+    amplitude = _amplitude_at(windows, sample_rate_hz, freqs)
     return amplitude.mean(axis=0) if average else amplitude
 
 
@@ -163,13 +163,13 @@ def scale_features(amplitude: np.ndarray, scale: str = "linear") -> np.ndarray:
 
 
 def amplitude_spectrum(
-    waveform: np.ndarray, fs: float = 44100, *, period_s: float = 0.5, start_s: float = 0.0
+    waveform: np.ndarray, sample_rate_hz: float = 44100, *, period_s: float = 0.5, start_s: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray]:
     """Full-resolution amplitude spectrum averaged over windows: ``(frequencies_hz, amplitude)``."""
-    fs = _validate_fs(fs, 0.0)
-    windows = segment(waveform, fs, period_s, start_s)
+    sample_rate_hz = _validate_fs(sample_rate_hz, 0.0)
+    windows = segment(waveform, sample_rate_hz, period_s, start_s)
     amplitude = 2.0 * np.abs(np.fft.rfft(windows, axis=1)).mean(axis=0) / windows.shape[1]
-    return np.fft.rfftfreq(windows.shape[1], 1.0 / fs), amplitude
+    return np.fft.rfftfreq(windows.shape[1], 1.0 / sample_rate_hz), amplitude
 
 
 def smooth_spectrum(amplitude: np.ndarray, window_length: int = 51, polyorder: int = 3) -> np.ndarray:

@@ -127,36 +127,36 @@ class FingertipModel:
         return A, B, C
 
     # -- simulation ---------------------------------------------------------------------
-    def contact_force(self, excitation_signal, fs: float, return_info: bool = False):
+    def contact_force(self, excitation_signal, sample_rate_hz: float, return_info: bool = False):
         """Dynamic force [N] the actuator fingertip exerts on the object (grip direction)
-        for an excitation waveform (full scale 1) sampled at ``fs``; zero initial state
+        for an excitation waveform (full scale 1) sampled at ``sample_rate_hz``; zero initial state
         (the grasp at rest).  With ``return_info`` also returns a dict: ``separated``
         (bool) and ``min_contact_force_n`` (smallest total force over both contacts)."""
         e = np.asarray(excitation_signal, dtype=float)
         if e.ndim != 1 or not np.all(np.isfinite(e)):
             raise ValueError("excitation_signal must be a finite 1-D array")
         fe = self.actuator_force_n * e
-        f_act, f_mic = self._linear_forces(fe, fs, periodic=False)
+        f_act, f_mic = self._linear_forces(fe, sample_rate_hz, periodic=False)
         min_total = self.grip_force_n + min(f_act.min(initial=0.0), f_mic.min(initial=0.0))
         separated = bool(min_total < 0.0)
         if separated:
-            f_act, min_total = _simulate_one_sided(self._params(), fe, float(fs), int(self.substeps))
+            f_act, min_total = _simulate_one_sided(self._params(), fe, float(sample_rate_hz), int(self.substeps))
         if return_info:
             return f_act, {"separated": separated, "min_contact_force_n": float(min_total)}
         return f_act
 
-    def periodic_contact_force(self, excitation_period, fs: float, return_info: bool = False):
+    def periodic_contact_force(self, excitation_period, sample_rate_hz: float, return_info: bool = False):
         """Periodic steady state of :meth:`contact_force` (one period) for an excitation that
         loops ``excitation_period`` forever, from the linear model.  ``separated`` in the info
         dict means a contact would lift off: the linear steady state is then not valid."""
         fe = self.actuator_force_n * np.asarray(excitation_period, dtype=float)
-        f_act, f_mic = self._linear_forces(fe, fs, periodic=True)
+        f_act, f_mic = self._linear_forces(fe, sample_rate_hz, periodic=True)
         min_total = self.grip_force_n + min(f_act.min(), f_mic.min())
         if return_info:
             return f_act, {"separated": bool(min_total < 0.0), "min_contact_force_n": float(min_total)}
         return f_act
 
-    def _linear_forces(self, fe: np.ndarray, fs: float, periodic: bool):
+    def _linear_forces(self, fe: np.ndarray, sample_rate_hz: float, periodic: bool):
         """Dynamic contact forces (actuator side, mic side) of the linear model for the
         exciter force ``fe``: from rest, or the periodic steady state."""
         A, B, C = self.state_space()
@@ -166,7 +166,7 @@ class FingertipModel:
         Cm[4], Cm[5], Cm[6], Cm[7] = kc, cc, -kc, -cc
         out = []
         for row in (C, Cm):
-            sysm = lti_system(A, B, row, 0.0, fs)
+            sysm = lti_system(A, B, row, 0.0, sample_rate_hz)
             out.append(sysm.periodic_response(fe) if periodic else sysm.response(fe))
         return out
 
@@ -195,7 +195,7 @@ def _rhs(x, fe, p, out):
 
 
 @numba.njit(cache=True)
-def _simulate(p, fe, fs, substeps):
+def _simulate(p, fe, sample_rate_hz, substeps):
     n = fe.shape[0]
     out = np.zeros(n)
     x = np.zeros(8)
@@ -204,7 +204,7 @@ def _simulate(p, fe, fs, substeps):
     k3 = np.zeros(8)
     k4 = np.zeros(8)
     tmp = np.zeros(8)
-    h = 1.0 / (fs * substeps)
+    h = 1.0 / (sample_rate_hz * substeps)
     fg = p[12]
     min_f = fg
     for i in range(n):
@@ -236,7 +236,7 @@ def _simulate(p, fe, fs, substeps):
     return out, min_f
 
 
-def _simulate_one_sided(p, fe, fs, substeps):
+def _simulate_one_sided(p, fe, sample_rate_hz, substeps):
     """Compiled RK4 of the one-sided model: (dynamic actuator contact force, min total force)."""
-    out, min_f = _simulate(np.ascontiguousarray(p), np.ascontiguousarray(fe), fs, substeps)
+    out, min_f = _simulate(np.ascontiguousarray(p), np.ascontiguousarray(fe), sample_rate_hz, substeps)
     return out, min_f

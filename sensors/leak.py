@@ -115,8 +115,8 @@ def align_leak(leak: LeakRecording, excitation, n_samples: int, target_lag: int 
     excitation period; where the shifted recording does not cover the output it is extended
     by whole periods.
     """
-    if leak.sample_rate_hz != excitation.fs:
-        raise ValueError(f"leak recorded at {leak.sample_rate_hz} Hz, excitation at {excitation.fs} Hz")
+    if leak.sample_rate_hz != excitation.sample_rate_hz:
+        raise ValueError(f"leak recorded at {leak.sample_rate_hz} Hz, excitation at {excitation.sample_rate_hz} Hz")
     if not leak.matches(excitation):
         raise ValueError(f"leak was recorded for {leak.excitation.get('kind')!r}, not for this excitation "
                          f"{excitation.to_dict().get('kind')!r} (settings differ)")

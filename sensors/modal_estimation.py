@@ -57,7 +57,7 @@ class TransferFunction:
     """Transfer function from excitation to microphone on the DFT grid of one loop period.
 
     Attributes:
-        frequencies_hz: bin frequencies, 0 .. fs/2 in steps of 1 / period.
+        frequencies_hz: bin frequencies, 0 .. sample_rate_hz/2 in steps of 1 / period.
         response: complex transfer function at those bins (0 where the excitation has no energy).
         noise_var: variance of ``response`` per bin from the spread between periods
             (``None`` with fewer than two periods).
@@ -83,7 +83,7 @@ class TransferFunction:
         return 1.0 / self.period_s
 
     def impulse_response(self) -> np.ndarray:
-        """The circular impulse response over one period (real, ``period_s * fs`` samples)."""
+        """The circular impulse response over one period (real, ``period_s * sample_rate_hz`` samples)."""
         n = 2 * (self.frequencies_hz.size - 1)
         return np.fft.irfft(self.response, n)
 
@@ -101,7 +101,7 @@ def transfer_function(
     """Deconvolve a recording by its looping excitation, over one loop period.
 
     Args:
-        waveform: microphone signal (one channel) at ``excitation.fs``.
+        waveform: microphone signal (one channel) at ``excitation.sample_rate_hz``.
         excitation: the looping excitation that was played.
         start_s: where the first excitation period starts in ``waveform`` (latency).
         skip_periods: periods to drop at the start. ``"auto"`` drops the first one when at
@@ -111,7 +111,7 @@ def transfer_function(
         regularization: Tikhonov weight relative to the excitation's peak power spectrum;
             bins with ``|X|^2`` below 100 times it are marked invalid.
         leak: the rig's idle recording for this excitation (``sensors.LeakRecording`` or a
-            waveform at ``fs``), to be removed: its transfer function is deconvolved the same
+            waveform at ``sample_rate_hz``), to be removed: its transfer function is deconvolved the same
             way, delayed by ``leak_delay_samples`` and subtracted (recorded at the same gain).
             A leak that starts after the excitation is not a sum of decaying modes from
             t = 0 (it switches on later) and would bias the modes under it.
@@ -120,8 +120,8 @@ def transfer_function(
             excitation period; the simulator's shift is in the recording's metadata (see
             :func:`estimate_modes_from_observation`).
     """
-    fs = excitation.fs
-    windows = segment(waveform, fs, excitation.period_s, start_s)
+    sample_rate_hz = excitation.sample_rate_hz
+    windows = segment(waveform, sample_rate_hz, excitation.period_s, start_s)
     if skip_periods == "auto":
         skip = 1 if windows.shape[0] >= 2 else 0
     else:
@@ -140,7 +140,7 @@ def transfer_function(
     noise_var = None
     if Y.shape[0] >= 2:
         noise_var = np.var(Y, axis=0, ddof=1) / Y.shape[0] * np.abs(inverse) ** 2
-    freqs = np.fft.rfftfreq(windows.shape[1], 1.0 / fs)
+    freqs = np.fft.rfftfreq(windows.shape[1], 1.0 / sample_rate_hz)
     strong = np.flatnonzero(power >= 1e-3 * power.max())
     top_hz = float(freqs[strong[-1]]) if strong[-1] < freqs.size - 1 else math.inf
     return TransferFunction(freqs, response, noise_var, excitation.period_s, Y.shape[0], power > 100 * lam, top_hz)
@@ -149,11 +149,11 @@ def transfer_function(
 def _remove_leak(response: np.ndarray, leak, excitation: Excitation, inverse: np.ndarray,
                  delay: int) -> np.ndarray:
     w = np.asarray(getattr(leak, "waveform", leak), dtype=float)
-    rate = getattr(leak, "sample_rate_hz", excitation.fs)
-    if rate != excitation.fs:
-        raise ValueError(f"leak recorded at {rate} Hz, the recording at {excitation.fs} Hz")
+    rate = getattr(leak, "sample_rate_hz", excitation.sample_rate_hz)
+    if rate != excitation.sample_rate_hz:
+        raise ValueError(f"leak recorded at {rate} Hz, the recording at {excitation.sample_rate_hz} Hz")
     # the leak is periodic too: any whole periods of it will do, transient-free ones best
-    windows = segment(w, excitation.fs, excitation.period_s, 0.0)
+    windows = segment(w, excitation.sample_rate_hz, excitation.period_s, 0.0)
     if windows.shape[0] >= 2:
         windows = windows[1:]
     H_leak = np.fft.rfft(windows, axis=1).mean(axis=0) * inverse

@@ -44,9 +44,9 @@ class AcousticObservation:
         self.sample_rate_hz = int(self.sample_rate_hz)
         if not isinstance(self.excitation, Excitation):
             raise TypeError(f"excitation must be a sensors.Excitation, got {type(self.excitation).__name__}")
-        if self.excitation.fs != self.sample_rate_hz:
+        if self.excitation.sample_rate_hz != self.sample_rate_hz:
             raise ValueError(
-                f"sample_rate_hz={self.sample_rate_hz} Hz differs from the excitation's fs={self.excitation.fs} Hz"
+                f"sample_rate_hz={self.sample_rate_hz} Hz differs from the excitation's sample_rate_hz={self.excitation.sample_rate_hz} Hz"
             )
         if not np.isfinite(self.start_time_s) or self.start_time_s < 0:
             raise ValueError(f"start_time_s must be >= 0, got {self.start_time_s!r}")

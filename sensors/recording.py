@@ -60,7 +60,7 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
     Parameters
     ----------
     model : modal model of the grasped object (``sensors.ModalModel`` or compatible).
-    excitation : the looping excitation (``.loop``, ``.fs``, ``.period_s``, ``.to_dict``).
+    excitation : the looping excitation (``.loop``, ``.sample_rate_hz``, ``.period_s``, ``.to_dict``).
     duration_s : recording length [s] (the paper records 5 s and uses the first second).
     actuator_contact, mic_contact : the two fingertip contacts on the object (object frame;
         force_n = normal force there).  ``None`` or zero force means that finger does not
@@ -89,7 +89,7 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
         raise TypeError(f"excitation must be a sensors.Excitation, got {type(excitation).__name__}")
     if not np.isfinite(noise_std) or noise_std < 0:
         raise ValueError(f"noise_std must be >= 0, got {noise_std!r}")
-    fs = excitation.fs
+    sample_rate_hz = excitation.sample_rate_hz
     e = excitation.loop(duration_s)
     n = len(e)
     others = list(other_contacts)
@@ -115,9 +115,9 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
         contacts = [actuator_contact, mic_contact, *others]
         geom = (actuator_contact.position_m, actuator_contact.normal, mic_contact.position_m, mic_contact.normal)
         if cache is None:
-            sysm = ModalSystem.build(model, fs, *geom, contacts, method=method, output=output)
+            sysm = ModalSystem.build(model, sample_rate_hz, *geom, contacts, method=method, output=output)
         else:
-            sysm = cache.system(model, fs, geom, contacts, method, output)
+            sysm = cache.system(model, sample_rate_hz, geom, contacts, method, output)
         if steady_state:
             force_p, info = _periodic_fingertip_force(fingertip, excitation)
             y = np.resize(sysm.periodic_response(force_p), n)
@@ -138,7 +138,7 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
         target = excitation_lag(y, excitation.signal, max_lag=excitation.period_samples - 1) if touching else 0
         wave = wave + align_leak(leak, excitation, n, target_lag=target)
         meta["leak_target_lag"] = int(target)
-    return AcousticObservation(wave.astype(np.float32), fs, excitation, 0.0, meta)
+    return AcousticObservation(wave.astype(np.float32), sample_rate_hz, excitation, 0.0, meta)
 
 
 class SynthesisCache:
@@ -184,11 +184,11 @@ class SynthesisCache:
             table.popitem(last=False)
         return value
 
-    def system(self, model, fs, geom, contacts, method, output) -> ModalSystem:
-        key = (_ModelKey(model), float(fs), method, output,
+    def system(self, model, sample_rate_hz, geom, contacts, method, output) -> ModalSystem:
+        key = (_ModelKey(model), float(sample_rate_hz), method, output,
                np.concatenate([np.ravel(g) for g in geom]).tobytes(), tuple(contacts))
         return self._get(self._systems, key,
-                         lambda: ModalSystem.build(model, fs, *geom, contacts, method=method, output=output))
+                         lambda: ModalSystem.build(model, sample_rate_hz, *geom, contacts, method=method, output=output))
 
     def force(self, fingertip: FingertipModel, excitation: Excitation, e: np.ndarray):
         return self._get(self._forces, (fingertip, excitation, len(e)), lambda: _drive_force(fingertip, excitation, e))
@@ -210,14 +210,14 @@ class _ModelKey:
 
 
 def _drive_force(fingertip: FingertipModel, excitation: Excitation, e: np.ndarray):
-    force, info = fingertip.contact_force(e, excitation.fs, return_info=True)
+    force, info = fingertip.contact_force(e, excitation.sample_rate_hz, return_info=True)
     force.setflags(write=False)
     return force, info
 
 
 def _periodic_fingertip_force(fingertip: FingertipModel, excitation: Excitation):
     """Periodic steady-state drive force (linear fingertip model; one period)."""
-    f, info = fingertip.periodic_contact_force(excitation.signal, excitation.fs, return_info=True)
+    f, info = fingertip.periodic_contact_force(excitation.signal, excitation.sample_rate_hz, return_info=True)
     if info["separated"]:
         raise ValueError("the fingertip contact separates in steady state: the periodic (linear) "
                          "steady state does not exist; use steady_state=False")

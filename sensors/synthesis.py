@@ -414,21 +414,21 @@ class ModalSystem:
     (length 2 r_model); modes dropped by a fast path simply keep a zero state.
     """
 
-    def __init__(self, parts, n_modes: int, kept: np.ndarray, fs: float, hold: str):
+    def __init__(self, parts, n_modes: int, kept: np.ndarray, sample_rate_hz: float, hold: str):
         self.parts = parts
         self.n_modes = n_modes
         self.kept = kept  # indices of modes that take part in the synthesis
-        self.fs = float(fs)
+        self.sample_rate_hz = float(sample_rate_hz)
         self.hold = hold
 
     # construction -----------------------------------------------------------------------
     @classmethod
-    def build(cls, model, fs: float, drive_point_m, drive_normal, mic_point_m, mic_normal,
+    def build(cls, model, sample_rate_hz: float, drive_point_m, drive_normal, mic_point_m, mic_normal,
               contacts: Sequence[Contact] = (), method: str = "exact",
               output: str = "displacement", hold: str = "foh",
               max_frequency_hz: float | None = None, damping=None,
               keep_unobservable: bool = False, initial_state=None) -> "ModalSystem":
-        """Discretise the modal system of ``model`` at ``fs`` [Hz].
+        """Discretise the modal system of ``model`` at ``sample_rate_hz`` [Hz].
 
         The drive force pushes INTO the object at ``drive_point_m`` (along ``-drive_normal``,
         as a finger does); the output is the motion of the object at ``mic_point_m`` along
@@ -443,9 +443,9 @@ class ModalSystem:
             raise ValueError(f"output must be one of {_OUTPUTS}, got {output!r}")
         if hold not in _HOLDS:
             raise ValueError(f"hold must be one of {_HOLDS}, got {hold!r}")
-        fs = float(fs)
-        if not np.isfinite(fs) or fs <= 0:
-            raise ValueError(f"fs must be a positive sample rate [Hz], got {fs}")
+        sample_rate_hz = float(sample_rate_hz)
+        if not np.isfinite(sample_rate_hz) or sample_rate_hz <= 0:
+            raise ValueError(f"sample_rate_hz must be a positive sample rate [Hz], got {sample_rate_hz}")
         dp, mp = _point(drive_point_m, "drive_point_m"), _point(mic_point_m, "mic_point_m")
         dn, mn = _unit(drive_normal, "drive_normal"), _unit(mic_normal, "mic_normal")
         contacts = _as_contacts(contacts)
@@ -461,7 +461,7 @@ class ModalSystem:
         Ush = np.asarray(model.mode_shapes_at(np.array([dp, mp])), dtype=float)  # (2, 3, r)
         b_all = -dn @ Ush[0]
         o_all = mn @ Ush[1]
-        fmax = fs / 2.0 if max_frequency_hz is None else float(max_frequency_hz)
+        fmax = sample_rate_hz / 2.0 if max_frequency_hz is None else float(max_frequency_hz)
         kept = np.flatnonzero(w_all < 2 * np.pi * fmax)
         excited = np.zeros(r_all, bool)
         if initial_state is not None:
@@ -470,12 +470,12 @@ class ModalSystem:
         kept = _relevant_modes(kept, C_all, b_all, o_all, keep_unobservable, excited)
         su = _Setup(w_all[kept], C_all[np.ix_(kept, kept)], b_all[kept], o_all[kept],
                     None if d_all is None else d_all[kept], None if Q_all is None else Q_all[:, kept])
-        parts = _build_parts(su, method, output, 1.0 / fs, hold)
+        parts = _build_parts(su, method, output, 1.0 / sample_rate_hz, hold)
         # map part-local state indices (over kept modes) to the global scaled state
         glob = np.concatenate([kept, r_all + kept])
         for p in parts:
             p.idx = glob[p.idx]
-        return cls(parts, r_all, kept, fs, hold)
+        return cls(parts, r_all, kept, sample_rate_hz, hold)
 
     # evaluation -------------------------------------------------------------------------
     def response(self, force_n, initial_state=None) -> np.ndarray:
@@ -542,7 +542,7 @@ class ModalSystem:
 
         One period of output; equals :meth:`response` of the looped force once the
         transient has decayed.  (Circular convolution with the period-aliased impulse
-        response: one complex gain per harmonic of the loop frequency fs / P.)
+        response: one complex gain per harmonic of the loop frequency sample_rate_hz / P.)
         """
         u = _force(force_period_n)
         P = len(u)
@@ -727,7 +727,7 @@ def _diagonal_parts(su: _Setup, output: str, T: float, hold: str):
 # public functions
 # ----------------------------------------------------------------------------------------
 
-def lti_system(A, B, Cout, D, fs: float, hold: str = "foh", method: str = "auto") -> "ModalSystem":
+def lti_system(A, B, Cout, D, sample_rate_hz: float, hold: str = "foh", method: str = "auto") -> "ModalSystem":
     """Exact discretisation of a small LTI system x' = A x + B u, y = Cout x + D u (even
     state size) with the same machinery (used by the fingertip model). ``method="dense"``
     forces the matrix-exponential form that ill-conditioned eigenvectors fall back to
@@ -738,15 +738,15 @@ def lti_system(A, B, Cout, D, fs: float, hold: str = "foh", method: str = "auto"
         raise ValueError("lti_system needs an even state size")
     if method not in ("auto", "dense"):
         raise ValueError(f"method must be 'auto' or 'dense', got {method!r}")
-    B, Cout, T = np.asarray(B, float).reshape(n), np.asarray(Cout, float).reshape(n), 1.0 / float(fs)
+    B, Cout, T = np.asarray(B, float).reshape(n), np.asarray(Cout, float).reshape(n), 1.0 / float(sample_rate_hz)
     if method == "dense":
         parts = [_DensePart(np.arange(n), A, B, Cout, float(D), T, hold)]
     else:
         parts = _lti_parts(A, B, Cout, float(D), T, hold)
-    return ModalSystem(parts, n // 2, np.arange(n // 2), fs, hold)
+    return ModalSystem(parts, n // 2, np.arange(n // 2), sample_rate_hz, hold)
 
 
-def _schedule(contacts, fs: float, n: int):
+def _schedule(contacts, sample_rate_hz: float, n: int):
     """[(start_sample, [Contact...]), ...] from a contact list or a (time_s, contacts) list."""
     items = list(contacts)
     if all(isinstance(c, Contact) for c in items):
@@ -759,14 +759,14 @@ def _schedule(contacts, fs: float, n: int):
         t = float(t)
         if not np.isfinite(t):
             raise ValueError("contact switch time must be finite")
-        sched.append((int(round(t * fs)), _as_contacts(cs)))
+        sched.append((int(round(t * sample_rate_hz)), _as_contacts(cs)))
     starts = [s for s, _ in sched]
     if not sched or starts[0] != 0 or any(b <= a for a, b in zip(starts, starts[1:])):
         raise ValueError("contact schedule must start at t = 0 s with increasing switch times")
     return [(s, cs) for s, cs in sched if s < n] or [(0, sched[0][1])]
 
 
-def modal_response(model, force_n, fs, drive_point_m, drive_normal, mic_point_m, mic_normal,
+def modal_response(model, force_n, sample_rate_hz, drive_point_m, drive_normal, mic_point_m, mic_normal,
                    contacts=(), method: str = "exact", output: str = "displacement",
                    hold: str = "foh", max_frequency_hz: float | None = None,
                    initial_state=None) -> np.ndarray:
@@ -779,7 +779,7 @@ def modal_response(model, force_n, fs, drive_point_m, drive_normal, mic_point_m,
     force_n : (N,) force [N] at the drive point, pushing INTO the object (along
         ``-drive_normal``); piecewise linear between samples (``hold="foh"``, exact) or
         held constant over each sample (``"zoh"``).
-    fs : sample rate [Hz].
+    sample_rate_hz : sample rate [Hz].
     drive_point_m, drive_normal, mic_point_m, mic_normal : object frame; normals are unit
         outward normals.
     contacts : sequence of :class:`Contact` (static), or a schedule
@@ -788,7 +788,7 @@ def modal_response(model, force_n, fs, drive_point_m, drive_normal, mic_point_m,
     method : ``"exact"`` (coupled damping, complex modes) or ``"diagonal"`` (diag(C_m) only).
     output : ``"displacement"`` [m] (default, the paper's choice), ``"velocity"`` [m/s] or
         ``"acceleration"`` [m/s^2] of the object at the mic point along ``+mic_normal``.
-    max_frequency_hz : drop modes at or above this frequency (default: Nyquist, fs/2).
+    max_frequency_hz : drop modes at or above this frequency (default: Nyquist, sample_rate_hz/2).
     initial_state : optional scaled state [w q; q'] (2 r,) at the first sample.
 
     Returns
@@ -799,8 +799,8 @@ def modal_response(model, force_n, fs, drive_point_m, drive_normal, mic_point_m,
     n = len(u)
     if n == 0:
         return np.zeros(0)
-    fs = float(fs)
-    sched = _schedule(contacts, fs, n)
+    sample_rate_hz = float(sample_rate_hz)
+    sched = _schedule(contacts, sample_rate_hz, n)
     if not np.any(u != 0) and (initial_state is None or not np.any(initial_state)):
         # fast path, but still validate the geometry so bad input fails the same way
         for _, cs in sched:
@@ -815,7 +815,7 @@ def modal_response(model, force_n, fs, drive_point_m, drive_normal, mic_point_m,
     for i, (s, cs) in enumerate(sched):
         e = bounds[i + 1]
         last = i == len(sched) - 1
-        sysm = ModalSystem.build(model, fs, drive_point_m, drive_normal, mic_point_m, mic_normal,
+        sysm = ModalSystem.build(model, sample_rate_hz, drive_point_m, drive_normal, mic_point_m, mic_normal,
                                  cs, method=method, output=output, hold=hold,
                                  max_frequency_hz=max_frequency_hz, keep_unobservable=not last,
                                  initial_state=x)
@@ -826,7 +826,7 @@ def modal_response(model, force_n, fs, drive_point_m, drive_normal, mic_point_m,
     return y
 
 
-def periodic_response(model, force_period_n, fs, drive_point_m, drive_normal, mic_point_m,
+def periodic_response(model, force_period_n, sample_rate_hz, drive_point_m, drive_normal, mic_point_m,
                       mic_normal, contacts=(), method: str = "exact",
                       output: str = "displacement", hold: str = "foh",
                       max_frequency_hz: float | None = None) -> np.ndarray:
@@ -835,7 +835,7 @@ def periodic_response(model, force_period_n, fs, drive_point_m, drive_normal, mi
     Same arguments as :func:`modal_response`; ``force_period_n`` is one period of the
     looping force.  Equals the time-domain response once the transient has decayed.
     """
-    sysm = ModalSystem.build(model, fs, drive_point_m, drive_normal, mic_point_m, mic_normal,
+    sysm = ModalSystem.build(model, sample_rate_hz, drive_point_m, drive_normal, mic_point_m, mic_normal,
                              contacts, method=method, output=output, hold=hold,
                              max_frequency_hz=max_frequency_hz)
     return sysm.periodic_response(force_period_n)

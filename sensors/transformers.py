@@ -22,7 +22,7 @@ class SpectralFeatures(TransformerMixin, BaseEstimator):
     such data; :func:`sensors.spectral_features` itself refuses them.
 
     Args:
-        fs: sample rate of the waveforms in Hz.
+        sample_rate_hz: sample rate of the waveforms in Hz.
         period_s: excitation period = window length, seconds.
         start_s: offset of the first period in each waveform, seconds.
         f_min_hz, f_max_hz, step_hz: feature band and spacing.
@@ -31,9 +31,9 @@ class SpectralFeatures(TransformerMixin, BaseEstimator):
             same, so features from a pipeline and from an env agree.
     """
 
-    def __init__(self, fs=44100, period_s=0.5, start_s=0.0, f_min_hz=DEFAULT_F_MIN_HZ,
+    def __init__(self, sample_rate_hz=44100, period_s=0.5, start_s=0.0, f_min_hz=DEFAULT_F_MIN_HZ,
                  f_max_hz=DEFAULT_F_MAX_HZ, step_hz=DEFAULT_STEP_HZ, scale="linear"):
-        self.fs = fs
+        self.sample_rate_hz = sample_rate_hz
         self.period_s = period_s
         self.start_s = start_s
         self.f_min_hz = f_min_hz
@@ -51,12 +51,12 @@ class SpectralFeatures(TransformerMixin, BaseEstimator):
         return self
 
     def _pad_width(self, n_samples: int) -> int:
-        needed = int(round(self.start_s * self.fs)) + int(round(self.period_s * self.fs))
+        needed = int(round(self.start_s * self.sample_rate_hz)) + int(round(self.period_s * self.sample_rate_hz))
         if n_samples >= needed:
             return 0
         warnings.warn(
             f"waveforms of {n_samples} samples are shorter than one window of {needed} samples "
-            f"(start_s={self.start_s} s + period_s={self.period_s} s at fs={self.fs} Hz); zero-padded",
+            f"(start_s={self.start_s} s + period_s={self.period_s} s at sample_rate_hz={self.sample_rate_hz} Hz); zero-padded",
             UserWarning, stacklevel=3,
         )
         return needed - n_samples
@@ -69,7 +69,7 @@ class SpectralFeatures(TransformerMixin, BaseEstimator):
         if pad:
             X = np.pad(X, ((0, 0), (0, pad)))
         out = np.stack([
-            spectral_features(row, self.fs, period_s=self.period_s, start_s=self.start_s,
+            spectral_features(row, self.sample_rate_hz, period_s=self.period_s, start_s=self.start_s,
                               f_min_hz=self.f_min_hz, f_max_hz=self.f_max_hz, step_hz=self.step_hz)
             for row in X
         ])

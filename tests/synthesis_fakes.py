@@ -75,7 +75,7 @@ def grasp(model):
             np.array([0.05, -h, 0.001]), np.array([0.0, -1.0, 0.0]))
 
 
-def lsim_reference(model, C, u, fs, dp, dn, mp, mn, output="displacement", x0=None, interp=True):
+def lsim_reference(model, C, u, sample_rate_hz, dp, dn, mp, mn, output="displacement", x0=None, interp=True):
     """Independent reference: scipy.signal.lsim (matrix exponential, linear input
     interpolation, or the input held per sample with ``interp=False``) of
     q'' + C q' + w^2 q = U_d^T (-n_d) u in plain [q; q'] coordinates.
@@ -95,6 +95,6 @@ def lsim_reference(model, C, u, fs, dp, dn, mp, mn, output="displacement", x0=No
         Cm, D = np.concatenate([np.zeros(r), o]), 0.0
     else:
         Cm, D = o @ A[r:], o @ b
-    t = np.arange(len(u)) / fs
+    t = np.arange(len(u)) / sample_rate_hz
     _, y, x = ss.lsim((A, B, Cm[None], np.array([[D]])), u, t, X0=x0, interp=interp)
     return y, x

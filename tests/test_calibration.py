@@ -38,10 +38,10 @@ def gripper_leak(exc: Excitation, level: float) -> LeakRecording:
     x = exc.loop(3.0)
     y = np.zeros(x.size)
     for f, s in ((1800.0, 150.0), (4600.0, 250.0)):
-        z = np.exp((-s + 2j * np.pi * f) / exc.fs)
+        z = np.exp((-s + 2j * np.pi * f) / exc.sample_rate_hz)
         y += lfilter([1.0, -z.real], [1.0, -2 * z.real, abs(z) ** 2], x)
     y = y[exc.period_samples:]  # the rig records the leak in steady state: drop the start-up
-    return LeakRecording((level * y / np.sqrt(np.mean(y**2))).astype(np.float32), exc.fs, exc)
+    return LeakRecording((level * y / np.sqrt(np.mean(y**2))).astype(np.float32), exc.sample_rate_hz, exc)
 
 
 def record(model, exc, grasps, snr_db=SNR_DB, leak_db=-20.0, seed=0, duration_s=DURATION_S):
@@ -279,7 +279,7 @@ def test_exact_damping_model_handles_contact_coupled_close_modes():
 def silent_observation(exc):
     from sensors import AcousticObservation
 
-    return AcousticObservation(np.zeros(exc.period_samples), exc.fs, exc)
+    return AcousticObservation(np.zeros(exc.period_samples), exc.sample_rate_hz, exc)
 
 
 FEM_OPTIONS = {"max_frequency_hz": 12000.0, "element_size_m": 0.01}

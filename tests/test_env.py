@@ -120,7 +120,7 @@ def test_recognition_probe_then_answer():
     probe = {"command": 0, "position": np.array([0.4], np.float32), "excitation": 2, "label": 0}
     obs, reward, terminated, _, pinfo = env.step(probe)
     assert reward == pytest.approx(-0.01) and not terminated and obs["acoustic"].max() > 0
-    assert pinfo["grasp_success"] and pinfo["excitation"] == "exponential_sweep"
+    assert pinfo["grasp_success"] and pinfo["excitation"] == "exponential"
     answer = dict(probe, command=1, label=info["label_index"])
     _, reward, terminated, _, ainfo = env.step(answer)
     assert terminated and reward == 1.0 and ainfo["is_success"]
@@ -132,7 +132,7 @@ def test_recognition_box_action_decodes_like_the_dict():
     obs, info = env.reset(seed=1)
     # probe at 0.4 with the exponential sweep (top third of [-1, 1]), then answer the true label
     obs, reward, terminated, _, pinfo = env.step(np.array([-1.0, 0.4, 0.9, -1.0], np.float32))
-    assert pinfo["excitation"] == "exponential_sweep" and not terminated and obs["acoustic"].max() > 0
+    assert pinfo["excitation"] == "exponential" and not terminated and obs["acoustic"].max() > 0
     label = -0.5 if info["label_index"] == 0 else 0.5
     _, reward, terminated, _, ainfo = env.step(np.array([1.0, 0.0, 0.0, label], np.float32))
     assert terminated and reward == 1.0 and ainfo["guess"] == info["label_index"]

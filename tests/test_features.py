@@ -8,8 +8,8 @@ from sensors import SpectralFeatures, amplitude_spectrum, feature_frequencies_hz
 FS = 44100
 
 
-def _tone(freq_hz, amplitude, seconds, fs=FS, phase=0.3):
-    t = np.arange(int(round(seconds * fs))) / fs
+def _tone(freq_hz, amplitude, seconds, sample_rate_hz=FS, phase=0.3):
+    t = np.arange(int(round(seconds * sample_rate_hz))) / sample_rate_hz
     return amplitude * np.sin(2 * np.pi * freq_hz * t + phase)
 
 
@@ -68,8 +68,8 @@ def test_full_spectrum_and_smoothing():
         (np.array([]), {}, "empty"),
         (np.full(30000, np.nan), {}, "NaN"),
         (np.zeros(1000), {}, "too short"),
-        (np.zeros(30000), {"fs": 8000}, "fs"),
-        (np.zeros(30000), {"fs": -1}, "fs"),
+        (np.zeros(30000), {"sample_rate_hz": 8000}, "sample_rate_hz"),
+        (np.zeros(30000), {"sample_rate_hz": -1}, "sample_rate_hz"),
         (np.zeros((2, 30000)), {}, "1-D"),
         (np.zeros(30000), {"start_s": -0.1}, "start_s"),
         (np.zeros(30000), {"period_s": 0}, "period_s"),
@@ -115,10 +115,10 @@ def test_feature_scales_read_a_known_tone():
     """A 1e-3 sine on a feature bin reads 1e-3 linear, 60 dB re 1e-6, and unit norm."""
     from sensors.features import DB_FLOOR, DB_REFERENCE, scale_features
 
-    fs = 44100
-    t = np.arange(fs) / fs
+    sample_rate_hz = 44100
+    t = np.arange(sample_rate_hz) / sample_rate_hz
     x = 1e-3 * np.sin(2 * np.pi * 5000.0 * t)
-    lin = spectral_features(x, fs)
+    lin = spectral_features(x, sample_rate_hz)
     k = int(np.argmax(lin))
     assert feature_frequencies_hz()[k] == 5000.0
     db = scale_features(lin, "db")

@@ -17,11 +17,11 @@ from sensors.modal_estimation import esprit, estimate_modes, estimate_modes_from
 FS = 44100
 
 
-def mode_filter_response(x, f_hz, sigma, amp, phase, fs=FS):
+def mode_filter_response(x, f_hz, sigma, amp, phase, sample_rate_hz=FS):
     """Response of ``sum_m amp_m exp(-sigma_m t) cos(2 pi f_m t + phase_m)`` to input x."""
     y = np.zeros(len(x))
     for f, s, a, ph in zip(f_hz, sigma, amp, phase):
-        z = np.exp((-s + 2j * np.pi * f) / fs)
+        z = np.exp((-s + 2j * np.pi * f) / sample_rate_hz)
         c = a * np.exp(1j * ph)
         y += lfilter([c.real, -(c * np.conj(z)).real], [1.0, -2 * z.real, abs(z) ** 2], x)
     return y

@@ -60,7 +60,7 @@ def test_bad_observations_are_rejected(kw, word):
 def test_protocol_is_structural():
     class Echo:
         def sense(self, excitation, duration_s):
-            return AcousticObservation(excitation.loop(duration_s), excitation.fs, excitation)
+            return AcousticObservation(excitation.loop(duration_s), excitation.sample_rate_hz, excitation)
 
     assert isinstance(Echo(), AcousticSensor)
     obs = Echo().sense(Excitation.impulse(), 1.0)

@@ -87,7 +87,7 @@ def test_list_devices_and_default_rig(rig):
 def test_round_trip_latency_alignment_and_features(recordings, name):
     obs, rec = recordings[name]
     ex = sensors.Excitation.by_name(name)
-    fs = ex.fs
+    sample_rate_hz = ex.sample_rate_hz
     # latency found, every period at the same lag: sample-synchronized
     assert rec.latency_samples is not None and 0 < rec.latency_s < 2.0
     assert len(rec.period_lags_samples) >= 2 and rec.drift_samples == 0
@@ -99,13 +99,13 @@ def test_round_trip_latency_alignment_and_features(recordings, name):
     np.testing.assert_allclose(obs.waveform, expected, rtol=0, atol=1e-6)
     assert obs.start_time_s == 0.0
     # the same 140 features as the excitation itself, within a tight tolerance
-    f_ref = sensors.AcousticObservation(expected, fs, ex).features()
+    f_ref = sensors.AcousticObservation(expected, sample_rate_hz, ex).features()
     f_real = obs.features()
     assert f_real.shape == (140,)
     np.testing.assert_allclose(f_real, f_ref, rtol=1e-5, atol=1e-7 * f_ref.max())
     # untrimmed: start_time_s is the latency, and the features agree too
     raw = rec.to_observation(trim=False)
-    assert raw.start_time_s == pytest.approx(rec.latency_samples / fs)
+    assert raw.start_time_s == pytest.approx(rec.latency_samples / sample_rate_hz)
     np.testing.assert_allclose(raw.features(), f_ref, rtol=1e-5, atol=1e-7 * f_ref.max())
     meta = obs.metadata
     assert meta["source"] == "real" and meta["complete"] and not meta["partial"]
@@ -130,11 +130,11 @@ def _sim_source_observations(n_per_class: int = 4):
                 out = np.zeros_like(drive)
                 for f in modes_hz:
                     f = f * (1 + 0.01 * rng.standard_normal())
-                    r, w = np.exp(-200.0 / ex.fs), 2 * np.pi * f / ex.fs
+                    r, w = np.exp(-200.0 / ex.sample_rate_hz), 2 * np.pi * f / ex.sample_rate_hz
                     out += lfilter([1.0], [1.0, -2 * r * np.cos(w), r * r], drive)
                 # keep the steady state: drop the first period (the simulator does the same)
                 wave = out[ex.period_samples:] * 1e-2 + 1e-5 * rng.standard_normal(out.size - ex.period_samples)
-                X_obs.append(sensors.AcousticObservation(wave, ex.fs, ex, metadata={"source": "sim"}))
+                X_obs.append(sensors.AcousticObservation(wave, ex.sample_rate_hz, ex, metadata={"source": "sim"}))
                 y.append(label)
     return X_obs, np.array(y)
 
@@ -197,7 +197,7 @@ def test_leak_recording_loads_in_the_simulator_format(rig, tmp_path):
     path = sensor.record_leak(ex, tmp_path / "leak_exponential", duration_s=DURATION_S)
     assert path.name == "leak_exponential.npz" and sorted(p.name for p in tmp_path.iterdir()) == [path.name]
     leak = load_leak(path)
-    assert leak.matches(ex) and leak.sample_rate_hz == ex.fs
+    assert leak.matches(ex) and leak.sample_rate_hz == ex.sample_rate_hz
     assert leak.metadata["kind"] == "leak" and leak.metadata["source"] == "real"
     aligned = align_leak(leak, ex, ex.period_samples)
     np.testing.assert_allclose(aligned, GAIN * ex.signal, atol=1e-6)
@@ -219,7 +219,7 @@ def _fault_during_recording(rig, tmp_path, fault, after_s=1.0):
     started = threading.Event()
 
     def progress(frames):
-        if frames >= after_s * ex.fs:
+        if frames >= after_s * ex.sample_rate_hz:
             started.set()
 
     def inject():
@@ -264,7 +264,7 @@ def test_device_vanishing_mid_recording_keeps_what_was_recorded(rig, audio_loopb
 
 def test_unsupported_sample_rate_names_the_device(audio_loopback):
     with pytest.raises(real.UnsupportedSampleRateError, match=r"'default' \(index \d+, ALSA\).*1000000 Hz") as info:
-        real.PyAudioRig(fs=1_000_000)
+        real.PyAudioRig(sample_rate_hz=1_000_000)
     assert info.value.device == "default"
 
 
@@ -363,7 +363,7 @@ def test_output_underrun_is_detected_and_raised(audio_loopback, tmp_path):
     done = []
 
     def hog_the_gil(frames):
-        if frames >= 0.7 * ex.fs and not done:
+        if frames >= 0.7 * ex.sample_rate_hz and not done:
             done.append(True)
             old = sys.getswitchinterval()
             sys.setswitchinterval(1.0)  # no other Python thread (the callbacks) runs meanwhile
@@ -378,7 +378,7 @@ def test_output_underrun_is_detected_and_raised(audio_loopback, tmp_path):
         rig.record(ex, 2.0, save_path=tmp_path / "u.npz", on_progress=hog_the_gil)
     rec = info.value.recording
     assert rec.drift_samples > 0 or rec.flag_counts()["output_underflow"] > 0
-    assert rec.input.shape[0] >= 2.0 * ex.fs and rec.problems
+    assert rec.input.shape[0] >= 2.0 * ex.sample_rate_hz and rec.problems
     part = sensors.AcousticObservation.load(info.value.partial_path)
     assert part.metadata["partial"] and part.metadata["problems"] == rec.problems
 

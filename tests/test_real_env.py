@@ -25,7 +25,7 @@ class _Recorder:
         import sensors
 
         self.calls.append((excitation.name, duration_s))
-        return sensors.AcousticObservation(excitation.loop(duration_s), excitation.fs, excitation,
+        return sensors.AcousticObservation(excitation.loop(duration_s), excitation.sample_rate_hz, excitation,
                                            metadata={"source": "test"})
 
 

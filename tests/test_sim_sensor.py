@@ -60,8 +60,8 @@ def test_material_changes_the_spectrum(al_bar):
     _, _, al = al_bar
     _, _, steel = grasped(["steel_bar"], "steel_bar")
     _, _, wood = grasped(["wood_bar"], "wood_bar")
-    fa, fs, fw = features(al), features(steel), features(wood)
-    assert log_distance(fa, fs) > 0.3 and log_distance(fa, fw) > 0.3
+    fa, sample_rate_hz, fw = features(al), features(steel), features(wood)
+    assert log_distance(fa, sample_rate_hz) > 0.3 and log_distance(fa, fw) > 0.3
 
 
 def test_shape_changes_the_spectrum(al_bar):
@@ -222,7 +222,7 @@ def test_leak_is_added_and_chosen_per_excitation(al_bar):
     leaks = {}
     for ex in (LINEAR, Excitation.impulse()):
         wave = 1e-3 * np.tile(ex.signal, 2)  # a leak that looks like the excitation, 1 s
-        leaks[ex.kind] = LeakRecording(wave, ex.fs, ex)
+        leaks[ex.kind] = LeakRecording(wave, ex.sample_rate_hz, ex)
     plain = SimAcousticSensor(m, d).sense(LINEAR, DURATION_S).waveform
     leaky = SimAcousticSensor(m, d, leak=leaks)
     with_leak = leaky.sense(LINEAR, DURATION_S).waveform

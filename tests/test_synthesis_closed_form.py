@@ -52,18 +52,18 @@ def step_resp(t, w, zeta):
     return ((1 + (l2 * np.exp(l1 * t) - l1 * np.exp(l2 * t)) / (l1 - l2)) / w**2).real
 
 
-def run(model, u, fs, method):
-    return modal_response(model, u, fs, *DRIVE, *MIC, method=method)
+def run(model, u, sample_rate_hz, method):
+    return modal_response(model, u, sample_rate_hz, *DRIVE, *MIC, method=method)
 
 
 @pytest.mark.parametrize("method", ["exact", "diagonal"])
 @pytest.mark.parametrize("zeta", REGIMES)
 def test_step(method, zeta):
-    fs, f = 44100, 1500.0
+    sample_rate_hz, f = 44100, 1500.0
     m = OneMode(f, zeta)
     u = np.full(3000, 2.5)  # constant force from t = 0
-    y = run(m, u, fs, method)
-    t = np.arange(len(u)) / fs
+    y = run(m, u, sample_rate_hz, method)
+    t = np.arange(len(u)) / sample_rate_hz
     ref = 2.5 * m.s * m.s * step_resp(t, 2 * np.pi * f, zeta)
     assert np.max(np.abs(y - ref)) <= 1e-9 * np.max(np.abs(ref))
 
@@ -73,13 +73,13 @@ def test_step(method, zeta):
 def test_impulse(method, zeta):
     """A one-sample pulse is a triangle of width T under first-order hold: compare with the
     closed-form impulse response integrated against it by adaptive quadrature."""
-    fs, f = 44100, 2000.0
+    sample_rate_hz, f = 44100, 2000.0
     w = 2 * np.pi * f
-    T = 1 / fs
+    T = 1 / sample_rate_hz
     m = OneMode(f, zeta)
     u = np.zeros(2000)
     u[0] = 3.0
-    y = run(m, u, fs, method)
+    y = run(m, u, sample_rate_hz, method)
     n = np.array([1, 2, 5, 17, 100, 401, 1999])
     ref = np.array([quad(lambda s: impulse_resp(k * T - s, w, zeta) * 3.0 * (1 - s / T), 0, T,
                          epsabs=0, epsrel=1e-13)[0] for k in n]) * m.s**2
@@ -94,11 +94,11 @@ def test_impulse(method, zeta):
 def test_sine_from_rest(method, zeta):
     """Sine force switched on at t = 0: steady state + transient matched to rest, in closed
     form.  Sampled at 2 MHz so that linear interpolation of the sine is within 5e-6."""
-    fs, f, fd = 2_000_000, 3000.0, 2300.0
+    sample_rate_hz, f, fd = 2_000_000, 3000.0, 2300.0
     w, W = 2 * np.pi * f, 2 * np.pi * fd
     m = OneMode(f, zeta)
-    t = np.arange(40000) / fs
-    y = run(m, np.sin(W * t), fs, method)
+    t = np.arange(40000) / sample_rate_hz
+    y = run(m, np.sin(W * t), sample_rate_hz, method)
     H = 1 / (w * w - W * W + 2j * zeta * w * W)
     xp = (H * np.exp(1j * W * t)).imag
     x0, v0 = H.imag, W * H.real
@@ -126,14 +126,14 @@ def test_critical_damping_uses_robust_path_and_is_exact():
 
 def test_periodic_steady_state_per_harmonic():
     """Periodic steady state equals the sum over harmonics of H(j w_q) U_q for a force that is
-    a sum of harmonics of the loop frequency (interpolation error kept below 1e-5 by fs)."""
-    fs, P = 2_000_000, 20000               # loop frequency 100 Hz
+    a sum of harmonics of the loop frequency (interpolation error kept below 1e-5 by sample_rate_hz)."""
+    sample_rate_hz, P = 2_000_000, 20000               # loop frequency 100 Hz
     m = OneMode(1234.0, 0.01)
     w = m.angular_frequencies_rad_s[0]
-    t = np.arange(P) / fs
+    t = np.arange(P) / sample_rate_hz
     harmonics = {3: 1.0, 12: 0.5 - 0.3j, 25: 0.2j}
     u = sum((a * np.exp(2j * np.pi * 100 * k * t)).real for k, a in harmonics.items())
-    y = periodic_response(m, u, fs, *DRIVE, *MIC)
+    y = periodic_response(m, u, sample_rate_hz, *DRIVE, *MIC)
     ref = 0
     for k, a in harmonics.items():
         W = 2 * np.pi * 100 * k
@@ -145,10 +145,10 @@ def test_periodic_steady_state_per_harmonic():
 def test_periodic_equals_late_time_domain_all_regimes(zeta):
     """Dense (critical) and complex-mode paths: the steady state is what the time-domain
     response settles to."""
-    fs, P = 44100, 441
+    sample_rate_hz, P = 44100, 441
     m = OneMode(800.0, zeta)
     u = np.random.default_rng(3).normal(size=P)
-    y_p = periodic_response(m, u, fs, *DRIVE, *MIC)
+    y_p = periodic_response(m, u, sample_rate_hz, *DRIVE, *MIC)
     n_per = 400 if zeta < 1 else 60
-    y_t = modal_response(m, np.tile(u, n_per), fs, *DRIVE, *MIC)
+    y_t = modal_response(m, np.tile(u, n_per), sample_rate_hz, *DRIVE, *MIC)
     assert np.max(np.abs(y_t[-P:] - y_p)) <= 1e-9 * np.max(np.abs(y_p))

@@ -29,7 +29,7 @@ from sensors.grasp_task import (HOME_TCP, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEA
 
 __all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "N_FEATURES", "resolve_excitation"]
 
-EXCITATION_NAMES = ("impulse", "linear_sweep", "exponential_sweep")
+EXCITATION_NAMES = ("impulse", "linear", "exponential")
 # Where the proprioceptive entries sit in the state vector (sensors.grasp_task.STATE_LAYOUT),
 # as plain ints for the per-step code.
 _TCP = STATE_LAYOUT["tcp"].start
@@ -146,7 +146,7 @@ class AasEnv(gym.Env):
 
     def __init__(self, objects: Sequence[str | ObjectSpec] = DEFAULT_OBJECT_NAMES, *,
                  scene: str = "single", distractors: Sequence[str | ObjectSpec] | None = None,
-                 excitation="linear_sweep", acoustic: AcousticConfig | dict | None = None,
+                 excitation="linear", acoustic: AcousticConfig | dict | None = None,
                  grip_force_n: float = DEFAULT_GRIP_FORCE_N, duration_s: float | None = None,
                  include_waveform: bool | None = None, sense_mode: str | None = None,
                  randomization=None, frame_skip: int = 25, render_mode: str | None = None,
@@ -193,7 +193,7 @@ class AasEnv(gym.Env):
     @property
     def n_samples(self) -> int:
         """Samples in one recording."""
-        return self.acoustic.n_samples(self.excitation.fs)
+        return self.acoustic.n_samples(self.excitation.sample_rate_hz)
 
     # --- reset template ---------------------------------------------------------------------
     def reset(self, *, seed=None, options=None):
@@ -311,7 +311,7 @@ class AasEnv(gym.Env):
         return proprio_spaces(with_object)
 
     def _acoustic_spaces(self) -> dict:
-        return self.acoustic.spaces(self.excitation.fs)
+        return self.acoustic.spaces(self.excitation.sample_rate_hz)
 
     def _state_obs(self, with_object: bool) -> tuple[dict, np.ndarray]:
         """Proprioception (``tcp``, ``tcp_velocity``, ``gripper`` = opening [m], opening speed
@@ -340,7 +340,7 @@ class AasEnv(gym.Env):
         return self.acoustic.entries(rec), rec
 
     def _empty_acoustic(self) -> dict:
-        return self.acoustic.empty(self.excitation.fs)
+        return self.acoustic.empty(self.excitation.sample_rate_hz)
 
     def _is_grasped(self) -> bool:
         """Both sensor fingertips touch the target (this runs every step: MuJoCo's contact
