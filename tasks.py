@@ -3,6 +3,7 @@
 
     python3 tasks.py main [ARGS...]   set up, then run the main job (``aas run`` on the default scene)
     python3 tasks.py test [ARGS...]   set up, then run the test suite (what CI runs)
+    python3 tasks.py test --fast      the edit-test loop: everything but the tests marked slow
     python3 tasks.py setup            set up only
 
 Set-up is idempotent and cheap when nothing changed: it creates or reuses ``.venv``,
@@ -166,6 +167,8 @@ def main(argv: list[str]) -> int:
         return subprocess.call([str(py), "-m", "aas_gym.cli", "run", *rest], cwd=ROOT, env=env)
     # Tests: two workers for the two cores; each file stays on one worker (module fixtures are
     # built once, and all audio tests, which share one sound server, are in one file).
+    if "--fast" in rest:
+        rest = [a for a in rest if a != "--fast"] + ["-m", "not slow"]
     return subprocess.call([str(py), "-m", "pytest", "-n", "2", "--dist", "loadfile", *rest], cwd=ROOT, env=env)
 
 

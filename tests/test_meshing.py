@@ -106,6 +106,7 @@ def test_surface_validation_errors():
     assert validate_surface(inverted).volume > 0  # orientation fixed
 
 
+@pytest.mark.slow
 def test_pytetwild_path_tight_and_cached(tmp_path):
     surface = trimesh.creation.box((0.06, 0.02, 0.01))
     tm = tetrahedralize_surface(surface, element_size_m=0.005, cache_dir=tmp_path)

@@ -102,6 +102,7 @@ def test_default_objects_match_beam_theory_within_1_percent(default_models, kind
         assert abs(fe / ref - 1) < 0.01, f"{kind} {name} {family}: FE {fe:.1f} Hz vs beam theory {ref:.1f} Hz"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["bar", "tube"])
 def test_same_mesh_matches_independent_skfem_p2(kind):
     # Same mesh and geometry (curved mid-edge nodes for the tube), independent assembly and
@@ -116,6 +117,7 @@ def test_same_mesh_matches_independent_skfem_p2(kind):
     np.testing.assert_allclose(model.frequencies_hz, ref[: model.n_modes], rtol=1e-7 if kind == "bar" else 5e-4)
 
 
+@pytest.mark.slow
 def test_p1_locks_and_p2_converges(tmp_path):
     # Bending of P1 tets is much too stiff on the same mesh; P2 is within 1 %.
     ref = beam_reference_hz("bar", BAR, MATERIALS["steel"], 4000.0)["bending"][0]

@@ -36,6 +36,7 @@ def check_modes(model: ModalModel):
     assert np.all(model.decay_rates_per_s >= 0)
 
 
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     kind=st.sampled_from(["bar", "tube", "rod"]),

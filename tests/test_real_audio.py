@@ -34,7 +34,7 @@ from real import loopback  # noqa: E402
 # One PulseAudio server, which some tests kill and restart: every test that plays or records
 # audio is in this file, so that `pytest-xdist --dist loadfile` keeps them on one worker
 # (the group mark does the same for `--dist loadgroup`).
-pytestmark = [pytest.mark.audio, pytest.mark.xdist_group("real_audio")]
+pytestmark = [pytest.mark.audio, pytest.mark.slow, pytest.mark.xdist_group("real_audio")]
 EXCITATIONS = ["impulse", "linear", "exponential"]
 GAIN = 0.5  # headroom: a full-scale loopback reads exactly 1.0, which the rig flags as clipping
 DURATION_S = 1.0

@@ -2,6 +2,7 @@
 table materials, 60 s signals, float32 output; zero force never increases the modal energy."""
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
@@ -47,6 +48,7 @@ def random_grasp(material, n_contacts, seed, method, fem, **build_kw):
     return rng, model, ModalSystem.build(model, FS, dp, dn, mp, mn, contacts, method=method, **build_kw)
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(**CASES)
 @example(material="aluminium", n_contacts=50, seed=1, method="exact", fem=True)
