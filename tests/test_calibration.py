@@ -248,7 +248,7 @@ class _PairModel:
 
 
 def test_exact_damping_model_handles_contact_coupled_close_modes():
-    from sensors.calibration import _exact_decay_rates
+    from sensors.calibration.damping_fit import _exact_decay_rates
     from sensors.damping import modal_damping_matrix
 
     truth = Material("t", 1000.0, 1e9, 0.3, alpha=5.0, beta=2e-7, gamma=0.05)
