@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import scipy.linalg
@@ -365,7 +365,18 @@ def _full_spectrum(H: np.ndarray) -> np.ndarray:
     return full
 
 
-def _merge_levels(kept: list[tuple], new: list[tuple]) -> list[tuple]:
+class _Mode(NamedTuple):
+    """One mode found in a sub-band (amplitude: real-mode amplitude per unit excitation)."""
+
+    frequency_hz: float
+    decay_rate_per_s: float
+    amplitude: complex
+    frequency_std_hz: float
+    decay_rate_std_per_s: float
+    snr_db: float
+
+
+def _merge_levels(kept: list[_Mode], new: list[_Mode]) -> list[_Mode]:
     """Add modes from a wider sub-band level, dropping those that duplicate a mode already
     kept (the same mode seen at two adjacent widths: frequency within a quarter of the
     half-power bandwidth and decay rate within 30 %, or both within three standard
@@ -373,10 +384,12 @@ def _merge_levels(kept: list[tuple], new: list[tuple]) -> list[tuple]:
     out = list(kept)
     for m in new:
         for i, k in enumerate(out):
-            tol_f = max(0.25 * max(m[1], k[1]) / math.pi, 3.0 * math.hypot(m[3], k[3]))
-            tol_s = max(0.3 * max(m[1], k[1]), 3.0 * math.hypot(m[4], k[4]))
-            if abs(m[0] - k[0]) <= tol_f and abs(m[1] - k[1]) <= tol_s:
-                if m[4] < k[4]:
+            sigma = max(m.decay_rate_per_s, k.decay_rate_per_s)
+            tol_f = max(0.25 * sigma / math.pi, 3.0 * math.hypot(m.frequency_std_hz, k.frequency_std_hz))
+            tol_s = max(0.3 * sigma, 3.0 * math.hypot(m.decay_rate_std_per_s, k.decay_rate_std_per_s))
+            if (abs(m.frequency_hz - k.frequency_hz) <= tol_f
+                    and abs(m.decay_rate_per_s - k.decay_rate_per_s) <= tol_s):
+                if m.decay_rate_std_per_s < k.decay_rate_std_per_s:
                     out[i] = m
                 break
         else:
@@ -424,6 +437,82 @@ def estimate_modes(
                                samples_per_decay, min_snr_db)
 
 
+@dataclass(frozen=True)
+class _Ladder:
+    """What every sub-band fit of one transfer function shares."""
+
+    tf: "TransferFunction"
+    full: np.ndarray             # two-sided spectrum
+    noise_full: np.ndarray | None
+    df: float                    # bin width [Hz]
+    k_min: int                   # narrowest sub-band [bins]
+    k_edge: int | None           # the excitation's band edge [bins]
+    f_bottom: float
+    f_top: float
+    max_order: int
+    skip_samples: int
+    max_samples: int
+    samples_per_decay: float
+    min_snr_db: float
+
+
+def _fit_sub_band(ladder: _Ladder, k_lo_keep: int, k_hi_keep: int, K: int) -> tuple["BandFit", list[_Mode]]:
+    """Fit one sub-band of K bins centred on the kept range [k_lo_keep, k_hi_keep)."""
+    tf, full, noise_full, df = ladder.tf, ladder.full, ladder.noise_full, ladder.df
+    k_edge, k_min, skip_samples, max_samples = ladder.k_edge, ladder.k_min, ladder.skip_samples, ladder.max_samples
+    samples_per_decay, n_period = ladder.samples_per_decay, full.size
+    f_bottom, f_top, max_order, min_snr_db = ladder.f_bottom, ladder.f_top, ladder.max_order, ladder.min_snr_db
+    k_centre = (k_lo_keep + k_hi_keep) // 2
+    k0 = k_centre - K // 2
+    if k_edge is not None and k0 + K > k_edge:
+        # slide the sub-band below the excitation's band edge (and above its mirror
+        # image at -edge); modes near the edge then sit on the taper's flank, and are
+        # dropped if it is too low
+        k0 = max(k_edge - K, -k_edge)
+        K = min(K, 2 * k_edge)
+    w = _taper(K)
+    bins = np.take(full, np.arange(k0, k0 + K), mode="wrap") * w
+    g = np.fft.ifft(bins) * K  # the sub-band's time signal, heterodyned by f(k0)
+    dt = tf.period_s / K
+    n = min(K - 2 * skip_samples, max_samples)
+    if K > k_min:
+        # modes taken at this width live 1/2 .. 1 times samples_per_decay samples per
+        # time constant: a dozen time constants of samples hold all there is to fit
+        n = min(n, int(12 * samples_per_decay))
+    idx = np.arange(skip_samples, skip_samples + n)
+    n_eff = n * float(w.sum() ** 2 / (K * (w**2).sum()))
+    z, amps, noise_var, order = _fit_band(g[idx], max_order, n_eff)
+    expected = None
+    if noise_full is not None:
+        # white per-bin variance through taper and K-point inverse DFT: sum v w^2
+        expected = float(np.sum(np.take(noise_full, np.arange(k0, k0 + K), mode="wrap") * w**2))
+    energy = float(np.vdot(g[idx], g[idx]).real)
+    band = BandFit(k0 * df, (k0 + K) * df, order, 1.0 - noise_var * n / energy if energy > 0 else 0.0,
+                   noise_var, expected)
+    if z.size == 0:
+        return band, []
+    s = np.log(z) / dt
+    t_s = idx * dt
+    amps0 = amps * np.exp(-s * t_s[0])  # amplitude at t = 0
+    f_hz = k0 * df + np.mod(s.imag, 2 * np.pi / dt) / (2 * np.pi)
+    sigma = -s.real
+    gain = np.interp(f_hz, (k0 + np.arange(K)) * df, w)
+    dof = n_eff / n
+    sd_sigma, sd_w = _fisher_std(t_s, s, amps0, noise_var / dof)
+    energy_m = np.abs(amps0) ** 2 * np.sum(np.exp(-2 * np.outer(t_s, sigma)), axis=0)
+    snr_db = 10 * np.log10(np.maximum(energy_m, 1e-300) / max(noise_var, 1e-300))
+    # Real-mode amplitude of the unwrapped impulse response per unit excitation: the
+    # sub-band signal is P times the circular response, whose modes carry the
+    # wrap-around factor 1 / (1 - exp(s T)); a real mode is two complex exponentials.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        real_amps = 2.0 * amps0 / (n_period * gain) * (1.0 - np.exp(s * tf.period_s))
+    keep = ((f_hz >= k_lo_keep * df) & (f_hz < k_hi_keep * df) & (f_hz >= f_bottom) & (f_hz < f_top)
+            & (sigma > 0) & (snr_db >= min_snr_db) & (gain > 0.05))
+    modes = [_Mode(f_hz[i], sigma[i], real_amps[i], sd_w[i] / (2 * np.pi), sd_sigma[i], snr_db[i])
+             for i in np.flatnonzero(keep)]
+    return band, modes
+
+
 def _estimate_modes(tf, f_min_hz, f_max_hz, band_hz, max_order, skip_samples, max_samples,
                     samples_per_decay, min_snr_db) -> ModalEstimate:
     freqs = tf.frequencies_hz
@@ -443,78 +532,29 @@ def _estimate_modes(tf, f_min_hz, f_max_hz, band_hz, max_order, skip_samples, ma
         raise ValueError(f"band_hz={band_hz} spans {k_min} bins of {df:g} Hz; need at least 64")
     k_max = n_period // 2
 
-    k_edge = int(math.floor(tf.top_hz / df)) if math.isfinite(tf.top_hz) else None
-
-    def fit(k_lo_keep: int, k_hi_keep: int, K: int):
-        k_centre = (k_lo_keep + k_hi_keep) // 2
-        k0 = k_centre - K // 2
-        if k_edge is not None and k0 + K > k_edge:
-            # slide the sub-band below the excitation's band edge (and above its mirror
-            # image at -edge); modes near the edge then sit on the taper's flank, and are
-            # dropped if it is too low
-            k0 = max(k_edge - K, -k_edge)
-            K = min(K, 2 * k_edge)
-        w = _taper(K)
-        bins = np.take(full, np.arange(k0, k0 + K), mode="wrap") * w
-        g = np.fft.ifft(bins) * K  # the sub-band's time signal, heterodyned by f(k0)
-        dt = tf.period_s / K
-        n = min(K - 2 * skip_samples, max_samples)
-        if K > k_min:
-            # modes taken at this width live 1/2 .. 1 times samples_per_decay samples per
-            # time constant: a dozen time constants of samples hold all there is to fit
-            n = min(n, int(12 * samples_per_decay))
-        idx = np.arange(skip_samples, skip_samples + n)
-        n_eff = n * float(w.sum() ** 2 / (K * (w**2).sum()))
-        z, amps, noise_var, order = _fit_band(g[idx], max_order, n_eff)
-        expected = None
-        if noise_full is not None:
-            # white per-bin variance through taper and K-point inverse DFT: sum v w^2
-            expected = float(np.sum(np.take(noise_full, np.arange(k0, k0 + K), mode="wrap") * w**2))
-        energy = float(np.vdot(g[idx], g[idx]).real)
-        band = BandFit(k0 * df, (k0 + K) * df, order, 1.0 - noise_var * n / energy if energy > 0 else 0.0,
-                       noise_var, expected)
-        if z.size == 0:
-            return band, []
-        s = np.log(z) / dt
-        t_s = idx * dt
-        amps0 = amps * np.exp(-s * t_s[0])  # amplitude at t = 0
-        f_hz = k0 * df + np.mod(s.imag, 2 * np.pi / dt) / (2 * np.pi)
-        sigma = -s.real
-        gain = np.interp(f_hz, (k0 + np.arange(K)) * df, w)
-        dof = n_eff / n
-        sd_sigma, sd_w = _fisher_std(t_s, s, amps0, noise_var / dof)
-        energy_m = np.abs(amps0) ** 2 * np.sum(np.exp(-2 * np.outer(t_s, sigma)), axis=0)
-        snr_db = 10 * np.log10(np.maximum(energy_m, 1e-300) / max(noise_var, 1e-300))
-        # Real-mode amplitude of the unwrapped impulse response per unit excitation: the
-        # sub-band signal is P times the circular response, whose modes carry the
-        # wrap-around factor 1 / (1 - exp(s T)); a real mode is two complex exponentials.
-        with np.errstate(divide="ignore", invalid="ignore"):
-            real_amps = 2.0 * amps0 / (n_period * gain) * (1.0 - np.exp(s * tf.period_s))
-        keep = ((f_hz >= k_lo_keep * df) & (f_hz < k_hi_keep * df) & (f_hz >= f_bottom) & (f_hz < f_top)
-                & (sigma > 0) & (snr_db >= min_snr_db) & (gain > 0.05))
-        modes = [(f_hz[i], sigma[i], real_amps[i], sd_w[i] / (2 * np.pi), sd_sigma[i], snr_db[i])
-                 for i in np.flatnonzero(keep)]
-        return band, modes
+    ladder = _Ladder(tf, full, noise_full, df, k_min,
+                     int(math.floor(tf.top_hz / df)) if math.isfinite(tf.top_hz) else None,
+                     f_bottom, f_top, max_order, skip_samples, max_samples, samples_per_decay, min_snr_db)
 
     # Resolution ladder: sub-bands of k_min, 2 k_min, 4 k_min, ... bins. A mode with decay
     # rate sigma lives for period / K * samples_per_decay only if K >= samples_per_decay *
     # sigma * period, so each mode is taken from the narrowest sub-band width that samples
     # it well (narrow = long record = best frequency resolution for light damping; wide =
     # fine time steps for heavy damping).
-    results: list[tuple] = []
+    results: list[_Mode] = []
     bands: list[BandFit] = []
     K = k_min
     k_lower = -1.0
     k_first = int(math.floor(f_bottom / df))
     while True:
-        level: list[tuple] = []
+        level: list[_Mode] = []
         hop = K // 2
         k_lo = k_first
         while k_lo * df < f_top:
-            band, modes = fit(k_lo, k_lo + hop, K)
+            band, modes = _fit_sub_band(ladder, k_lo, k_lo + hop, K)
             bands.append(band)
             for m in modes:
-                k_needed = samples_per_decay * m[1] * tf.period_s
+                k_needed = samples_per_decay * m.decay_rate_per_s * tf.period_s
                 if (k_needed <= K or K >= k_max) and k_needed > k_lower:
                     level.append(m)
             k_lo += hop
@@ -524,7 +564,7 @@ def _estimate_modes(tf, f_min_hz, f_max_hz, band_hz, max_order, skip_samples, ma
         k_lower = K
         K = min(2 * K, k_max)
     if results:
-        f, sig, a, sdf, sds, snr = (np.asarray(v) for v in zip(*sorted(results, key=lambda r: r[0])))
+        f, sig, a, sdf, sds, snr = (np.asarray(v) for v in zip(*sorted(results, key=lambda r: r.frequency_hz)))
     else:
         f = sig = sdf = sds = snr = np.zeros(0)
         a = np.zeros(0, complex)
