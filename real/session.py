@@ -1,0 +1,307 @@
+"""One recording on the rig: the PortAudio streams, their callbacks, the watch loop and the
+checks after it (latency, synchronization, xruns)."""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import threading
+import time
+import warnings
+from collections import deque
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sensors import Excitation
+
+from .devices import AudioDevice, _alsa_hint, _captured_stderr, pyaudio
+from .errors import (DeviceLostError, ExcitationNotFoundError, RigError, RigWarning, UnsupportedSampleRateError,
+                     XrunError)
+from .latency import find_latency, period_lags
+
+if TYPE_CHECKING:
+    from .rig import PyAudioRig
+from .rig_recording import _FLAGS, _PROBLEM_FLAGS, RigRecording, _PartialWriter
+
+class _Session:
+    """One recording: streams, callbacks, the watch loop and the post-checks."""
+
+    POLL_S = 0.02
+    DETECT_EVERY_S = 0.1
+
+    def __init__(self, rig: PyAudioRig, pa, din: AudioDevice, dout: AudioDevice, excitation: Excitation,
+                 duration_s: float, save_path, labels, on_progress=None) -> None:
+        self.rig, self.pa, self.din, self.dout = rig, pa, din, dout
+        self.on_progress = on_progress
+        self.excitation, self.duration_s = excitation, duration_s
+        self.labels = labels
+        self.n_target = int(round(duration_s * rig.sample_rate_hz))
+        # One period, actuator channel only, interleaved; tiled so any callback's block is a
+        # contiguous slice.
+        P = excitation.period_samples
+        frame = np.zeros((P, rig.output_channels), dtype=np.float32)
+        frame[:, rig.actuator_channel] = rig.output_gain * excitation.signal
+        reps = 2 + (rig.frames_per_buffer + P - 1) // P
+        self.out_tiled = np.tile(frame, (reps, 1))
+        self.P = P
+        self.lead_in = min(int(round(rig.lead_in_s * rig.sample_rate_hz)), P)
+        self.out_pos = (-self.lead_in) % P
+        self.in_chunks: deque[bytes] = deque()
+        self.in_frames = 0
+        self.events: list[dict[str, Any]] = []
+        self.last_in_t = None
+        self.first_in = threading.Event()
+        self.streams: list[Any] = []
+        self.stopping = False
+        self.started_at = _dt.datetime.now(_dt.timezone.utc).isoformat()
+        self.writer = None
+        if save_path is not None:
+            self.writer = _PartialWriter(Path(save_path), {
+                "channels": rig.input_channels, "mic_channel": rig.mic_channel, "sample_rate_hz": rig.sample_rate_hz,
+                "dtype": "float32le interleaved", "excitation": excitation.to_dict(),
+                "metadata": {"source": "real", "device": {"input": din.to_dict(), "output": dout.to_dict()},
+                             "recorded_at": self.started_at, "labels": dict(labels or {}),
+                             "excitation": excitation.name}})
+
+    # PortAudio threads ------------------------------------------------------------------
+
+    def _note_flags(self, stream: str, status: int, frame: int) -> None:
+        if status & _PROBLEM_FLAGS or status & 16:
+            for bit, name in _FLAGS.items():
+                if status & bit:
+                    self.events.append({"stream": stream, "flag": name, "frame": int(frame)})
+
+    def _out_block(self, n: int) -> bytes:
+        start = self.out_pos % self.P
+        if start + n <= self.out_tiled.shape[0]:
+            block = self.out_tiled[start:start + n]
+        else:
+            block = self.out_tiled[(start + np.arange(n)) % self.P]
+        self.out_pos += n
+        return block.tobytes()
+
+    def _in_cb(self, in_data, frame_count, time_info, status):
+        self.in_chunks.append(in_data)
+        if status:
+            self._note_flags("input", status, self.in_frames)
+        self.in_frames += frame_count
+        self.last_in_t = time.monotonic()
+        self.first_in.set()
+        return (None, pyaudio.paContinue)
+
+    def _out_cb(self, in_data, frame_count, time_info, status):
+        if status:
+            self._note_flags("output", status, self.out_pos)
+        return (self._out_block(frame_count), pyaudio.paContinue)
+
+    def _duplex_cb(self, in_data, frame_count, time_info, status):
+        self._in_cb(in_data, frame_count, time_info, 0)
+        if status:
+            self._note_flags("duplex", status, self.out_pos)
+        return (self._out_block(frame_count), pyaudio.paContinue)
+
+    # main thread ------------------------------------------------------------------------
+
+    def _open(self, **kw):
+        rig = self.rig
+        dev = self.din if kw.get("input") else self.dout
+        try:
+            with _captured_stderr() as lines:
+                return self.pa.open(rate=rig.sample_rate_hz, format=pyaudio.paFloat32, frames_per_buffer=rig.frames_per_buffer,
+                                    start=False, **kw)
+        except (OSError, ValueError) as exc:
+            err = exc.args[1] if isinstance(exc, OSError) and len(exc.args) > 1 else exc
+            which = "duplex" if kw.get("input") and kw.get("output") else ("input" if kw.get("input") else "output")
+            cls = UnsupportedSampleRateError if "sample rate" in str(err).lower() else RigError
+            raise cls(f"cannot open the {which} stream on device {dev} at {rig.sample_rate_hz} Hz: {err}{_alsa_hint(lines)}",
+                      device=dev.name) from None
+
+    def _start(self) -> None:
+        rig = self.rig
+        if rig.stream_mode == "duplex":
+            s = self._open(channels=rig.input_channels, input=True, output=True,
+                           input_device_index=self.din.index, output_device_index=self.dout.index,
+                           stream_callback=self._duplex_cb)
+            self.streams.append(("duplex", s))
+            s.start_stream()
+            self._wait_first_input()
+            return
+        sin = self._open(channels=rig.input_channels, input=True, input_device_index=self.din.index,
+                         stream_callback=self._in_cb)
+        self.streams.append(("input", sin))
+        sout = self._open(channels=rig.output_channels, output=True, output_device_index=self.dout.index,
+                          stream_callback=self._out_cb)
+        self.streams.append(("output", sout))
+        sin.start_stream()
+        # The output starts once the input runs, so the first period is always recorded.
+        self._wait_first_input()
+        sout.start_stream()
+
+    def _wait_first_input(self) -> None:
+        deadline = time.monotonic() + self.rig.start_timeout_s
+        while not self.first_in.wait(self.POLL_S):
+            self._check_alive()
+            if time.monotonic() > deadline:
+                raise DeviceLostError(f"input device {self.din} delivered no audio within "
+                                      f"{self.rig.start_timeout_s} s of starting", device=self.din.name)
+
+    def _check_alive(self) -> None:
+        for kind, s in self.streams:
+            try:
+                active = s.is_active()
+            except OSError:
+                active = False
+            if not active and not self.stopping and (kind != "output" or self.first_in.is_set()):
+                dev = self.dout if kind == "output" else self.din
+                raise DeviceLostError(f"{kind} stream on device {dev} stopped during the recording "
+                                      "(device disconnected or sound server gone)", device=dev.name)
+        if self.last_in_t is not None and time.monotonic() - self.last_in_t > self.rig.stall_timeout_s:
+            raise DeviceLostError(f"input device {self.din} delivered nothing for {self.rig.stall_timeout_s} s "
+                                  "during the recording (device disconnected or sound server gone)",
+                                  device=self.din.name)
+
+    def _drain(self, parts: list[np.ndarray]) -> int:
+        got = 0
+        ch = self.rig.input_channels
+        while self.in_chunks:
+            block = np.frombuffer(self.in_chunks.popleft(), dtype=np.float32).reshape(-1, ch)
+            parts.append(block)
+            if self.writer is not None:
+                self.writer.append(block)
+            got += block.shape[0]
+        return got
+
+    def _stop(self) -> None:
+        """Stop and close the streams; a stream of a vanished device may block in PortAudio,
+        so this runs in a helper thread that is given up on after a few seconds."""
+        self.stopping = True
+
+        def close_all():
+            with _captured_stderr():
+                for _, s in self.streams:
+                    with contextlib.suppress(Exception):
+                        s.stop_stream()
+                    with contextlib.suppress(Exception):
+                        s.close()
+
+        t = threading.Thread(target=close_all, name="aas-rig-close", daemon=True)
+        t.start()
+        t.join(5.0)
+
+    def run(self) -> RigRecording:
+        rig = self.rig
+        parts: list[np.ndarray] = []
+        total = 0
+        latency = None
+        target = None
+        next_detect = 0.0
+        give_up = int((rig.max_latency_s + 2 * self.excitation.period_s) * rig.sample_rate_hz) + self.n_target
+        reported = {}
+        try:
+            self._start()
+            for kind, s in self.streams:
+                with contextlib.suppress(Exception):
+                    if kind in ("input", "duplex"):
+                        reported["input"] = float(s.get_input_latency())
+                    if kind in ("output", "duplex"):
+                        reported["output"] = float(s.get_output_latency())
+            while True:
+                time.sleep(self.POLL_S)
+                total += self._drain(parts)
+                if self.on_progress is not None:
+                    self.on_progress(total)
+                self._check_alive()
+                now = time.monotonic()
+                if target is None and total >= self.P and now >= next_detect:
+                    next_detect = now + self.DETECT_EVERY_S
+                    latency = find_latency(np.concatenate(parts)[:, rig.mic_channel], self.excitation)
+                    if latency is not None:
+                        # One callback block of slack so the final estimate fits too.
+                        target = latency + self.n_target + rig.frames_per_buffer
+                if target is not None and total >= target:
+                    mic = np.concatenate(parts)[:, rig.mic_channel]
+                    latency = find_latency(mic, self.excitation)
+                    if latency is not None and latency + self.n_target <= total:
+                        break
+                    target = (latency or 0) + self.n_target + rig.frames_per_buffer
+                if target is None and total >= give_up:
+                    raise ExcitationNotFoundError(
+                        f"the excitation played on output device {self.dout} did not come back in input "
+                        f"device {self.din} (channel {rig.mic_channel}) within {rig.max_latency_s} s: "
+                        "check the wiring, gains and device choice", device=self.din.name)
+        except BaseException as exc:
+            self._stop()
+            total += self._drain(parts)
+            if parts:  # align what there is, so the partial recording is usable as is
+                latency = find_latency(np.concatenate(parts)[:, rig.mic_channel], self.excitation)
+            rec = self._recording(parts, latency, reported, complete=False,
+                                  error=f"{type(exc).__name__}: {exc}")
+            path = self._save_partial(rec)
+            if isinstance(exc, RigError):
+                exc.recording, exc.partial_path = rec, path
+                if path is not None:
+                    exc.args = (f"{exc.args[0]} -- the {rec.input.shape[0] / rig.sample_rate_hz:.2f} s recorded so far "
+                                f"are saved in {path}",)
+            rig.last_recording = rec
+            raise
+        self._stop()
+        self._drain(parts)
+        rec = self._recording(parts, latency, reported, complete=True, error=None)
+        rig.last_recording = rec
+        if rec.problems and rig.xrun_policy != "ignore":
+            msg = (f"recording on input {self.din} / output {self.dout}: " + "; ".join(rec.problems))
+            if rig.xrun_policy == "raise":
+                rec.complete = False
+                rec.error = msg
+                path = self._save_partial(rec)
+                raise XrunError(msg + (f" -- the recording is saved in {path}" if path else ""),
+                                device=self.din.name, recording=rec, partial_path=path)
+            warnings.warn(msg, RigWarning, stacklevel=3)
+        if rec.clipped and rig.xrun_policy != "ignore":
+            warnings.warn(f"input {self.din} reached full scale (clipping?): lower the output gain or the "
+                          "microphone gain", RigWarning, stacklevel=3)
+        # The streamed partial files stay until the caller has saved the final file
+        # (RigRecording.save), so there is no moment with neither on disk.
+        rec._writer = self.writer
+        return rec
+
+    def _recording(self, parts, latency, reported, *, complete: bool, error: str | None) -> RigRecording:
+        rig = self.rig
+        data = np.concatenate(parts) if parts else np.zeros((0, rig.input_channels), np.float32)
+        mic = data[:, rig.mic_channel]
+        lags: list[int] = []
+        problems: list[str] = []
+        if latency is not None:
+            # Only the periods inside the kept span: the stream keeps running for a moment
+            # after the target is reached.
+            span = mic[: latency + self.n_target] if complete else mic
+            lags = period_lags(span, self.excitation, latency).tolist()
+            drift = (max(lags) - min(lags)) if lags else 0
+            if drift > rig.sync_tolerance_samples:
+                problems.append(f"sample synchronization lost: the excitation period drifted by {drift} samples "
+                                f"(per-period latencies {sorted(set(lags))[:8]}), samples were dropped or inserted")
+        flags: dict[str, int] = {}
+        for ev in self.events:
+            if ev["flag"] != "priming_output":
+                flags[f"{ev['stream']} {ev['flag']}"] = flags.get(f"{ev['stream']} {ev['flag']}", 0) + 1
+        problems += [f"{n} callback(s) flagged {k}" for k, n in sorted(flags.items())]
+        return RigRecording(
+            input=data, mic_channel=rig.mic_channel, sample_rate_hz=rig.sample_rate_hz, excitation=self.excitation,
+            duration_s=self.duration_s, latency_samples=latency, period_lags_samples=lags, events=list(self.events),
+            input_device=self.din, output_device=self.dout, stream_mode=rig.stream_mode,
+            reported_latency_s=reported, started_at=self.started_at, complete=complete, problems=problems,
+            error=error, lead_in_samples=self.lead_in)
+
+    def _save_partial(self, rec: RigRecording) -> Path | None:
+        if self.writer is None:
+            return None
+        self.writer.close()
+        if rec.input.shape[0] == 0:
+            self.writer.discard()
+            return None
+        obs = rec.to_observation(trim=False, labels=self.labels)
+        obs.save(self.writer.npz_path)
+        self.writer.discard()
+        return self.writer.npz_path
