@@ -25,7 +25,8 @@ __all__ = ["CODE_VERSION", "default_cache_dir", "content_key", "load_arrays", "s
 
 log = logging.getLogger(__name__)
 
-_SOURCES = ("meshing.py", "fem.py", "eigen.py", "modal_model.py", "materials.py", "cache.py")
+# The files whose code decides what a cache entry holds (queries on a built model do not).
+_SOURCES = ("meshing.py", "fem.py", "eigen.py", "modal_build.py", "modal_io.py", "materials.py", "cache.py")
 
 
 def _code_version() -> str:

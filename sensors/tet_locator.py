@@ -1,0 +1,127 @@
+"""Where a point is in a tet mesh: its containing tet and barycentric coordinates, the closest
+surface point, face and outward (faceted) normal. Spatial indexes are built on first use."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .meshing import boundary_faces
+
+__all__ = ["TetLocator", "closest_points_on_triangles"]
+
+
+def closest_points_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Closest point to each p on triangle (a, b, c), all arrays (n, 3) (Ericson, RTCD 5.1.5)."""
+    ab, ac, ap = b - a, c - a, p - a
+    bp, cp = p - b, p - c
+
+    def dot(u, v):
+        return np.einsum("ij,ij->i", u, v)
+
+    d1, d2 = dot(ab, ap), dot(ac, ap)
+    d3, d4 = dot(ab, bp), dot(ac, bp)
+    d5, d6 = dot(ab, cp), dot(ac, cp)
+    vc = d1 * d4 - d3 * d2
+    vb = d5 * d2 - d1 * d6
+    va = d3 * d6 - d5 * d4
+
+    def div(x, y):
+        return x / np.where(y == 0, 1.0, y)
+
+    v_ab = div(d1, d1 - d3)[:, None]
+    w_ac = div(d2, d2 - d6)[:, None]
+    w_bc = div(d4 - d3, (d4 - d3) + (d5 - d6))[:, None]
+    denom = va + vb + vc
+    v_in, w_in = div(vb, denom)[:, None], div(vc, denom)[:, None]
+    conditions = [
+        (d1 <= 0) & (d2 <= 0),
+        (d3 >= 0) & (d4 <= d3),
+        (vc <= 0) & (d1 >= 0) & (d3 <= 0),
+        (d6 >= 0) & (d5 <= d6),
+        (vb <= 0) & (d2 >= 0) & (d6 <= 0),
+        (va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0),
+    ]
+    choices = [a, b, a + v_ab * ab, c, a + w_ac * ac, b + w_bc * (c - b)]
+    out = a + v_in * ab + w_in * ac
+    for cond, choice in zip(reversed(conditions), reversed(choices)):
+        out = np.where(cond[:, None], choice, out)
+    return out
+
+
+class TetLocator:
+    """Point queries on the linear corners of a tet mesh (``elements[:, :4]``)."""
+
+    def __init__(self, nodes_m: np.ndarray, elements: np.ndarray) -> None:
+        self.nodes_m = nodes_m
+        self.elements = elements
+        self._surface = None
+        self._tet_tree = None
+        self._tinv = None
+
+    def surface_data(self):
+        if self._surface is None:
+            faces, owner = boundary_faces(self.elements[:, :4])
+            tri = self.nodes_m[faces]
+            centre = tri.mean(axis=1)
+            normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+            normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+            radius = float(np.linalg.norm(tri - centre[:, None], axis=2).max())
+            self._surface = dict(faces=faces, owner=owner, tri=tri, normal=normal, radius=radius,
+                                 tree=cKDTree(centre))
+        return self._surface
+
+    def closest_surface(self, points: np.ndarray):
+        """Closest surface point, face index and distance for each point."""
+        s = self.surface_data()
+        n_faces = len(s["faces"])
+        k = min(16, n_faces)
+        dc, cand = s["tree"].query(points, k=k)
+        dc, cand = dc.reshape(len(points), k), cand.reshape(len(points), k)
+        tri = s["tri"][cand]  # (n, k, 3, 3)
+        p = np.repeat(points, k, axis=0)
+        q = closest_points_on_triangles(p, tri[:, :, 0].reshape(-1, 3), tri[:, :, 1].reshape(-1, 3),
+                                        tri[:, :, 2].reshape(-1, 3)).reshape(len(points), k, 3)
+        d = np.linalg.norm(q - points[:, None], axis=2)
+        best = np.argmin(d, axis=1)
+        rows = np.arange(len(points))
+        face, dist, closest = cand[rows, best], d[rows, best], q[rows, best]
+        # Exact: a face not among the k nearest centroids is farther than dc_k - radius.
+        unsure = np.flatnonzero((k < n_faces) & (dc[:, -1] - s["radius"] < dist))
+        for i in unsure:  # rare (very uneven triangles): check every face
+            allq = closest_points_on_triangles(np.repeat(points[i:i + 1], n_faces, axis=0),
+                                               s["tri"][:, 0], s["tri"][:, 1], s["tri"][:, 2])
+            dd = np.linalg.norm(allq - points[i], axis=1)
+            j = int(np.argmin(dd))
+            face[i], dist[i], closest[i] = j, dd[j], allq[j]
+        return closest, face, dist
+
+    def _barycentric(self, tet_idx: np.ndarray, points: np.ndarray) -> np.ndarray:
+        if self._tinv is None:
+            c = self.nodes_m[self.elements[:, :4]]
+            self._tinv = np.linalg.inv(np.stack([c[:, 1] - c[:, 0], c[:, 2] - c[:, 0], c[:, 3] - c[:, 0]], axis=2))
+        x0 = self.nodes_m[self.elements[tet_idx, 0]]
+        lam = np.einsum("...ij,...j->...i", self._tinv[tet_idx], points - x0)
+        return np.concatenate([1.0 - lam.sum(axis=-1, keepdims=True), lam], axis=-1)
+
+    def locate(self, points: np.ndarray):
+        """Containing tet and barycentric coordinates; outside points go to the nearest surface point."""
+        if self._tet_tree is None:
+            self._tet_tree = cKDTree(self.nodes_m[self.elements[:, :4]].mean(axis=1))
+        k = min(16, len(self.elements))
+        _, cand = self._tet_tree.query(points, k=k)
+        cand = cand.reshape(len(points), k)
+        bary = self._barycentric(cand, np.repeat(points[:, None], k, axis=1))  # (n, k, 4)
+        score = bary.min(axis=2)
+        best = np.argmax(score, axis=1)
+        rows = np.arange(len(points))
+        tet = cand[rows, best]
+        bary = bary[rows, best]
+        outside = score[rows, best] < -1e-9
+        if np.any(outside):
+            q, face, _ = self.closest_surface(points[outside])
+            t = self.surface_data()["owner"][face]
+            b = np.clip(self._barycentric(t, q), 0.0, None)
+            tet[outside] = t
+            bary[outside] = b / b.sum(axis=1, keepdims=True)
+        return tet, bary
