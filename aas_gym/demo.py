@@ -7,11 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
-from sensors import Excitation, amplitude_spectrum, feature_frequencies_hz, smooth_spectrum, spectral_features
-
 
 def render_signals(out_dir: Path) -> Path:
     """Plot each paper excitation (one period), its spectrum and its 140 features."""
+    # The sensor stack and matplotlib load here, not at import: `aas --help` imports this
+    # module to list the command (sensors ~0.4 s, measured with -X importtime).
+    from sensors import Excitation, amplitude_spectrum, feature_frequencies_hz, smooth_spectrum, spectral_features
     import matplotlib
 
     matplotlib.use("Agg")
@@ -30,7 +31,10 @@ def render_signals(out_dir: Path) -> Path:
         row[1].semilogy(f[band], a[band], lw=0.4, color="0.6", label="spectrum")
         row[1].semilogy(f[band], np.maximum(smooth_spectrum(a)[band], 1e-12), lw=1.0, label="Savitzky-Golay")
         row[1].semilogy(freqs, spectral_features(x, exc.sample_rate_hz), ".", ms=3, label="140 features")
-        row[1].set(title=f"{exc.name}: amplitude spectrum", xlabel="frequency [Hz]", ylabel="amplitude")
+        row[1].set(title=f"{exc.name}: amplitude spectrum", xlabel="frequency [Hz]", ylabel="amplitude [full scale]")
+        lo, hi = float(np.min(a[band])), float(np.max(a[band]))
+        if hi < 10 * lo:  # a flat spectrum (the click): show a decade around it, not one tick
+            row[1].set_ylim(lo / 10, hi * 10)
         row[1].legend(fontsize=7)
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "excitations.png"

@@ -4,8 +4,6 @@ surface point, face and outward (faceted) normal. Spatial indexes are built on f
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
-
 from .meshing import boundary_faces
 
 __all__ = ["TetLocator", "closest_points_on_triangles"]
@@ -67,6 +65,8 @@ class TetLocator:
             normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
             normal /= np.linalg.norm(normal, axis=1, keepdims=True)
             radius = float(np.linalg.norm(tri - centre[:, None], axis=2).max())
+            from scipy.spatial import cKDTree  # ~0.05 s to import: only models that are queried pay
+
             self._surface = dict(faces=faces, owner=owner, tri=tri, normal=normal, radius=radius,
                                  tree=cKDTree(centre))
         return self._surface
@@ -107,6 +107,8 @@ class TetLocator:
     def locate(self, points: np.ndarray):
         """Containing tet and barycentric coordinates; outside points go to the nearest surface point."""
         if self._tet_tree is None:
+            from scipy.spatial import cKDTree  # ~0.05 s to import: only models that are queried pay
+
             self._tet_tree = cKDTree(self.nodes_m[self.elements[:, :4]].mean(axis=1))
         k = min(16, len(self.elements))
         _, cand = self._tet_tree.query(points, k=k)
