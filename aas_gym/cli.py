@@ -22,6 +22,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="aas-gym: active acoustic sensing for robot manipulation, simulated and real.",
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    parser.add_argument("--debug", action="store_true", help="show the full traceback of an error")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in _PLUGIN_MODULES:
         try:
@@ -56,14 +57,46 @@ def _version() -> str:
         return "unknown"
 
 
+class UsageError(ValueError):
+    """A command was given arguments it cannot use (exit code 2)."""
+
+
+# Errors that mean "the input was wrong": exit 2 and say what to change. Everything else that
+# is an ordinary failure (a file system refusing, a dataset that does not load) exits 1.
+_USAGE_ERRORS = (UsageError, ValueError, KeyError, TypeError)
+_FAILURES = (OSError, RuntimeError)
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run the ``aas`` command line; returns the exit code (0 ok, 1 failure, 2 usage, 130
+    interrupted). Errors print one line; ``--debug`` shows the traceback."""
     parser = build_parser()
     args = parser.parse_args(argv)
     func: Callable[[argparse.Namespace], int] | None = getattr(args, "func", None)
     if func is None:
         parser.print_help()
         return 0
-    return int(func(args) or 0)
+    try:
+        return int(func(args) or 0)
+    except KeyboardInterrupt:
+        if args.debug:
+            raise
+        hint = getattr(args, "interrupt_hint", None)
+        print(f"aas {args.command}: interrupted" + (f": {hint}" if hint else ""), file=sys.stderr)
+        return 130
+    except _USAGE_ERRORS + _FAILURES as exc:
+        if args.debug:
+            raise
+        print(f"aas {args.command}: {_one_line(exc)}", file=sys.stderr)
+        return 2 if isinstance(exc, _USAGE_ERRORS) and not isinstance(exc, _FAILURES) else 1
+
+
+def _one_line(exc: BaseException) -> str:
+    text = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
+    text = " ".join(str(text).split()) or type(exc).__name__
+    if isinstance(exc, OSError) and exc.filename and str(exc.filename) not in text:
+        text = f"{text}: {exc.filename}"
+    return f"{text} (run with --debug for the traceback)" if isinstance(exc, _FAILURES) else text
 
 
 if __name__ == "__main__":

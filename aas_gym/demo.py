@@ -15,6 +15,8 @@ def render_signals(out_dir: Path) -> Path:
     from sensors import Excitation, amplitude_spectrum, feature_frequencies_hz, smooth_spectrum, spectral_features
     import matplotlib
 
+    from sensors.atomic import atomic_savefig
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -38,7 +40,7 @@ def render_signals(out_dir: Path) -> Path:
         row[1].legend(fontsize=7)
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "excitations.png"
-    fig.savefig(path, dpi=110)
+    atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
     return path
 

@@ -1,7 +1,9 @@
 """Write files whole or not at all: a crash never leaves a half-written file that looks whole.
 
 The data go to a temporary file in the target's folder, are flushed to disk, and the file is
-renamed over the target (atomic on POSIX); on any error the temporary file is removed.
+renamed over the target (atomic on POSIX); on any error the temporary file is removed. The
+final file gets the mode an ordinary ``open`` would give it (0666 less the user's umask): the
+temporary file's private 0600 is not what the user asked for.
 """
 
 from __future__ import annotations
@@ -26,12 +28,26 @@ def atomic_open(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO]:
         with os.fdopen(fd, mode) as fh:
             yield fh
             fh.flush()
+            os.chmod(fh.fileno(), 0o666 & ~_umask())
             os.fsync(fh.fileno())
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)  # reading the umask means setting it; put it straight back
+    os.umask(mask)
+    return mask
+
+
+def atomic_savefig(fig, path: str | os.PathLike, **kwargs) -> None:
+    """``fig.savefig`` written atomically (the format follows ``path``'s suffix)."""
+    path = Path(path)
+    with atomic_open(path, "wb") as fh:
+        fig.savefig(fh, format=path.suffix.lstrip(".") or None, **kwargs)
 
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:

@@ -14,6 +14,7 @@ QUICK = dict(single_grasps=6, multi_grasps=3, positions=7, position_repeats=3)
 
 
 def _config(args: argparse.Namespace) -> DatasetConfig:
+    """The whole configuration, checked before anything is written (ValueError: exit 2)."""
     kw = dict(QUICK) if args.quick else {}
     for name in ("single_grasps", "multi_grasps", "positions", "position_repeats", "seed", "shard_size"):
         if getattr(args, name) is not None:
@@ -23,7 +24,22 @@ def _config(args: argparse.Namespace) -> DatasetConfig:
             kw[name] = tuple(getattr(args, name).split(","))
     if args.waveforms:
         kw["store_waveforms"] = True
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {args.workers}")
     return DatasetConfig(**kw)
+
+
+def _writable_folder(path: Path) -> Path:
+    """``path`` created if needed and checked writable now, before any computing."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / f".aas-write-check-{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise OSError(f"cannot write to the output folder {path} ({exc.strerror or exc}); "
+                      "choose another folder") from None
+    return path
 
 
 def _add_config_options(p: argparse.ArgumentParser) -> None:
@@ -47,6 +63,8 @@ def _generate(args: argparse.Namespace, out: Path) -> Path:
     from aas_gym.experiments.generate import generate_dataset
 
     config = _config(args)
+    _writable_folder(out.parent if not out.exists() else out)
+    args.interrupt_hint = "rerun the same command to resume"
     print(f"dataset: {len(config.tasks())} grasps x {len(config.excitations)} excitations -> {out}")
     return generate_dataset(config, out, workers=args.workers, ray_address=args.ray_address,
                             overwrite=args.overwrite)
@@ -62,7 +80,11 @@ def _cmd_generate(args: argparse.Namespace) -> int:
 def _cmd_report(args: argparse.Namespace) -> int:
     from aas_gym.experiments.run import report_dataset
 
-    path = report_dataset(Path(args.dataset), Path(args.out) if args.out else Path(args.dataset) / "report")
+    dataset = Path(args.dataset)
+    if not dataset.is_dir():
+        raise ValueError(f"{dataset} is not a dataset folder (make one with `aas generate {dataset}`)")
+    path = report_dataset(dataset, _writable_folder(Path(args.out) if args.out else dataset / "report"),
+                          workers=args.workers)
     print(path.read_text())
     print(f"wrote {path}")
     return 0
@@ -72,9 +94,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from aas_gym.experiments.run import report_dataset
 
     t0 = time.perf_counter()
-    out = Path(args.out)
+    # A quick run gets its own default folder: it must not meet a full run's dataset.
+    out = Path(args.out if args.out is not None else ("outputs/quick" if args.quick else "outputs"))
+    _config(args)
+    report = _writable_folder(out / "report")
     dataset = _generate(args, out / "dataset")
-    path = report_dataset(dataset, out / "report")
+    path = report_dataset(dataset, report, workers=args.workers)
     print(path.read_text())
     print(f"wrote {path} ({time.perf_counter() - t0:.0f} s)")
     return 0
@@ -83,7 +108,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def add_subcommands(sub) -> None:
     p = sub.add_parser("run", help="the main job: simulate the paper's experiments on the default objects "
                                    "and write the report (outputs/report/report.md)")
-    p.add_argument("--out", default="outputs", help="output folder (default: outputs)")
+    p.add_argument("--out", default=None, help="output folder (default: outputs, or outputs/quick with --quick)")
     _add_config_options(p)
     p.set_defaults(func=_cmd_run)
 
@@ -95,4 +120,5 @@ def add_subcommands(sub) -> None:
     p = sub.add_parser("report", help="run the paper's protocols on a generated dataset")
     p.add_argument("dataset", help="dataset folder")
     p.add_argument("--out", help="report folder (default: DATASET/report)")
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="processes for the protocols' fits")
     p.set_defaults(func=_cmd_report)

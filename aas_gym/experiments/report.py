@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
+from joblib import Parallel, delayed
+from tqdm.auto import tqdm
+
+from sensors.atomic import atomic_savefig, atomic_write_text
 
 from aas_gym.experiments.protocols import (
     CLASSIFIERS,
@@ -26,26 +31,49 @@ def _plt():
     return plt
 
 
-def run_protocols(df, seed: int = 0) -> tuple[list[RecognitionResult], list[PositionResult]]:
-    """All recognition and grasp-position results that the dataset ``df`` supports."""
-    rec: list[RecognitionResult] = []
-    pos: list[PositionResult] = []
+def protocol_jobs(df, seed: int = 0) -> list:
+    """The independent fits the dataset ``df`` supports, in report order: recognition per
+    excitation (5-fold CV within single-object scenes, and single -> multi transfer), grasp
+    position per object and excitation. Each job returns a list of results."""
+    jobs = []
     for exc in sorted(df["excitation"].unique(), key=["impulse", "linear", "exponential"].index):
         single = df[(df.scene == "single") & (df.excitation == exc)]
         multi = df[(df.scene == "multi") & (df.excitation == exc)]
         if len(single) and single["object"].nunique() > 1:
             X, y = np.stack(single.features), single["object"].to_numpy()
-            rec += recognition(X, y, excitation=exc, seed=seed)
+            jobs.append(delayed(recognition)(X, y, excitation=exc, seed=seed))
             if len(multi):
-                rec += recognition(X, y, excitation=exc, seed=seed, test_features=np.stack(multi.features),
-                                   test_labels=multi["object"].to_numpy())
+                jobs.append(delayed(recognition)(X, y, excitation=exc, seed=seed, test_features=np.stack(multi.features),
+                                                 test_labels=multi["object"].to_numpy()))
         sweep = df[(df.scene == "position") & (df.excitation == exc)]
         for obj in sorted(sweep["object"].unique()):
             rows = sweep[sweep["object"] == obj]
             if len(rows) >= 6:
-                pos.append(grasp_position(np.stack(rows.features), rows["position_m"].to_numpy(),
-                                          object_name=obj, excitation=exc, seed=seed))
+                jobs.append(delayed(_position_job)(np.stack(rows.features), rows["position_m"].to_numpy(),
+                                                   object_name=obj, excitation=exc, seed=seed))
+    return jobs
+
+
+def run_protocols(df, seed: int = 0, *, workers: int | None = None,
+                  progress: bool = True) -> tuple[list[RecognitionResult], list[PositionResult]]:
+    """All recognition and grasp-position results that the dataset ``df`` supports.
+
+    The fits are independent: they run on ``workers`` processes (default: every core) with a
+    progress bar; the results are those of a serial run, in the same order."""
+    jobs = protocol_jobs(df, seed)
+    workers = max(1, min(len(jobs), workers or os.cpu_count() or 1))
+    runner = Parallel(n_jobs=workers, return_as="generator") if workers > 1 else (lambda js: (f(*a, **k) for f, a, k in js))
+    rec: list[RecognitionResult] = []
+    pos: list[PositionResult] = []
+    for results in tqdm(runner(jobs), total=len(jobs), desc="protocols", unit="fit", disable=not progress):
+        for r in results:
+            (rec if isinstance(r, RecognitionResult) else pos).append(r)
     return rec, pos
+
+
+def _position_job(*args, **kwargs) -> list[PositionResult]:
+    """One grasp-position fit as a job: every job returns a list of results."""
+    return [grasp_position(*args, **kwargs)]
 
 
 def recognition_table(results: list[RecognitionResult]) -> str:
@@ -96,7 +124,7 @@ def plot_confusions(results: list[RecognitionResult], path: Path) -> Path:
         name = "single -> single" if r.protocol == "single" else "single -> multiple"
         ax.set_title(f"MLP, {r.excitation}, {name}: {r.accuracy:.1f}%", fontsize=9)
         ax.set(xlabel="predicted", ylabel="true")
-    fig.savefig(path, dpi=100)
+    atomic_savefig(fig, path, dpi=100)
     plt.close(fig)
     return path
 
@@ -113,7 +141,7 @@ def plot_positions(results: list[PositionResult], path: Path) -> Path:
         ax.plot([0, lim], [0, lim], "k--", lw=0.6)
         ax.set(title=obj, xlabel="true position [mm]", ylabel="predicted [mm]", xlim=(-3, lim), ylim=(-3, lim))
         ax.legend(fontsize=6)
-    fig.savefig(path, dpi=100)
+    atomic_savefig(fig, path, dpi=100)
     plt.close(fig)
     return path
 
@@ -139,7 +167,7 @@ def plot_spectra(curves: list[tuple[str, str, np.ndarray, np.ndarray]], path: Pa
             ax.semilogy(f[band], smooth[band], lw=1.2, color=color, label=label)
         ax.set(title=panel, xlabel="frequency [Hz]", ylabel="amplitude")
         ax.legend(fontsize=7)
-    fig.savefig(path, dpi=100)
+    atomic_savefig(fig, path, dpi=100)
     plt.close(fig)
     return path
 
@@ -168,5 +196,5 @@ def write_report(rec: list[RecognitionResult], pos: list[PositionResult], out_di
     if notes:
         parts += ["## What the results say", "", notes.strip(), ""]
     path = out_dir / "report.md"
-    path.write_text("\n".join(parts))
+    atomic_write_text(path, "\n".join(parts))
     return path

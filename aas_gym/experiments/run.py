@@ -11,6 +11,7 @@ import numpy as np
 from aas_gym.experiments.generate import load_dataset
 from aas_gym.experiments.protocols import RecognitionResult
 from aas_gym.experiments.report import run_protocols, write_report
+from sensors.atomic import atomic_write_text
 
 
 def _grasped_spectrum(objects, placements, body: str, position_m: float, excitation: str, seed: int):
@@ -103,10 +104,11 @@ def _notes(df, rec: list[RecognitionResult], pos) -> str:
     return "\n".join(lines)
 
 
-def report_dataset(dataset_dir: Path, out_dir: Path, seed: int = 0) -> Path:
-    """Protocols, figures and notes of the dataset in ``dataset_dir`` -> ``out_dir/report.md``."""
+def report_dataset(dataset_dir: Path, out_dir: Path, seed: int = 0, workers: int | None = None) -> Path:
+    """Protocols, figures and notes of the dataset in ``dataset_dir`` -> ``out_dir/report.md``
+    (every file written atomically; the fits run on ``workers`` processes)."""
     df = load_dataset(dataset_dir)
-    rec, pos = run_protocols(df, seed=seed)
+    rec, pos = run_protocols(df, seed=seed, workers=workers)
     spectra = spectra_curves(seed=seed)
     path = write_report(rec, pos, out_dir, spectra=spectra, notes=_notes(df, rec, pos))
     summary = {
@@ -114,5 +116,5 @@ def report_dataset(dataset_dir: Path, out_dir: Path, seed: int = 0) -> Path:
                          "accuracy_percent": r.accuracy} for r in rec],
         "grasp_position": [{"object": r.object_name, "excitation": r.excitation, "rmse_mm": r.rmse_mm} for r in pos],
     }
-    (out_dir / "results.json").write_text(json.dumps(summary, indent=2))
+    atomic_write_text(out_dir / "results.json", json.dumps(summary, indent=2))
     return path

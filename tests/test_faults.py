@@ -1,0 +1,66 @@
+"""The fault model, one test per promise: what a kill, a corrupt or foreign input or an
+unwritable folder does to the files the project writes.
+
+Covered elsewhere: kill -9 and resume of generation (test_generate), the real rig's partial
+recordings (test_real_latency, test_real_audio), corrupt leak files at gym.make (test_env),
+the CLI's failures (test_cli)."""
+
+from __future__ import annotations
+
+import os
+import stat
+
+import numpy as np
+import pytest
+
+from sensors.atomic import atomic_open, atomic_savefig, atomic_write_text
+
+
+@pytest.mark.parametrize("umask, mode", [(0o022, 0o644), (0o077, 0o600), (0o002, 0o664)])
+def test_written_files_follow_the_users_umask(tmp_path, umask, mode):
+    old = os.umask(umask)
+    try:
+        atomic_write_text(tmp_path / "report.md", "x")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE((tmp_path / "report.md").stat().st_mode) == mode
+
+
+def test_a_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path):
+    path = tmp_path / "results.json"
+    atomic_write_text(path, "old")
+    with pytest.raises(RuntimeError):
+        with atomic_open(path, "w") as fh:
+            fh.write("half of the new")
+            raise RuntimeError("killed mid-write")
+    assert path.read_text() == "old" and sorted(p.name for p in tmp_path.iterdir()) == ["results.json"]
+
+
+def test_figures_are_written_whole(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots()
+    ax.plot(np.arange(3))
+    atomic_savefig(fig, tmp_path / "f.png", dpi=50)
+    plt.close(fig)
+    assert (tmp_path / "f.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["f.png"]
+
+
+def test_a_foreign_or_corrupt_leak_file_is_named(tmp_path):
+    from sensors import load_leak
+
+    bad = tmp_path / "leak.npz"
+    bad.write_bytes(os.urandom(256))
+    with pytest.raises(ValueError, match="leak.npz"):
+        load_leak(bad)
+    np.save(tmp_path / "array.npy", np.zeros(3))
+    (tmp_path / "array.npy").rename(tmp_path / "other.npz")
+    with pytest.raises(ValueError, match="other.npz"):
+        load_leak(tmp_path / "other.npz")
+    np.savez(tmp_path / "foreign.npz", something=np.zeros(3))
+    with pytest.raises(ValueError, match="foreign.npz.*not a leak recording"):
+        load_leak(tmp_path / "foreign.npz")
