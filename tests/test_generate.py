@@ -39,7 +39,7 @@ def test_dataset_content(reference):
     assert feats.shape == (len(df), 140) and np.all(np.isfinite(feats)) and np.all(feats >= 0)
     pos = df[df.scene == "position"].sort_values("task_id")
     np.testing.assert_allclose(sorted(set(pos.position_m)), [0.0, 0.005])
-    manifest = json.loads((reference / "dataset.json").read_text())
+    manifest = json.loads((reference / ".dataset.json").read_text())
     assert manifest["fingerprint"] == config.fingerprint()
 
 

@@ -2,20 +2,27 @@
 
 Output folder::
 
-    dataset.json          config, its fingerprint, shard count (written first)
-    shard-00000.parquet   one Parquet file per shard, written atomically
-    ...
+    .dataset.json         config, its fingerprint, shard count (written first; a dot file,
+                          so Arrow, pandas and Hugging Face datasets read the folder as shards)
+    shard-00000.parquet   one Parquet file per shard, written atomically, carrying the
+    ...                   config fingerprint and a checksum of its rows
 
 Each shard is computed by a worker (a local process or a Ray task) and returned as Parquet
 bytes; only the driver writes, by write-to-temporary-then-rename, so an interrupted run
 leaves whole shards only, and a rerun computes just the missing ones. A shard's bytes depend
 only on the config, never on the backend or the worker count. Read the result with
-:func:`load_dataset` (pandas), ``pandas.read_parquet(folder)`` or Hugging Face
-``datasets.load_dataset("parquet", data_dir=folder)``.
+:func:`load_dataset` (pandas, every shard verified), ``pandas.read_parquet(folder)``,
+``pyarrow.dataset.dataset(folder)`` or Hugging Face ``datasets.load_dataset("parquet",
+data_dir=folder)``.
+
+A shard is trusted only if its footer names this configuration's fingerprint and its rows
+hash to the checksum it carries: on resume a foreign (another seed) or corrupt shard is
+computed again; on load it is an error naming the shard.
 """
 
 from __future__ import annotations
 
+import hashlib
 import io
 import json
 import os
@@ -33,7 +40,13 @@ from aas_gym.experiments.config import DatasetConfig
 from sensors.atomic import atomic_write_bytes
 
 FORMAT = "aas-gym-dataset/1"
-MANIFEST = "dataset.json"
+MANIFEST = ".dataset.json"
+# Datasets written before the manifest was renamed: still read, renamed on the next resume.
+LEGACY_MANIFEST = "dataset.json"
+
+
+class ShardError(ValueError):
+    """A shard that is not this dataset's: another configuration's, or corrupt."""
 
 
 def shard_path(out_dir: Path, index: int) -> Path:
@@ -66,16 +79,54 @@ def rows_to_parquet(rows: list[dict[str, Any]], config: DatasetConfig) -> bytes:
             columns[key] = pa.FixedSizeListArray.from_arrays(pa.array(flat.ravel()), flat.shape[1])
         else:
             columns[key] = pa.array(values)
-    table = pa.table(columns, metadata={"aas_gym_format": FORMAT, "config_fingerprint": config.fingerprint()})
+    table = pa.table(columns)
+    table = table.replace_schema_metadata({"aas_gym_format": FORMAT, "config_fingerprint": config.fingerprint(),
+                                           "rows_sha256": _rows_digest(table)})
     buf = io.BytesIO()
     pq.write_table(table, buf, compression="zstd")
     return buf.getvalue()
 
 
+def _rows_digest(table: pa.Table) -> str:
+    """SHA-256 of the table's rows, independent of how Parquet chunks them: each column's name,
+    type and values (array columns as their float32 bytes, others as exact JSON)."""
+    h = hashlib.sha256()
+    for name in table.column_names:
+        col = table[name].combine_chunks()
+        if pa.types.is_fixed_size_list(col.type):  # Parquet renames the child field: not hashed
+            h.update(f"{name}:list[{col.type.list_size}]\n".encode())
+            h.update(np.ascontiguousarray(col.flatten().to_numpy(zero_copy_only=False), np.float32).tobytes())
+        else:
+            h.update(f"{name}:{col.type}\n".encode())
+            h.update(json.dumps(col.to_pylist(), default=repr).encode())
+    return h.hexdigest()
+
+
+def read_shard(path: Path, fingerprint: str) -> pa.Table:
+    """The shard's rows, verified: ``ShardError`` naming the file if it belongs to another
+    configuration, cannot be read, or its rows do not hash to its checksum."""
+    try:
+        table = pq.read_table(path)
+    except Exception as exc:  # pyarrow raises several types for damaged files
+        raise ShardError(f"shard {path} cannot be read ({type(exc).__name__}: {exc})") from None
+    meta = {k.decode(): v.decode() for k, v in (table.schema.metadata or {}).items()}
+    if meta.get("config_fingerprint") != fingerprint:
+        raise ShardError(f"shard {path} belongs to another configuration (fingerprint "
+                         f"{meta.get('config_fingerprint')} != {fingerprint})")
+    if meta.get("rows_sha256") != _rows_digest(table):
+        raise ShardError(f"shard {path} is corrupt: its rows do not match its checksum")
+    return table
+
+
+def _manifest_path(out_dir: Path) -> Path:
+    legacy = out_dir / LEGACY_MANIFEST
+    return legacy if legacy.exists() and not (out_dir / MANIFEST).exists() else out_dir / MANIFEST
+
+
 def _prepare(out_dir: Path, config: DatasetConfig, overwrite: bool) -> list[int]:
     """Write or check the manifest; return the shard indices still to compute."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    manifest_path = out_dir / MANIFEST
+    manifest_path = _manifest_path(out_dir)
     n_shards = len(config.shards())
     manifest = {"format": FORMAT, "fingerprint": config.fingerprint(), "n_shards": n_shards,
                 "n_tasks": len(config.tasks()), "config": config.to_dict()}
@@ -89,7 +140,10 @@ def _prepare(out_dir: Path, config: DatasetConfig, overwrite: bool) -> list[int]
     else:
         for stale in out_dir.glob("shard-*.parquet"):
             stale.unlink()
-        atomic_write_bytes(manifest_path, json.dumps(manifest, indent=2, sort_keys=True).encode())
+    if manifest_path.name != MANIFEST or overwrite or not manifest_path.exists():
+        atomic_write_bytes(out_dir / MANIFEST, json.dumps(manifest, indent=2, sort_keys=True).encode())
+        if manifest_path.name == LEGACY_MANIFEST:
+            manifest_path.unlink()
     for tmp in out_dir.glob(".shard-*.tmp"):  # left by a killed run; never renamed, never whole
         tmp.unlink()
     todo = []
@@ -97,9 +151,9 @@ def _prepare(out_dir: Path, config: DatasetConfig, overwrite: bool) -> list[int]
         path = shard_path(out_dir, i)
         if path.exists():
             try:
-                pq.read_metadata(path)
+                read_shard(path, manifest["fingerprint"])
                 continue
-            except Exception:  # unreadable: compute again
+            except ShardError:  # foreign or corrupt: compute again
                 path.unlink()
         todo.append(i)
     return todo
@@ -191,10 +245,13 @@ def load_dataset(out_dir: str | os.PathLike):
     import pandas as pd
 
     out = Path(out_dir)
-    manifest = json.loads((out / MANIFEST).read_text())
+    manifest_path = _manifest_path(out)
+    if not manifest_path.exists():
+        raise FileNotFoundError(f"{out} is not a dataset: it has no {MANIFEST} (make one with `aas generate {out}`)")
+    manifest = json.loads(manifest_path.read_text())
     paths = [shard_path(out, i) for i in range(manifest["n_shards"])]
     missing = [p.name for p in paths if not p.exists()]
     if missing:
         raise FileNotFoundError(f"dataset in {out} is incomplete: {len(missing)} shards missing "
                                 f"(first: {missing[0]}); run the generation again to finish it")
-    return pd.concat([pd.read_parquet(p) for p in paths], ignore_index=True)
+    return pd.concat([read_shard(p, manifest["fingerprint"]).to_pandas() for p in paths], ignore_index=True)
