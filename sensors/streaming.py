@@ -87,6 +87,16 @@ class GraspState:
         object.__setattr__(self, "others", others)
         if self.object_key is None:
             object.__setattr__(self, "object_key", ("model", id(self.model)))
+        object.__setattr__(self, "_table", None)
+
+    def contact_table(self) -> np.ndarray:
+        """Rows [position_m (3), normal (3), force_n, friction] of the actuator, mic (NaN
+        rows where absent) and other contacts with a positive force; computed once."""
+        if self._table is None:
+            rows = [_row(self.actuator), _row(self.mic)]
+            rows += [_row(c) for c in self.others if c.force_n > 0]
+            object.__setattr__(self, "_table", np.array(rows))
+        return self._table
 
     @property
     def closed(self) -> bool:
@@ -97,6 +107,12 @@ class GraspState:
     def damping_contacts(self) -> list[Contact]:
         """Every contact that damps the object (fingertips that touch, then the others)."""
         return [c for c in (self.actuator, self.mic) if c is not None] + list(self.others)
+
+
+def _row(c: Contact | None) -> np.ndarray:
+    if c is None:
+        return np.full(8, np.nan)
+    return np.concatenate([c.position_m, c.normal, [c.force_n, c.friction]])
 
 
 @dataclass(frozen=True)
@@ -138,30 +154,35 @@ class ContactTolerance:
         return cls(0.0, 0.0, 0.0, 0.0)
 
     # matching ----------------------------------------------------------------------------
-    def contact_matches(self, c: Contact | None, ref: Contact | None) -> bool:
-        if c is None or ref is None:
-            return c is ref
-        if abs(c.force_n - ref.force_n) > self.force_rtol * ref.force_n + self.force_atol_n:
-            return False
-        if abs(c.friction - ref.friction) > 1e-9:
-            return False
-        if np.max(np.abs(c.position_m - ref.position_m)) > self.position_m:
-            return False
-        # |n - n_ref| = 2 sin(angle / 2) for unit vectors
-        return float(np.linalg.norm(c.normal - ref.normal)) <= 2 * np.sin(self.normal_rad / 2) + 1e-15
+    def rows_match(self, a: np.ndarray, ref: np.ndarray) -> np.ndarray:
+        """Per row of two contact tables (see ``GraspState.contact_table``): do they match?
+        Absent contacts (NaN rows) match only absent ones."""
+        absent_a, absent_r = np.isnan(a[:, 0]), np.isnan(ref[:, 0])
+        with np.errstate(invalid="ignore"):
+            ok = np.abs(a[:, :3] - ref[:, :3]).max(axis=1) <= self.position_m
+            # |n - n_ref| = 2 sin(angle / 2) for unit vectors
+            dn = np.sqrt(((a[:, 3:6] - ref[:, 3:6]) ** 2).sum(axis=1))
+            ok &= dn <= 2 * np.sin(self.normal_rad / 2) + 1e-15
+            ok &= np.abs(a[:, 6] - ref[:, 6]) <= self.force_rtol * ref[:, 6] + self.force_atol_n
+            ok &= np.abs(a[:, 7] - ref[:, 7]) <= 1e-9
+        return np.where(absent_a | absent_r, absent_a & absent_r, ok)
 
-    def sets_match(self, a: Sequence[Contact], b: Sequence[Contact]) -> bool:
-        """Other contacts: a one-to-one match in any order (greedy; sets are small)."""
-        if len(a) != len(b):
+    def tables_match(self, a: np.ndarray, ref: np.ndarray) -> bool:
+        """Same roles (actuator, mic rows 0 and 1) and a one-to-one match of the other
+        contacts in any order (tried in the given order first; greedy otherwise)."""
+        if a.shape != ref.shape:
             return False
-        free = list(b)
-        for c in a:
-            for i, ref in enumerate(free):
-                if self.contact_matches(c, ref):
-                    del free[i]
-                    break
-            else:
+        ok = self.rows_match(a, ref)
+        if ok.all():
+            return True
+        if not ok[:2].all():
+            return False
+        free = list(range(2, len(ref)))
+        for i in range(2, len(a)):
+            hit = self.rows_match(np.repeat(a[i:i + 1], len(free), axis=0), ref[free])
+            if not hit.any():
                 return False
+            del free[int(np.argmax(hit))]
         return True
 
 
@@ -173,9 +194,7 @@ class ContactTolerance:
 class _Entry:
     object_key: Hashable
     heard: bool                 # closed grasp (drive + mic) or ring-down only
-    actuator: Contact | None
-    mic: Contact | None
-    others: tuple[Contact, ...]
+    table: np.ndarray           # the contact set it was built from (GraspState.contact_table)
     system: ModalSystem
 
 
@@ -198,20 +217,18 @@ class SystemCache:
     def size(self) -> int:
         return len(self._entries)
 
-    def lookup(self, key: Hashable, heard: bool, actuator, mic, others) -> ModalSystem | None:
-        tol = self.tolerance
+    def lookup(self, key: Hashable, heard: bool, table: np.ndarray) -> ModalSystem | None:
         for i in range(len(self._entries) - 1, -1, -1):
             e = self._entries[i]
-            if (e.object_key == key and e.heard == heard and tol.contact_matches(actuator, e.actuator)
-                    and tol.contact_matches(mic, e.mic) and tol.sets_match(others, e.others)):
+            if e.object_key == key and e.heard == heard and self.tolerance.tables_match(table, e.table):
                 self._entries.append(self._entries.pop(i))
                 self.hits += 1
                 return e.system
         self.misses += 1
         return None
 
-    def store(self, key, heard, actuator, mic, others, system: ModalSystem) -> None:
-        self._entries.append(_Entry(key, heard, actuator, mic, tuple(others), system))
+    def store(self, key: Hashable, heard: bool, table: np.ndarray, system: ModalSystem) -> None:
+        self._entries.append(_Entry(key, heard, table, system))
         while len(self._entries) > self.max_size:
             self._entries.pop(0)
 
@@ -300,6 +317,7 @@ class AcousticStream:
         self._current: Hashable | None = None
         self._drive: _Drive | None = None
         self._drive_systems: "OrderedDict[FingertipModel, tuple[ModalSystem, ModalSystem]]" = OrderedDict()
+        self._tips: dict[Hashable, FingertipModel] = {}
         self._last_grasp: GraspState | None = None
         self._last_resolved = None
         # features of the latest complete loop period
@@ -341,12 +359,14 @@ class AcousticStream:
         while i < len(resolved):
             # merge consecutive spans that use the same systems: one synthesis call for them
             n, g, key = resolved[i]
+            grip = key.grip_force_n
             j = i + 1
             while j < len(resolved) and resolved[j][2].same_systems(key):
                 n += resolved[j][0]
+                grip = min(grip, resolved[j][2].grip_force_n)
                 j += 1
             off = self.sample_index - start
-            self._span(n, g, key, y[off:off + n])
+            self._span(n, g, key, grip, y[off:off + n])
             i = j
         return self._record(start, y)
 
@@ -379,13 +399,13 @@ class AcousticStream:
         return meta
 
     # -- resolving a grasp to its systems --------------------------------------------------
-    def _resolve(self, g: GraspState):
+    def _resolve(self, g: GraspState) -> "_Resolved":
         """The systems of a span (consecutive spans with the same systems are merged)."""
         if g is self._last_grasp:
             return self._last_resolved
         if g.closed:
-            tip = self._fingertip_for(g)
-            res = _Resolved(g.object_key, True, self._closed_system(g), tip, _drive_key(tip))
+            res = _Resolved(g.object_key, True, self._closed_system(g), self._drive_model(g),
+                            g.actuator.force_n)
         else:
             res = _Resolved(g.object_key, False)
         self._last_grasp, self._last_resolved = g, res
@@ -393,7 +413,7 @@ class AcousticStream:
 
     def _closed_system(self, g: GraspState) -> ModalSystem:
         others = [c for c in g.others if c.force_n > 0]
-        hit = self.systems.lookup(g.object_key, True, g.actuator, g.mic, others)
+        hit = self.systems.lookup(g.object_key, True, g.contact_table())
         if hit is not None:
             return hit
         r = len(g.model.angular_frequencies_rad_s)
@@ -401,37 +421,41 @@ class AcousticStream:
                                  g.mic.position_m, g.mic.normal, [g.actuator, g.mic, *others],
                                  method=self.method, output=self.output, keep_unobservable=True,
                                  initial_state=np.ones(2 * r))  # keep every mode: any may carry state
-        self.systems.store(g.object_key, True, g.actuator, g.mic, others, sysm)
+        self.systems.store(g.object_key, True, g.contact_table(), sysm)
         return sysm
 
     def _ring_system(self, g: GraspState, geometry) -> ModalSystem:
         """Free ring-down under the contacts the object still has (no drive, not heard).
         The drive/mic points only shape B and C, which zero force and no output ignore."""
         contacts = [c for c in g.damping_contacts() if c.force_n > 0]
-        act = g.actuator if (g.actuator is not None and g.actuator.force_n > 0) else None
-        mic = g.mic if (g.mic is not None and g.mic.force_n > 0) else None
-        others = [c for c in g.others if c.force_n > 0]
-        hit = self.systems.lookup(g.object_key, False, act, mic, others)
+        hit = self.systems.lookup(g.object_key, False, g.contact_table())
         if hit is not None:
             return hit
         r = len(g.model.angular_frequencies_rad_s)
         sysm = ModalSystem.build(g.model, self.sample_rate_hz, *geometry, contacts, method=self.method,
                                  output=self.output, keep_unobservable=True, initial_state=np.ones(2 * r))
-        self.systems.store(g.object_key, False, act, mic, others, sysm)
+        self.systems.store(g.object_key, False, g.contact_table(), sysm)
         return sysm
 
-    def _fingertip_for(self, g: GraspState) -> FingertipModel:
-        base = self.fingertip
-        if base is None:
-            kw = {"grip_force_n": g.actuator.force_n}
-            mass = getattr(g.model, "mass_kg", None)
-            if mass is not None and np.isfinite(mass) and mass > 0:
-                kw["object_mass_kg"] = float(mass)
-            return FingertipModel(**kw)
-        return base.with_(grip_force_n=g.actuator.force_n)
+    def _drive_model(self, g: GraspState) -> FingertipModel:
+        """The drive model for this object with grip force 0: the grip force (the actuator
+        contact's normal force) does not enter the linear dynamics, only the separation
+        check (``FingertipModel.state_space`` does not read it; tests/test_streaming.py
+        checks that), so one discretised drive serves every grip force."""
+        tip = self._tips.get(g.object_key)
+        if tip is None:
+            base = self.fingertip
+            if base is None:
+                kw = {}
+                mass = getattr(g.model, "mass_kg", None)
+                if mass is not None and np.isfinite(mass) and mass > 0:
+                    kw["object_mass_kg"] = float(mass)
+                base = FingertipModel(**kw)
+            tip = self._tips[g.object_key] = replace(base, grip_force_n=0.0)
+        return tip
 
     def _drive_systems_for(self, tip: FingertipModel):
-        key = _drive_key(tip)
+        key = tip
         hit = self._drive_systems.get(key)
         if hit is not None:
             self._drive_systems.move_to_end(key)
@@ -467,12 +491,12 @@ class AcousticStream:
             self._current = key
         return st
 
-    def _span(self, n: int, g: GraspState, res: _Resolved, out: np.ndarray) -> None:
+    def _span(self, n: int, g: GraspState, res: "_Resolved", grip_force_n, out: np.ndarray) -> None:
         st = self._object_state(g)
         s = self.sample_index
         if res.heard:
-            sysm, tip = res.system, res.fingertip
-            u = self._drive_force(tip, s, n)                 # n + 1 samples: s .. s + n
+            u = self._drive_force(res.fingertip, grip_force_n, s, n)
+            sysm = res.system                 # n + 1 samples: s .. s + n
             y = sysm.response(u[:n], st.x)
             out[:] = y
             st.x = sysm.final_state(u, st.x)
@@ -486,8 +510,9 @@ class AcousticStream:
         st.at = s + n
         self.sample_index = s + n
 
-    def _drive_force(self, tip: FingertipModel, s: int, n: int) -> np.ndarray:
-        """Dynamic actuator contact force at samples s .. s + n (piecewise linear between)."""
+    def _drive_force(self, tip: FingertipModel, grip_force_n: float, s: int, n: int) -> np.ndarray:
+        """Dynamic actuator contact force at samples s .. s + n (piecewise linear between);
+        ``grip_force_n`` (the lowest over the span) sets the separation check."""
         act, mic = self._drive_systems_for(tip)
         d = self._drive
         if d is None or d.act is not act:
@@ -497,7 +522,7 @@ class AcousticStream:
         x0 = d.x if np.any(d.x) else None
         f = act.response(fe, x0)
         f_mic = mic.response(fe, x0)
-        lowest = tip.grip_force_n + min(f.min(), f_mic.min())
+        lowest = grip_force_n + min(f.min(), f_mic.min())
         self.min_contact_force_n = min(self.min_contact_force_n, lowest)
         if lowest < 0:
             self.fingertip_separated = True
@@ -547,20 +572,13 @@ class _Resolved:
     object_key: Hashable
     heard: bool
     system: ModalSystem | None = None
-    fingertip: FingertipModel | None = None
-    drive_key: FingertipModel | None = None
+    fingertip: FingertipModel | None = None      # drive model, grip force 0
+    grip_force_n: float = 0.0
 
     def same_systems(self, other: "_Resolved") -> bool:
         """One synthesis call can cover both spans."""
         return (self.object_key == other.object_key and self.heard == other.heard
-                and self.system is other.system and self.drive_key == other.drive_key)
-
-
-def _drive_key(tip: FingertipModel) -> FingertipModel:
-    """The linear drive dynamics do not depend on the grip force (it only sets the
-    separation threshold; ``FingertipModel.state_space`` does not read it, which
-    tests/test_streaming.py checks), so tips differing in grip alone share one system."""
-    return replace(tip, grip_force_n=0.0)
+                and self.system is other.system and self.fingertip is other.fingertip)
 
 
 def _aligned_leak_cycle(leak: LeakRecording, excitation: Excitation, target_lag: int) -> np.ndarray:

@@ -95,7 +95,7 @@ def _reference(model, exc, tip, schedule):
     return y
 
 
-def _switching_schedule(model, act, mic, tab, rng):
+def _switching_schedule(model, act, mic, tab):
     """0.5 s of physics steps (88/89 samples); contact sets switch at least five times:
     table on/off, grip force change, mic fingertip leaving and returning, actuator leaving."""
     bounds = np.round(np.arange(0, 251) * 0.002 * FS).astype(int)  # 250 steps of 2 ms
@@ -126,7 +126,7 @@ def test_matches_segmentwise_lsim_with_switching_contacts(model_name, bar):
     tab = table()
     exc = Excitation.linear_sweep()
     tip = FingertipModel()
-    sched = _switching_schedule(model, act, mic, tab, np.random.default_rng(0))
+    sched = _switching_schedule(model, act, mic, tab)
     stream = AcousticStream(exc, tip, tolerance=ContactTolerance.exact())
     # one call per physics step, and one per env step (25 physics steps): both exact
     y1 = np.concatenate([stream.advance(k, g) for k, g in sched]).astype(float) / mic_gain()
