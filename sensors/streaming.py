@@ -14,7 +14,7 @@ piece of state into the next span:
 - the noise generator and the leak's phase.
 
 Timing convention (as ``sensors.modal_response`` with a contact schedule): a span of n
-samples starting at sample s covers the time interval [s, s + n) / fs.  Its system governs
+samples starting at sample s covers the time interval [s, s + n) / sample_rate_hz.  Its system governs
 the n steps from sample s to sample s + n; its microphone reads samples s .. s + n - 1.  The
 drive force is piecewise linear between samples and continuous across span boundaries.
 
@@ -295,7 +295,7 @@ class AcousticStream:
         if not np.isfinite(noise_std) or noise_std < 0:
             raise ValueError(f"noise_std must be >= 0, got {noise_std!r}")
         self.excitation = excitation
-        self.sample_rate_hz = int(excitation.fs)
+        self.sample_rate_hz = int(excitation.sample_rate_hz)
         self.fingertip = fingertip
         self.noise_std = float(noise_std)
         self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
