@@ -21,6 +21,7 @@ from .modal_basis import MaterialView, ModalBasis, with_material
 from .modal_model import ModalModel
 from .meshing import MeshError
 from .eigen import EigenSolveError
+from .npz import FileFormatError
 
 _LAZY = {
     "SpectralFeatures": "sensors.transformers",

@@ -19,7 +19,6 @@ falls at the same sample in both signals.
 from __future__ import annotations
 
 import json
-import zipfile
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from .atomic import atomic_open
+from .npz import read_npz
 
 __all__ = ["LeakRecording", "save_leak", "load_leak", "excitation_lag", "align_leak"]
 
@@ -73,22 +73,11 @@ def save_leak(path: str | os.PathLike, waveform, sample_rate_hz: int, excitation
 
 
 def load_leak(path: str | os.PathLike) -> LeakRecording:
-    """Read a leak recording written by :func:`save_leak`; ``ValueError`` naming the file
-    for anything that is not one (corrupt, truncated, another .npz)."""
-    try:
-        z = np.load(path, allow_pickle=False)
-    except FileNotFoundError:
-        raise
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        raise ValueError(f"{path}: not a readable leak recording ({type(exc).__name__}: {exc})") from None
-    if not hasattr(z, "files"):
-        raise ValueError(f"{path}: not a leak recording (a single array, not an .npz archive)")
-    with z:
-        missing = {"waveform", "sample_rate_hz", "excitation"} - set(z.files)
-        if missing:
-            raise ValueError(f"{path}: not a leak recording (missing {sorted(missing)})")
-        meta = json.loads(str(z["metadata"])) if "metadata" in z.files else {}
-        return LeakRecording(z["waveform"], int(z["sample_rate_hz"]), json.loads(str(z["excitation"])), meta)
+    """Read a leak recording written by :func:`save_leak`; ``FileFormatError`` (a
+    ``ValueError``) naming the file for anything that is not one."""
+    z = read_npz(path, {"waveform", "sample_rate_hz", "excitation"}, "a leak recording")
+    meta = json.loads(str(z["metadata"])) if "metadata" in z else {}
+    return LeakRecording(z["waveform"], int(z["sample_rate_hz"]), json.loads(str(z["excitation"])), meta)
 
 
 def excitation_lag(signal, excitation_period, max_lag: int | None = None) -> int:

@@ -10,6 +10,7 @@ import numpy as np
 
 from .atomic import atomic_open
 from .materials import Material
+from .npz import FileFormatError, read_npz
 
 __all__ = ["load", "save", "to_arrays", "from_arrays"]
 
@@ -43,6 +44,11 @@ def save(model, path) -> Path:
 
 
 def load(cls, path):
-    """Read a model written by :func:`save`."""
-    with np.load(Path(path), allow_pickle=False) as data:
-        return from_arrays(cls, {k: data[k] for k in data.files})
+    """Read a model written by :func:`save` (``FileFormatError`` naming the file otherwise,
+    including a model whose frequencies or shapes are not finite or not ascending)."""
+    data = read_npz(path, {"nodes_m", "elements", "frequencies_hz", "mode_shapes", "material", "metadata"},
+                    "an aas-gym modal model")
+    try:
+        return from_arrays(cls, data)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise FileFormatError(f"{path}: not a valid aas-gym modal model ({exc})") from None

@@ -63,6 +63,9 @@ class ModalModel:
         r = len(self.frequencies_hz)
         if self.mode_shapes.shape != (len(self.nodes_m), 3, r):
             raise ValueError(f"mode_shapes must have shape {(len(self.nodes_m), 3, r)}, got {self.mode_shapes.shape}")
+        if not (np.all(np.isfinite(self.frequencies_hz)) and np.all(np.isfinite(self.mode_shapes))
+                and np.all(np.isfinite(self.nodes_m))):
+            raise ValueError("frequencies_hz, mode_shapes and nodes_m must be finite")
         if r and (np.any(np.diff(self.frequencies_hz) < 0) or self.frequencies_hz[0] <= 0):
             raise ValueError("frequencies_hz must be positive and ascending")
         self.metadata = dict(metadata or {})

@@ -12,6 +12,7 @@ import numpy as np
 
 from .atomic import atomic_open
 from .excitation import Excitation
+from .npz import FileFormatError, read_npz
 from .features import _validate_waveform, amplitude_spectrum, spectral_features
 
 
@@ -91,10 +92,13 @@ class AcousticObservation:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> AcousticObservation:
-        """Read a file written by :meth:`save`."""
-        with np.load(Path(path), allow_pickle=False) as data:
+        """Read a file written by :meth:`save` (``FileFormatError`` naming the file otherwise)."""
+        data = read_npz(path, {"meta", "waveform"}, "an aas-gym acoustic observation")
+        try:
             meta = json.loads(str(data["meta"]))
-            waveform = data["waveform"]
+        except ValueError as exc:
+            raise FileFormatError(f"{path}: not an aas-gym acoustic observation (bad metadata: {exc})") from None
+        waveform = data["waveform"]
         return cls(
             waveform=waveform,
             sample_rate_hz=meta["sample_rate_hz"],

@@ -64,3 +64,36 @@ def test_a_foreign_or_corrupt_leak_file_is_named(tmp_path):
     np.savez(tmp_path / "foreign.npz", something=np.zeros(3))
     with pytest.raises(ValueError, match="foreign.npz.*not a leak recording"):
         load_leak(tmp_path / "foreign.npz")
+
+
+def _garbage_files(tmp_path):
+    rnd = tmp_path / "random.npz"
+    rnd.write_bytes(os.urandom(300))
+    foreign = tmp_path / "foreign.npz"
+    np.savez(foreign, something=np.zeros(3))
+    return [rnd, foreign]
+
+
+def test_corrupt_or_foreign_observation_and_model_files_are_named(tmp_path):
+    from sensors import AcousticObservation, FileFormatError, ModalModel
+
+    for path in _garbage_files(tmp_path):
+        with pytest.raises(FileFormatError, match=path.name + ".*observation"):
+            AcousticObservation.load(path)
+        with pytest.raises(FileFormatError, match=path.name + ".*modal model"):
+            ModalModel.load(path)
+
+
+def test_a_model_file_with_nan_frequencies_is_refused(tmp_path):
+    from sensors import MATERIALS, FileFormatError, ModalModel
+    from sensors import modal_io
+
+    nodes = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]]) * 0.01
+    good = ModalModel(nodes, [[0, 1, 2, 3]], [1000.0, 2000.0], np.ones((4, 3, 2)), MATERIALS["steel"])
+    arrays = modal_io.to_arrays(good)
+    for name, bad in (("nan", np.array([np.nan, 2000.0])), ("descending", np.array([2000.0, 1000.0]))):
+        np.savez(tmp_path / f"{name}.npz", **dict(arrays, frequencies_hz=bad))
+        with pytest.raises(FileFormatError, match=f"{name}.npz"):
+            ModalModel.load(tmp_path / f"{name}.npz")
+    np.savez(tmp_path / "ok.npz", **arrays)
+    assert ModalModel.load(tmp_path / "ok.npz").n_modes == 2
