@@ -110,3 +110,17 @@ def test_report_from_a_dataset(tmp_path):
     text = path.read_text()
     assert "| linear | single -> single (5-fold) |" in text and "78.6" in text  # the paper's KNN figure beside ours
     assert (tmp_path / "report" / "confusion.png").stat().st_size > 0
+
+
+def test_report_spectra_come_from_the_dataset(reference):
+    from aas_gym.experiments.run import dataset_spectra
+    from sensors import feature_frequencies_hz
+
+    df = load_dataset(reference)
+    curves = dataset_spectra(df, "linear")
+    panels = {c[0] for c in curves}
+    assert any(p.startswith("material") for p in panels) and any(p.startswith("contact") for p in panels)
+    title, label, f, a = next(c for c in curves if c[0].startswith("material") and c[1] == "wood")
+    np.testing.assert_array_equal(f, feature_frequencies_hz())  # the whole band, 3-10 kHz
+    rows = df[(df.scene == "single") & (df.object == "wood_bar") & (df.excitation == "linear")]
+    np.testing.assert_allclose(a, np.mean(np.stack(rows.features), axis=0))

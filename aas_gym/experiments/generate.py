@@ -26,6 +26,7 @@ import hashlib
 import io
 import json
 import os
+import warnings
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from multiprocessing import get_context
@@ -102,9 +103,11 @@ def _rows_digest(table: pa.Table) -> str:
     return h.hexdigest()
 
 
-def read_shard(path: Path, fingerprint: str) -> pa.Table:
+def read_shard(path: Path, fingerprint: str, *, allow_unverified: bool = False) -> pa.Table:
     """The shard's rows, verified: ``ShardError`` naming the file if it belongs to another
-    configuration, cannot be read, or its rows do not hash to its checksum."""
+    configuration, cannot be read, or its rows do not hash to its checksum. A shard written
+    before shards carried checksums is refused, or with ``allow_unverified`` loaded with a
+    warning that says so."""
     try:
         table = pq.read_table(path)
     except Exception as exc:  # pyarrow raises several types for damaged files
@@ -113,7 +116,12 @@ def read_shard(path: Path, fingerprint: str) -> pa.Table:
     if meta.get("config_fingerprint") != fingerprint:
         raise ShardError(f"shard {path} belongs to another configuration (fingerprint "
                          f"{meta.get('config_fingerprint')} != {fingerprint})")
-    if meta.get("rows_sha256") != _rows_digest(table):
+    if "rows_sha256" not in meta:
+        if not allow_unverified:
+            raise ShardError(f"shard {path} predates shard checksums: its rows cannot be verified")
+        warnings.warn(f"shard {path} predates shard checksums: its rows are not verified "
+                      "(resume the generation to rewrite it with one)", stacklevel=3)
+    elif meta["rows_sha256"] != _rows_digest(table):
         raise ShardError(f"shard {path} is corrupt: its rows do not match its checksum")
     return table
 
@@ -254,4 +262,5 @@ def load_dataset(out_dir: str | os.PathLike):
     if missing:
         raise FileNotFoundError(f"dataset in {out} is incomplete: {len(missing)} shards missing "
                                 f"(first: {missing[0]}); run the generation again to finish it")
-    return pd.concat([read_shard(p, manifest["fingerprint"]).to_pandas() for p in paths], ignore_index=True)
+    tables = [read_shard(p, manifest["fingerprint"], allow_unverified=True) for p in paths]
+    return pd.concat([t.to_pandas() for t in tables], ignore_index=True)

@@ -147,10 +147,12 @@ def plot_positions(results: list[PositionResult], path: Path) -> Path:
 
 
 def plot_spectra(curves: list[tuple[str, str, np.ndarray, np.ndarray]], path: Path,
-                 band_hz: tuple[float, float] = (3000.0, 8000.0)) -> Path:
-    """The paper's spectra figure: one panel per factor, raw and Savitzky-Golay smoothed.
+                 band_hz: tuple[float, float] = (3000.0, 10000.0)) -> Path:
+    """The spectra figure: one panel per factor, over the whole feature band; full-resolution
+    spectra are drawn raw and Savitzky-Golay smoothed (the paper's figure), feature vectors
+    (50 Hz steps) as they are.
 
-    ``curves``: (panel title, curve label, frequencies_hz, amplitude) tuples.
+    ``curves``: (panel title, curve label, frequencies_hz, amplitude [full scale]) tuples.
     """
     from sensors import smooth_spectrum
 
@@ -161,11 +163,14 @@ def plot_spectra(curves: list[tuple[str, str, np.ndarray, np.ndarray]], path: Pa
         for k, (_, label, f, a) in enumerate(c for c in curves if c[0] == panel):
             band = (f >= band_hz[0]) & (f <= band_hz[1])
             color = f"C{k}"
+            if f.size > 1 and f[1] - f[0] >= 10.0:  # feature vectors: few points, drawn as they are
+                ax.semilogy(f[band], a[band], lw=1.0, color=color, label=label)
+                continue
             ax.semilogy(f[band], a[band], lw=0.3, color=color, alpha=0.35)
             # Smooth the log-amplitude: smoothing the amplitude itself overshoots below zero at sharp peaks.
             smooth = 10 ** smooth_spectrum(np.log10(np.maximum(a, 1e-30)), 101)
             ax.semilogy(f[band], smooth[band], lw=1.2, color=color, label=label)
-        ax.set(title=panel, xlabel="frequency [Hz]", ylabel="amplitude")
+        ax.set(title=panel, xlabel="frequency [Hz]", ylabel="amplitude [full scale]", xlim=band_hz)
         ax.legend(fontsize=7)
     atomic_savefig(fig, path, dpi=100)
     plt.close(fig)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
 from aas_gym.experiments.generate import load_dataset
@@ -14,37 +13,42 @@ from aas_gym.experiments.report import run_protocols, write_report
 from sensors.atomic import atomic_write_text
 
 
-def _grasped_spectrum(objects, placements, body: str, position_m: float, excitation: str, seed: int):
-    """Full-resolution spectrum of one simulated recording (for the spectra figure)."""
-    from aas_gym.grasp import planar_grasp
-    from aas_gym.scene import build_scene
-    from aas_gym.sim_sensor import SimAcousticSensor
+def dataset_spectra(df, excitation: str = "linear") -> list[tuple[str, str, np.ndarray, np.ndarray]]:
+    """The spectra figure's curves, from the dataset itself: mean feature vectors (3-10 kHz)
+    that differ in one factor each: material (single-object scenes, bars), shape (bar and
+    tube of one material), grasp position (the position sweep) and contact (the same object
+    alone and with others lying across it)."""
+    from sensors import feature_frequencies_hz
 
-    model = build_scene(objects, placements=placements)
-    data = mujoco.MjData(model)
-    planar_grasp(model, data, body, position_m)
-    obs = SimAcousticSensor(model, data, seed=seed).sense(excitation, 1.0)
-    return obs.spectrum()
-
-
-def spectra_curves(excitation: str = "linear", seed: int = 0) -> list[tuple[str, str, np.ndarray, np.ndarray]]:
-    """Spectra that differ in one factor each: material, shape, grasp position, contact."""
-    from aas_gym.experiments.simulate import crossing_placement
-    from aas_gym.scene import Placement, get_object
-
+    f = feature_frequencies_hz()
+    d = df[df.excitation == excitation]
+    if d.empty:
+        d = df[df.excitation == df.excitation.iloc[0]]
     curves = []
-    for name in ("aluminium_bar", "steel_bar", "wood_bar", "abs_bar"):
-        curves.append(("material (bars, centre grasp)", name.split("_")[0], *_grasped_spectrum([name], None, name, 0.0, excitation, seed)))
-    for name in ("aluminium_bar", "aluminium_tube"):
-        curves.append(("shape (aluminium, centre grasp)", name.split("_")[1], *_grasped_spectrum([name], None, name, 0.0, excitation, seed)))
-    for pos in (0.0, 0.03, 0.06):
-        curves.append(("grasp position (wood bar)", f"{pos * 1e3:.0f} mm", *_grasped_spectrum(["wood_bar"], None, "wood_bar", pos, excitation, seed)))
-    # Same grasp position with and without the other object: only the contact differs.
-    curves.append(("contact (aluminium bar)", "alone", *_grasped_spectrum(["aluminium_bar"], None, "aluminium_bar", -0.02, excitation, seed)))
-    curves.append(("contact (aluminium bar)", "steel bar across it", *_grasped_spectrum(
-        ["aluminium_bar", "steel_bar"],
-        [Placement(0, 0), crossing_placement(get_object("aluminium_bar"), get_object("steel_bar"), 0.06)],
-        "aluminium_bar", -0.02, excitation, seed)))
+
+    def mean(rows):
+        return np.mean(np.stack(rows.features), axis=0)
+
+    single = d[d.scene == "single"]
+    for obj in sorted(o for o in single.object.unique() if o.endswith("_bar")):
+        curves.append(("material (bars, single-object scenes)", obj.split("_")[0], f, mean(single[single.object == obj])))
+    both = sorted(m for m in single.material.unique() if {"bar", "tube"} <= set(single[single.material == m]["shape"]))
+    if both:
+        for obj in (f"{both[0]}_bar", f"{both[0]}_tube"):
+            curves.append((f"shape ({both[0]})", obj.split("_")[1], f, mean(single[single.object == obj])))
+    sweep = d[d.scene == "position"]
+    if not sweep.empty:
+        obj = sorted(sweep.object.unique())[0]
+        rows = sweep[sweep.object == obj]
+        positions = np.sort(rows.position_m.unique())
+        for p in positions[[0, len(positions) // 2, -1]] if len(positions) > 2 else positions:
+            curves.append((f"grasp position ({obj})", f"{p * 1e3:.0f} mm", f, mean(rows[rows.position_m == p])))
+    multi = d[d.scene == "multi"]
+    common = sorted(set(single.object) & set(multi.object))
+    if common:
+        obj = common[0]
+        curves.append((f"contact ({obj})", "alone", f, mean(single[single.object == obj])))
+        curves.append((f"contact ({obj})", "others lying across", f, mean(multi[multi.object == obj])))
     return curves
 
 
@@ -109,7 +113,7 @@ def report_dataset(dataset_dir: Path, out_dir: Path, seed: int = 0, workers: int
     (every file written atomically; the fits run on ``workers`` processes)."""
     df = load_dataset(dataset_dir)
     rec, pos = run_protocols(df, seed=seed, workers=workers)
-    spectra = spectra_curves(seed=seed)
+    spectra = dataset_spectra(df)
     path = write_report(rec, pos, out_dir, spectra=spectra, notes=_notes(df, rec, pos))
     summary = {
         "recognition": [{"excitation": r.excitation, "protocol": r.protocol, "classifier": r.classifier,

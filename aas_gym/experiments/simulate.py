@@ -10,7 +10,6 @@ two parallel faces with the grip force (opposite normals: force closure for any 
 
 from __future__ import annotations
 
-import math
 from functools import lru_cache
 from typing import Any
 
@@ -21,7 +20,7 @@ from aas_gym.experiments.config import DatasetConfig, Task
 from aas_gym.grasp import Hand, planar_grasp
 from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, grasp_position,
                               place_objects, settle)
-from aas_gym.scene import Placement, build_scene, get_object
+from aas_gym.scene import build_scene, get_object
 from aas_gym.sim_sensor import SimAcousticSensor
 from sensors import Excitation
 from sensors.grasp_task import HOME_TCP, MAX_OPENING_M
@@ -36,14 +35,6 @@ def compiled_scene(object_names: tuple[str, ...]) -> mujoco.MjModel:
     """The compiled scene of these objects, per process (``compiled_scene.cache_info()`` and
     ``cache_clear()`` show and end its lifetime); poses are set per task."""
     return build_scene(list(object_names))
-
-
-def crossing_placement(target, other, x_m: float, skew_rad: float = 0.0) -> Placement:
-    """``other`` lying across ``target`` (which rests on the table at the origin), 1 mm above
-    contact, ``x_m`` from the target's centre, turned ``skew_rad`` from perpendicular (for
-    hand-made figures; datasets and envs draw their scenes with ``aas_gym.scenario``)."""
-    top_m = 2 * target.half_extents_m[2] + other.half_extents_m[2] + 0.001
-    return Placement(x_m, 0.0, z_m=top_m, yaw_rad=math.pi / 2 + skew_rad)
 
 
 def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
