@@ -23,6 +23,7 @@ to that folder (PulseAudio warns that it is "not intended to be run as root"; ha
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import shutil
 import signal
@@ -172,6 +173,7 @@ def start_loopback(sink: str = DEFAULT_SINK, sample_rate_hz: int = DEFAULT_FS, c
     runtime_dir.mkdir(parents=True, exist_ok=True)
     os.chmod(runtime_dir, 0o700)  # PulseAudio refuses a runtime dir others can write
     if not is_running(runtime_dir):
+        _clear_stale_server(runtime_dir)
         proc = subprocess.run(
             [_require("pulseaudio"), "-D", "--exit-idle-time=-1", "-n",
              "--load=module-native-protocol-unix", f"--log-target=file:{runtime_dir / 'pulse.log'}"],
@@ -191,6 +193,23 @@ def start_loopback(sink: str = DEFAULT_SINK, sample_rate_hz: int = DEFAULT_FS, c
     if set_environ:
         os.environ.update(lb.env())
     return lb
+
+
+def _clear_stale_server(runtime_dir: Path, timeout_s: float = 5.0) -> None:
+    """Clean up after a server that died without cleaning up (SIGKILL): wait for a dying one
+    to go, then remove its pid file and socket, which would make the next start fail with
+    "Daemon already running"."""
+    deadline = time.monotonic() + timeout_s
+    while _pid(runtime_dir) is not None and not is_running(runtime_dir) and time.monotonic() < deadline:
+        time.sleep(0.05)  # still shutting down
+    pid = _pid(runtime_dir)
+    if pid is not None and not is_running(runtime_dir):
+        os.kill(pid, signal.SIGKILL)  # alive but not answering: it will never serve again
+        while _pid(runtime_dir) is not None and time.monotonic() < deadline + timeout_s:
+            time.sleep(0.05)
+    for stale in (runtime_dir / "pulse" / "pid", runtime_dir / "pulse" / "native"):
+        with contextlib.suppress(FileNotFoundError):
+            stale.unlink()
 
 
 def stop_loopback(runtime_dir: str | os.PathLike | None = None, timeout_s: float = 5.0) -> bool:
@@ -213,7 +232,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m real.loopback", description=__doc__.split("\n\n")[0])
     ap.add_argument("action", choices=["start", "stop", "status"])
     ap.add_argument("--sink", default=DEFAULT_SINK)
-    ap.add_argument("--sample_rate_hz", type=int, default=DEFAULT_FS, help="null sink sample rate, Hz")
+    ap.add_argument("--sample-rate-hz", type=int, default=DEFAULT_FS, help="null sink sample rate, Hz")
     ap.add_argument("--dir", default=None, help="private runtime folder (default %(default)s)")
     args = ap.parse_args(argv)
     if args.action == "start":
