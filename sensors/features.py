@@ -137,6 +137,8 @@ def spectral_features(
     sample_rate_hz = _validate_fs(sample_rate_hz, freqs[-1])
     windows = segment(waveform, sample_rate_hz, period_s, start_s)
     amplitude = _amplitude_at(windows, sample_rate_hz, freqs)
+    if not np.all(np.isfinite(amplitude)):
+        raise ValueError("waveform too large for the spectrum (it overflowed to inf/NaN): scale it to full scale 1")
     return amplitude.mean(axis=0) if average else amplitude
 
 

@@ -18,6 +18,7 @@ falls at the same sample in both signals.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from dataclasses import dataclass, field
@@ -27,7 +28,8 @@ from typing import Any
 import numpy as np
 
 from .atomic import atomic_open
-from .npz import read_npz
+from .npz import FileFormatError, read_npz
+from .observation import check_sample_rate_hz, recorded_waveform
 
 __all__ = ["LeakRecording", "save_leak", "load_leak", "excitation_lag", "align_leak"]
 
@@ -42,13 +44,8 @@ class LeakRecording:
     metadata: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        w = np.asarray(self.waveform, dtype=np.float32)
-        if w.ndim != 1 or w.size == 0 or not np.all(np.isfinite(w)):
-            raise ValueError("leak waveform must be a non-empty finite 1-D array")
-        self.waveform = w
-        if int(self.sample_rate_hz) != self.sample_rate_hz or self.sample_rate_hz <= 0:
-            raise ValueError(f"sample_rate_hz must be a positive integer, got {self.sample_rate_hz!r}")
-        self.sample_rate_hz = int(self.sample_rate_hz)
+        self.waveform = recorded_waveform(self.waveform, "leak waveform")
+        self.sample_rate_hz = check_sample_rate_hz(self.sample_rate_hz)
         if hasattr(self.excitation, "to_dict"):
             self.excitation = self.excitation.to_dict()
         self.excitation = dict(self.excitation)
@@ -77,7 +74,17 @@ def load_leak(path: str | os.PathLike) -> LeakRecording:
     ``ValueError``) naming the file for anything that is not one."""
     z = read_npz(path, {"waveform", "sample_rate_hz", "excitation"}, "a leak recording")
     meta = json.loads(str(z["metadata"])) if "metadata" in z else {}
-    return LeakRecording(z["waveform"], int(z["sample_rate_hz"]), json.loads(str(z["excitation"])), meta)
+    try:
+        return LeakRecording(z["waveform"], z["sample_rate_hz"][()], json.loads(str(z["excitation"])), meta)
+    except (TypeError, ValueError) as exc:
+        raise FileFormatError(f"{path}: not a valid leak recording ({exc})") from None
+
+
+def leak_file_identity(path: str | os.PathLike) -> dict[str, str]:
+    """What observations record about the leak file they used: its name and the SHA-256 of
+    its bytes, never its absolute path (datasets must not carry the user's directory layout)."""
+    path = Path(path)
+    return {"name": path.name, "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
 
 
 def excitation_lag(signal, excitation_period, max_lag: int | None = None) -> int:

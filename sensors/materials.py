@@ -11,6 +11,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
+
 __all__ = ["Material", "MATERIALS", "get_material"]
 
 
@@ -40,6 +42,8 @@ class Material:
     def __post_init__(self) -> None:
         for field in ("density_kg_m3", "youngs_modulus_pa", "poisson_ratio", "alpha", "beta", "gamma"):
             value = getattr(self, field)
+            if isinstance(value, (bool, np.bool_)):  # float(True) is 1.0: a typo must not become 1 Pa
+                raise ValueError(f"Material {self.name!r}: {field} must be a number, got {value!r}")
             try:
                 value = float(value)
             except (TypeError, ValueError):

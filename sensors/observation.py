@@ -16,6 +16,34 @@ from .npz import FileFormatError, read_npz
 from .features import _validate_waveform, amplitude_spectrum, spectral_features
 
 
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def recorded_waveform(waveform, name: str = "waveform") -> np.ndarray:
+    """A recording as the project stores it, float32 at full scale 1. Refused rather than
+    silently changed: integer PCM (its scale is 32768x; convert with ``x / 32768``), values
+    a float32 cannot hold (they would become inf), and everything ``spectral_features``
+    refuses (NaN, empty, several channels)."""
+    w = np.asarray(waveform)
+    if w.dtype.kind in "iub":
+        raise TypeError(f"{name} has integer dtype {w.dtype}: the project stores float samples at full scale 1 "
+                        f"(convert 16-bit PCM with x / 32768)")
+    _validate_waveform(w, name)
+    if w.size and float(np.max(np.abs(w))) > _FLOAT32_MAX:
+        raise ValueError(f"{name} has values beyond float32's range ({float(np.max(np.abs(w))):.3g}): "
+                         "they would be stored as inf")
+    return w.astype(np.float32, copy=False)
+
+
+def check_sample_rate_hz(value) -> int:
+    """A sample rate as a positive whole number of Hz; 44100.7 or ``True`` are refused, not
+    truncated."""
+    if isinstance(value, (bool, np.bool_)) or not np.isscalar(value) or not np.isfinite(value) \
+            or int(value) != value or value <= 0:
+        raise ValueError(f"sample_rate_hz must be a positive whole number of Hz, got {value!r}")
+    return int(value)
+
+
 @dataclass
 class AcousticObservation:
     """One recording of the contact microphone while the actuator plays an excitation.
@@ -37,12 +65,8 @@ class AcousticObservation:
     metadata: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        w = np.asarray(self.waveform)
-        _validate_waveform(w)
-        self.waveform = w.astype(np.float32, copy=False)
-        if int(self.sample_rate_hz) != self.sample_rate_hz or self.sample_rate_hz <= 0:
-            raise ValueError(f"sample_rate_hz must be a positive integer, got {self.sample_rate_hz!r}")
-        self.sample_rate_hz = int(self.sample_rate_hz)
+        self.waveform = recorded_waveform(self.waveform)
+        self.sample_rate_hz = check_sample_rate_hz(self.sample_rate_hz)
         if not isinstance(self.excitation, Excitation):
             raise TypeError(f"excitation must be a sensors.Excitation, got {type(self.excitation).__name__}")
         if self.excitation.sample_rate_hz != self.sample_rate_hz:

@@ -33,7 +33,7 @@ import numpy as np
 from .contact import Contact
 from .excitation import Excitation
 from .fingertip import FingertipModel
-from .leak import LeakRecording, align_leak, excitation_lag, load_leak
+from .leak import LeakRecording, align_leak, excitation_lag, leak_file_identity, load_leak
 from .observation import AcousticObservation
 from .synthesis import ModalSystem
 
@@ -132,7 +132,7 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
         wave = wave + noise_std * gen.standard_normal(n)
     if leak is not None:
         if not isinstance(leak, LeakRecording):
-            meta["leak_file"] = os.fspath(leak)
+            meta["leak_file"] = leak_file_identity(leak)
             leak = load_leak(leak)
         # the synthesized signal's own excitation peak (0 when nothing was synthesized)
         target = excitation_lag(y, excitation.signal, max_lag=excitation.period_samples - 1) if touching else 0

@@ -40,7 +40,7 @@ from __future__ import annotations
 import os
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
-from typing import Any, Hashable, Iterable, Sequence
+from typing import Any, Hashable
 
 import numpy as np
 
@@ -48,7 +48,7 @@ from .contact import Contact
 from .excitation import Excitation
 from .features import spectral_features
 from .fingertip import FingertipModel
-from .leak import LeakRecording, align_leak, excitation_lag, load_leak
+from .leak import LeakRecording, align_leak, excitation_lag, leak_file_identity, load_leak
 from .recording import mic_gain
 from .synthesis import ModalSystem, lti_system
 
@@ -308,7 +308,7 @@ class AcousticStream:
         self._leak_period = None                  # the aligned leak, periodic with its own span
         if leak is not None:
             if not isinstance(leak, LeakRecording):
-                self._leak_file = os.fspath(leak)
+                self._leak_file = leak_file_identity(leak)
                 leak = load_leak(leak)
             self._leak_period = _aligned_leak_cycle(leak, excitation, int(leak_lag_samples))
         self.leak_lag_samples = int(leak_lag_samples)

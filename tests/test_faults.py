@@ -97,3 +97,42 @@ def test_a_model_file_with_nan_frequencies_is_refused(tmp_path):
             ModalModel.load(tmp_path / f"{name}.npz")
     np.savez(tmp_path / "ok.npz", **arrays)
     assert ModalModel.load(tmp_path / "ok.npz").n_modes == 2
+
+
+def test_observations_record_the_leak_file_by_name_and_hash_not_path(tmp_path):
+    """Datasets and recordings must not carry the user's directory layout."""
+    import hashlib
+
+    from sensors import Contact, Excitation, LeakRecording, ModalModel, MATERIALS, save_leak, simulate_recording
+
+    ex = Excitation.impulse()
+    path = save_leak(tmp_path / "private" / "leak_impulse", np.zeros(ex.period_samples, np.float32), ex.sample_rate_hz, ex)
+    model = ModalModel.bar(0.2, 0.02, 0.02, MATERIALS["steel"], progress=False)
+    act = Contact([0.0, 0.01, 0.0], [0, 1, 0], 40.0, 0.5)
+    mic = Contact([0.0, -0.01, 0.0], [0, -1, 0], 40.0, 0.5)
+    obs = simulate_recording(model, ex, 0.5, act, mic, leak=path)
+    assert obs.metadata["leak_file"] == {"name": path.name, "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
+    assert str(tmp_path) not in repr(obs.metadata)
+
+
+def test_loaders_refuse_what_they_would_change_silently(tmp_path):
+    """Each of these used to load as something else: 32768x PCM, a truncated sample rate,
+    1 Pa from `true`, inf from 1e300, all-NaN features from 1e308."""
+    import json
+
+    from sensors import AcousticObservation, Excitation, LeakRecording, Material, load_leak, spectral_features
+
+    ex = Excitation.impulse()
+    with pytest.raises(TypeError, match="32768"):
+        LeakRecording(np.zeros(100, np.int16), 44100, ex)
+    np.savez(tmp_path / "odd_rate.npz", waveform=np.zeros(100, np.float32), sample_rate_hz=np.array(44100.7),
+             excitation=np.array(json.dumps(ex.to_dict())))
+    with pytest.raises(ValueError, match="odd_rate.npz.*sample_rate_hz"):
+        load_leak(tmp_path / "odd_rate.npz")
+    d = dict(Material("x", 1000.0, 1e9, 0.3, 1.0, 1e-7, 0.1).to_dict(), youngs_modulus_pa=True)
+    with pytest.raises(ValueError, match="youngs_modulus_pa must be a number"):
+        Material.from_dict(d)
+    with pytest.raises(ValueError, match="float32"):
+        AcousticObservation(np.full(22050, 1e300), 44100, ex)
+    with pytest.raises(ValueError, match="too large"):
+        spectral_features(np.full(22050, 1e308), 44100)

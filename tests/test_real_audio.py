@@ -41,14 +41,12 @@ DURATION_S = 1.0
 
 
 @pytest.fixture(scope="session")
-def audio_loopback():
-    """The PulseAudio null-sink loopback, started once (reused if already running, and then
-    left running; stopped at the end if this session started it)."""
-    was_running = loopback.is_running()
-    lb = loopback.start_loopback()
+def audio_loopback(tmp_path_factory):
+    """A PulseAudio null-sink loopback of this test run's own, in a fresh runtime folder: two
+    runs on one machine never share (or stop) each other's sound server."""
+    lb = loopback.start_loopback(runtime_dir=tmp_path_factory.mktemp("pulse"))
     yield lb
-    if not was_running:
-        loopback.stop_loopback(lb.runtime_dir)
+    loopback.stop_loopback(lb.runtime_dir)
 
 
 def _restore(lb) -> None:
@@ -252,8 +250,9 @@ def _fault_during_recording(rig, tmp_path, fault, after_s=1.0):
 
 @pytest.mark.parametrize("how", ["unload_sink", "kill_server"])
 def test_device_vanishing_mid_recording_keeps_what_was_recorded(rig, audio_loopback, tmp_path, how):
-    fault = loopback.unload_sink if how == "unload_sink" else (
-        lambda: loopback.stop_loopback(audio_loopback.runtime_dir))
+    rt = audio_loopback.runtime_dir
+    fault = (lambda: loopback.unload_sink(runtime_dir=rt)) if how == "unload_sink" else (
+        lambda: loopback.stop_loopback(rt))
     try:
         err = _fault_during_recording(rig, tmp_path, fault)
     finally:
