@@ -136,3 +136,50 @@ def test_loaders_refuse_what_they_would_change_silently(tmp_path):
         AcousticObservation(np.full(22050, 1e300), 44100, ex)
     with pytest.raises(ValueError, match="too large"):
         spectral_features(np.full(22050, 1e308), 44100)
+
+
+def _children(pid: int) -> set[int]:
+    """Every descendant of ``pid`` (from /proc)."""
+    from pathlib import Path
+
+    parents = {}
+    for stat_file in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat_file.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        parents[int(stat_file.parent.name)] = int(fields[1])
+    out, frontier = set(), {pid}
+    while frontier:
+        frontier = {c for c, p in parents.items() if p in frontier} - out
+        out |= frontier
+    return out
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc"), reason="needs /proc to list processes")
+def test_kill_9_of_generate_leaves_no_worker_behind(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "aas_gym.cli", "generate", str(tmp_path / "d"), "--workers", "2",
+                             "--objects", "wood_bar,steel_bar", "--scenes", "single", "--single-grasps", "60",
+                             "--shard-size", "1"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    kids: set[int] = set()
+    while time.time() < deadline and len(kids) < 2:
+        kids = _children(proc.pid)
+        time.sleep(0.2)
+    assert len(kids) >= 2, "the workers did not start"
+    time.sleep(2.0)  # workers busy simulating
+    kids = _children(proc.pid)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    deadline = time.time() + 15
+    alive = kids
+    while time.time() < deadline and alive:
+        alive = {k for k in alive if os.path.exists(f"/proc/{k}") and
+                 open(f"/proc/{k}/stat").read().rsplit(")", 1)[1].split()[0] != "Z"}
+        time.sleep(0.2)
+    assert not alive, f"processes outlived the killed driver: {sorted(alive)}"
