@@ -17,11 +17,10 @@ import platform
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 from aas_gym.experiments.config import DatasetConfig
-from aas_gym.experiments.generate import generate_dataset
+from sensors.atomic import atomic_write_text
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -79,8 +78,7 @@ def main() -> None:
               for name, wall, rate, start, same in rows]
     text = "\n".join(lines) + "\n"
     print(text)
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(text)
+    atomic_write_text(args.out, text)
     print(f"wrote {args.out}")
 
 
