@@ -9,7 +9,7 @@ build spaces.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -152,9 +152,6 @@ class AcousticConfig:
                 raise ValueError(f"acoustic.{name}={fields[name]!r} contradicts the keyword given as {given!r}")
             fields[name] = given
         return cls(**{**defaults, **fields})
-
-    def with_(self, **changes: Any) -> "AcousticConfig":
-        return replace(self, **changes)
 
     def n_samples(self, sample_rate_hz: float) -> int:
         """Samples in one recording at ``sample_rate_hz``."""
