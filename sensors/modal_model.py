@@ -9,6 +9,7 @@ surface and outward normals. Building (mesh -> K, M -> modes, cached) is
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -105,9 +106,9 @@ class ModalModel:
         """Shape parameters, e.g. {"length_m": .2, "width_m": .025, "height_m": .025}."""
         return dict(self.metadata.get("dimensions_m", {}))
 
-    @property
+    @functools.cached_property
     def mass_kg(self) -> float:
-        """Total mass [kg] (density times the meshed volume)."""
+        """Total mass [kg] (density times the meshed volume; summed once, every recording reads it)."""
         return float(self.material.density_kg_m3 * tet_volumes(self.nodes_m, self.elements).sum())
 
     def describe(self) -> str:
