@@ -183,3 +183,90 @@ def test_kill_9_of_generate_leaves_no_worker_behind(tmp_path):
                  open(f"/proc/{k}/stat").read().rsplit(")", 1)[1].split()[0] != "Z"}
         time.sleep(0.2)
     assert not alive, f"processes outlived the killed driver: {sorted(alive)}"
+
+
+def _listening_sockets() -> dict[str, tuple[str, int]]:
+    """inode -> (address, port) of every TCP socket in LISTEN state (IPv4 and IPv6)."""
+    import socket
+    from pathlib import Path
+
+    out = {}
+    for name, family in (("/proc/net/tcp", socket.AF_INET), ("/proc/net/tcp6", socket.AF_INET6)):
+        try:
+            lines = Path(name).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            fields = line.split()
+            if fields[3] != "0A":
+                continue
+            hex_ip, hex_port = fields[1].split(":")
+            raw = bytes.fromhex(hex_ip)
+            raw = b"".join(raw[i:i + 4][::-1] for i in range(0, len(raw), 4))  # /proc prints host order
+            out[fields[9]] = (socket.inet_ntop(family, raw), int(hex_port, 16))
+    return out
+
+
+def _socket_inodes(pids: set[int]) -> set[str]:
+    from pathlib import Path
+
+    inodes = set()
+    for pid in pids:
+        try:
+            fds = list(Path(f"/proc/{pid}/fd").iterdir())
+        except OSError:
+            continue
+        for fd in fds:
+            try:
+                target = os.readlink(fd)
+            except OSError:
+                continue
+            if target.startswith("socket:["):
+                inodes.add(target[8:-1])
+    return inodes
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not os.path.exists("/proc/net/tcp"), reason="reads listening sockets from /proc")
+def test_local_ray_listens_on_loopback_only_and_ignores_ray_address(monkeypatch):
+    """No server of ours may listen beyond 127.0.0.1: Ray's GCS, raylet and workers included."""
+    import time
+
+    ray = pytest.importorskip("ray")
+    from aas_gym.experiments.generate import start_ray
+
+    monkeypatch.setenv("RAY_ADDRESS", "127.0.0.1:1")  # stale: a local run must neither use it nor wait
+    assert not ray.is_initialized()
+    t0 = time.perf_counter()
+    start_ray("local")
+    try:
+        assert time.perf_counter() - t0 < 60
+        ray.get(ray.remote(lambda: 1).remote())  # workers up
+        ours = _children(os.getpid()) | {os.getpid()}
+        sockets = _listening_sockets()
+        bound = [sockets[i] for i in _socket_inodes(ours) if i in sockets]
+        assert len(bound) >= 3  # GCS, raylet, workers at least: Ray's sockets were seen
+        exposed = [s for s in bound if not (s[0].startswith("127.") or s[0] in ("::1", "::ffff:127.0.0.1"))]
+        assert not exposed, f"Ray listens beyond loopback: {exposed}"
+    finally:
+        ray.shutdown()
+    assert os.environ["RAY_ADDRESS"] == "127.0.0.1:1"  # restored for the caller
+
+
+def test_an_unreachable_ray_address_fails_fast_and_says_so(tmp_path):
+    import socket
+    import time
+
+    from aas_gym.experiments.config import DatasetConfig
+    from aas_gym.experiments.generate import check_ray_reachable, generate_dataset
+
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    t0 = time.perf_counter()
+    with pytest.raises(ConnectionError, match=f"127.0.0.1:{port}"):
+        generate_dataset(DatasetConfig(objects=("wood_bar",), scenes=("single",), single_grasps=1), tmp_path / "d",
+                         ray_address=f"127.0.0.1:{port}", progress=False)
+    assert time.perf_counter() - t0 < 15 and not (tmp_path / "d").exists()
+    with pytest.raises(ConnectionError, match="within"):
+        check_ray_reachable(f"ray://127.0.0.1:{port}", timeout_s=2)

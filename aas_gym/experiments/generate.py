@@ -28,11 +28,13 @@ import io
 import json
 import os
 import signal
+import socket
 import sys
 import threading
 import time
 import warnings
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from multiprocessing import get_context
 from pathlib import Path
@@ -46,6 +48,8 @@ from aas_gym.experiments.config import DatasetConfig
 from sensors.atomic import atomic_write_bytes
 
 FORMAT = "aas-gym-dataset/1"
+#: How long an explicit Ray address may take to answer a TCP connection.
+RAY_CONNECT_TIMEOUT_S = 10.0
 MANIFEST = ".dataset.json"
 # Datasets written before the manifest was renamed: still read, renamed on the next resume.
 LEGACY_MANIFEST = "dataset.json"
@@ -216,12 +220,90 @@ def die_with_parent(parent_pid: int, poll_s: float = 1.0) -> None:
     threading.Thread(target=watch, name="die-with-parent", daemon=True).start()
 
 
-def _ray_results(config: DatasetConfig, todo: list[int], address: str | None) -> Iterator[tuple[int, bytes]]:
-    import ray
+def ray_endpoint(address: str) -> tuple[str, int] | None:
+    """(host, port) of an explicit Ray address, ``None`` for ``auto``; ``ValueError`` if malformed."""
+    if address == "auto":
+        address = os.environ.get("RAY_ADDRESS", "auto")
+        if address == "auto":
+            return None  # Ray looks for a cluster started on this machine
+    rest = address.split("://", 1)[1] if "://" in address else address
+    host, _, port = rest.rpartition(":")
+    if not host or not port.isdigit():
+        raise ValueError(f"Ray address {address!r} is not 'local', 'auto', HOST:PORT or ray://HOST:PORT")
+    return host.strip("[]"), int(port)
+
+
+def check_ray_reachable(address: str, timeout_s: float = RAY_CONNECT_TIMEOUT_S) -> None:
+    """Fail within ``timeout_s`` with a ``ConnectionError`` naming ``address`` if nothing
+    answers there (``ray.init`` itself retries for minutes)."""
+    endpoint = ray_endpoint(address)
+    if endpoint is None:
+        return
+    try:
+        socket.create_connection(endpoint, timeout=timeout_s).close()
+    except OSError as exc:
+        raise ConnectionError(f"cannot reach the Ray cluster at {address} within {timeout_s:.0f} s ({exc}); "
+                              f"check the address, or use --ray-address local") from None
+
+
+@contextmanager
+def _loopback_ray(ray):
+    """Make a Ray instance started in this block bind every service to 127.0.0.1.
+
+    ``ray.init(_node_ip_address="127.0.0.1")`` alone is overridden: Ray swaps a loopback
+    node address for the machine's external one unless its single-machine mode is on. That
+    mode (``RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0``, Ray's switch for laptops) is read from the
+    environment by the services Ray starts, and from ``ray_constants`` by this process
+    (imported before we could set the variable). ``RAY_ADDRESS`` is hidden so that nothing
+    started here joins another cluster.
+    """
+    from ray._private import ray_constants
+
+    saved_env = {k: os.environ.get(k) for k in ("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "RAY_ADDRESS")}
+    saved_flag = getattr(ray_constants, "ENABLE_RAY_CLUSTER", None)
+    os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"
+    os.environ.pop("RAY_ADDRESS", None)
+    ray_constants.ENABLE_RAY_CLUSTER = False
+    try:
+        yield
+    finally:
+        for key, value in saved_env.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+        if saved_flag is not None:
+            ray_constants.ENABLE_RAY_CLUSTER = saved_flag
+
+
+def start_ray(address: str) -> None:
+    """Start (``"local"``) or join (any other address) a Ray instance for this process.
+
+    A local instance listens on 127.0.0.1 only and ignores ``$RAY_ADDRESS``; another address
+    must answer within :data:`RAY_CONNECT_TIMEOUT_S`.
+    """
+    import ray  # optional dependency (extra 'ray')
+
+    if address == "local":
+        with _loopback_ray(ray):
+            ray.init(address="local", _node_ip_address="127.0.0.1", include_dashboard=False,
+                     dashboard_host="127.0.0.1", log_to_driver=False)
+        node_ip = ray.util.get_node_ip_address()
+        if node_ip not in ("127.0.0.1", "::1", "localhost"):
+            ray.shutdown()
+            raise RuntimeError(f"the local Ray instance took the address {node_ip}, not 127.0.0.1: "
+                               f"refusing to run it open to the network (this Ray version binds differently)")
+    else:
+        check_ray_reachable(address)
+        ray.init(address=address, log_to_driver=False)
+
+
+def _ray_results(config: DatasetConfig, todo: list[int], address: str) -> Iterator[tuple[int, bytes]]:
+    import ray  # optional dependency (extra 'ray')
 
     started_here = not ray.is_initialized()
     if started_here:
-        ray.init(address=None if address == "local" else address, include_dashboard=False, log_to_driver=False)
+        start_ray(address)
     try:
         remote = ray.remote(num_cpus=1)(compute_shard)
         cfg = ray.put(config.to_dict())
@@ -251,8 +333,10 @@ def generate_dataset(
         config: what to generate.
         out_dir: output folder; an existing one with the same config is resumed.
         workers: local worker processes (1 = in this process). Ignored with ``ray_address``.
-        ray_address: ``"local"`` to start a local Ray instance, or a cluster address
-            (``"auto"``, ``"ray://host:10001"``); ``None`` uses local processes.
+        ray_address: ``"local"`` to start a local Ray instance (every service on 127.0.0.1,
+            ``$RAY_ADDRESS`` ignored), or a cluster address (``"auto"``,
+            ``"ray://host:10001"``), which must answer within ``RAY_CONNECT_TIMEOUT_S``;
+            ``None`` uses local processes.
         overwrite: discard an existing dataset with another config.
         progress: show a progress bar.
         on_shard: called with each shard index once it is on disk.
@@ -260,6 +344,8 @@ def generate_dataset(
     from tqdm.auto import tqdm
 
     out = Path(out_dir)
+    if ray_address not in (None, "local"):
+        check_ray_reachable(ray_address)  # before anything is written
     todo = _prepare(out, config, overwrite)
     shards = config.shards()
     results = _ray_results(config, todo, ray_address) if ray_address else _local_results(config, todo, workers)
