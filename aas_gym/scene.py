@@ -367,10 +367,12 @@ def unique_body_names(objects: Sequence[ObjectSpec]) -> list[str]:
 def build_scene_spec(objects: Iterable[str | ObjectSpec] = ("aluminium_bar",),
                      placements: Sequence[Placement] | None = None,
                      fingertip: FingertipSpec | None = None,
-                     table: bool = True) -> mujoco.MjSpec:
+                     table: bool = True, contact_signature: bool = False) -> mujoco.MjSpec:
     """Compose hand, table and objects into an ``MjSpec`` (compile it with ``.compile()``).
 
     Without ``placements`` objects lie on the table side by side along y, 80 mm apart.
+    ``contact_signature`` adds the sensors a streaming microphone watches every physics step
+    (:func:`add_contact_signature_sensors`); scenes without streaming do not pay for them.
     """
     objs = [get_object(o) for o in objects]
     if placements is None:
@@ -387,6 +389,8 @@ def build_scene_spec(objects: Iterable[str | ObjectSpec] = ("aluminium_bar",),
     for obj, name, place in zip(objs, unique_body_names(objs), placements):
         add_object(spec, obj, name, place)
         add_touch_sensors(spec, name)
+    if contact_signature:
+        add_contact_signature_sensors(spec, unique_body_names(objs), table=table)
     return spec
 
 
@@ -408,6 +412,39 @@ def add_touch_sensors(spec: mujoco.MjSpec, body: str) -> None:
                         objtype=mujoco.mjtObj.mjOBJ_BODY, objname=tip,
                         reftype=mujoco.mjtObj.mjOBJ_BODY, refname=body,
                         intprm=[1, 0, 1])  # data "found" (contact count), no reduction, 1 slot
+
+
+#: Data of one signature sensor: contact count, net force (3), force-weighted point (3).
+SIGNATURE_WIDTH = 7
+
+
+def signature_partners(bodies: Sequence[str], body: str, table: bool = True) -> list[str]:
+    """The partner bodies whose contacts with ``body`` its signature sensors sum up, in order:
+    actuator fingertip, microphone fingertip, the table (if any), the other objects."""
+    return ([FINGERTIP_BODIES["actuator"], FINGERTIP_BODIES["mic"]] + (["table"] if table else [])
+            + [b for b in bodies if b != body])
+
+
+def signature_sensor_name(body: str, partner: str) -> str:
+    """Name of the signature sensor of ``body``'s contacts with ``partner`` (``"*"``: any)."""
+    return f"{body}_signature_{partner}"
+
+
+def add_contact_signature_sensors(spec: mujoco.MjSpec, bodies: Sequence[str], table: bool = True) -> None:
+    """Per object and partner body (:func:`signature_partners`), one MuJoCo contact sensor
+    with the contact count, the net contact force and its force-weighted point (world
+    frame), then one count of all the object's contacts. Computed in C during the step, they
+    let a streaming microphone see in a few microseconds whether the contacts changed since it
+    last read the contact list (``aas_gym.sim_stream``)."""
+    found, force, pos, netforce = 1, 2, 16, 3
+    for body in bodies:
+        for partner in signature_partners(bodies, body, table):
+            spec.add_sensor(name=signature_sensor_name(body, partner), type=mujoco.mjtSensor.mjSENS_CONTACT,
+                            objtype=mujoco.mjtObj.mjOBJ_BODY, objname=body,
+                            reftype=mujoco.mjtObj.mjOBJ_BODY, refname=partner,
+                            intprm=[found | force | pos, netforce, 1])
+        spec.add_sensor(name=signature_sensor_name(body, "*"), type=mujoco.mjtSensor.mjSENS_CONTACT,
+                        objtype=mujoco.mjtObj.mjOBJ_BODY, objname=body, intprm=[found, 0, 1])
 
 
 def build_scene(objects: Iterable[str | ObjectSpec] = ("aluminium_bar",), **kwargs) -> mujoco.MjModel:

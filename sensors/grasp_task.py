@@ -38,7 +38,7 @@ STATE_LAYOUT: dict[str, slice] = {
 }
 STATE_SIZE = 18
 
-CADENCES = ("action", "every_step", "never")
+CADENCES = ("action", "every_step", "never", "stream")
 
 
 @dataclass(frozen=True)
@@ -100,8 +100,13 @@ class AcousticConfig:
     Attributes:
         enabled: record at all; ``False`` drops the acoustic entries from the observation
             and costs nothing per step.
-        cadence: ``"action"`` (record when the policy asks), ``"every_step"`` or ``"never"``.
-            Envs whose actions are probes (recognition, grasp position) record every step.
+        cadence: ``"action"`` (record when the policy asks), ``"every_step"``, ``"never"`` or
+            ``"stream"``: the microphone records without a break while the robot moves, the
+            excitation looping; each step returns the samples recorded during it under
+            ``audio`` and the features of the latest complete excitation period under
+            ``acoustic`` (zeros until one is complete). Envs whose actions are probes
+            (recognition, grasp position) record every step; streamed, a probe's ``audio`` is
+            the ``duration_s`` the hand holds the grasp.
         waveform: add the raw recording (``waveform``, padded or cut to ``duration_s``).
         feature_scale: how the 140 features are scaled: ``"linear"`` (amplitudes, 1e-7 to
             1e-4), ``"db"`` (level relative to 1e-6, tens of dB) or ``"normalized"`` (unit
@@ -128,6 +133,9 @@ class AcousticConfig:
             raise ValueError(f"noise_std must be >= 0, got {self.noise_std!r}")
         if not (math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ValueError(f"duration_s must be > 0 s, got {self.duration_s!r}")
+        if self.cadence == "stream" and self.waveform:
+            raise ValueError("waveform=True is for per-action recordings; a streamed observation "
+                             "carries its samples under 'audio'")
 
     @classmethod
     def coerce(cls, value: "AcousticConfig | dict | None" = None, *, include_waveform: bool | None = None,
@@ -161,8 +169,14 @@ class AcousticConfig:
         """The amplitude features in this config's ``feature_scale`` (float32)."""
         return scale_features(features, self.feature_scale).astype(np.float32)
 
-    def spaces(self, sample_rate_hz: float) -> dict:
-        """The acoustic entries of the observation space (empty when disabled)."""
+    @property
+    def streaming(self) -> bool:
+        """Enabled with cadence ``"stream"``."""
+        return self.enabled and self.cadence == "stream"
+
+    def spaces(self, sample_rate_hz: float, audio_samples: int | None = None) -> dict:
+        """The acoustic entries of the observation space (empty when disabled);
+        ``audio_samples``: the length of a streamed step's ``audio``."""
         from gymnasium import spaces  # only env builders need gymnasium
 
         if not self.enabled:
@@ -171,16 +185,32 @@ class AcousticConfig:
         out = {"acoustic": spaces.Box(low, np.inf, (N_FEATURES,), np.float32)}
         if self.waveform:
             out["waveform"] = spaces.Box(-np.inf, np.inf, (self.n_samples(sample_rate_hz),), np.float32)
+        if self.streaming:
+            out["audio"] = spaces.Box(-np.inf, np.inf, (self._audio_samples(audio_samples),), np.float32)
         return out
 
-    def empty(self, sample_rate_hz: float) -> dict[str, np.ndarray]:
+    def empty(self, sample_rate_hz: float, audio_samples: int | None = None) -> dict[str, np.ndarray]:
         """The acoustic entries before the first recording: zeros."""
         if not self.enabled:
             return {}
         out = {"acoustic": self.scale_features(np.zeros(N_FEATURES))}
         if self.waveform:
             out["waveform"] = np.zeros(self.n_samples(sample_rate_hz), np.float32)
+        if self.streaming:
+            out["audio"] = np.zeros(self._audio_samples(audio_samples), np.float32)
         return out
+
+    def stream_entries(self, features: np.ndarray | None, audio: np.ndarray) -> dict[str, np.ndarray]:
+        """The streamed entries: the latest complete period's features (zeros before one)
+        and this step's samples."""
+        f = np.zeros(N_FEATURES) if features is None else features
+        return {"acoustic": self.scale_features(f), "audio": np.asarray(audio, np.float32)}
+
+    @staticmethod
+    def _audio_samples(audio_samples: int | None) -> int:
+        if audio_samples is None or int(audio_samples) < 1:
+            raise ValueError("a streaming env must say how many samples one step records (audio_samples)")
+        return int(audio_samples)
 
     def entries(self, recording) -> dict[str, np.ndarray]:
         """The acoustic entries of a ``sensors.AcousticObservation``: its features and, with

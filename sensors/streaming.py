@@ -325,6 +325,8 @@ class AcousticStream:
         self._window = np.zeros(P, dtype=np.float32)
         self._features: np.ndarray | None = None
         self._features_period = -1
+        self._heard_window = np.zeros(P, dtype=bool)   # which samples of the period were heard
+        self._features_heard = 0.0
         # facts for metadata
         self.fingertip_separated = False
         self.min_contact_force_n = np.inf
@@ -354,6 +356,7 @@ class AcousticStream:
                 resolved.append((int(n), g, self._resolve(g)))
         total = sum(n for n, _, _ in resolved)
         y = np.zeros(total)
+        heard = np.zeros(total, dtype=bool)
         start = self.sample_index
         i = 0
         while i < len(resolved):
@@ -367,14 +370,21 @@ class AcousticStream:
                 j += 1
             off = self.sample_index - start
             self._span(n, g, key, grip, y[off:off + n])
+            heard[off:off + n] = key.heard
             i = j
-        return self._record(start, y)
+        return self._record(start, y, heard)
 
     def latest_features(self) -> np.ndarray | None:
         """The 140-d features (``sensors.spectral_features``) of the latest complete loop
         period (samples [kP, (k+1)P) of the stream), or ``None`` before the first one ends.
         Computed once per completed period."""
         return self._features
+
+    @property
+    def latest_features_heard(self) -> float:
+        """Fraction of the period behind :meth:`latest_features` during which the grasp was
+        closed and the microphone heard the object (0 before the first period)."""
+        return self._features_heard
 
     @property
     def latest_features_period(self) -> int:
@@ -535,7 +545,7 @@ class AcousticStream:
         P = len(self._period)
         return self._period[(s + np.arange(n)) % P]
 
-    def _record(self, start: int, y: np.ndarray) -> np.ndarray:
+    def _record(self, start: int, y: np.ndarray, heard: np.ndarray) -> np.ndarray:
         """Microphone units, noise and leak, float32 (same order of operations as
         ``simulate_recording``); feeds the feature window."""
         n = len(y)
@@ -546,10 +556,10 @@ class AcousticStream:
             lp = self._leak_period
             wave = wave + lp[(start + np.arange(n)) % len(lp)]
         out = wave.astype(np.float32)
-        self._feed_features(start, out)
+        self._feed_features(start, out, heard)
         return out
 
-    def _feed_features(self, start: int, samples: np.ndarray) -> None:
+    def _feed_features(self, start: int, samples: np.ndarray, heard: np.ndarray) -> None:
         P = len(self._window)
         pos = start
         k = 0
@@ -557,12 +567,14 @@ class AcousticStream:
             phase = pos % P
             take = min(P - phase, len(samples) - k)
             self._window[phase:phase + take] = samples[k:k + take]
+            self._heard_window[phase:phase + take] = heard[k:k + take]
             k += take
             pos += take
             if pos % P == 0:
                 self._features = spectral_features(self._window, self.sample_rate_hz,
                                                    period_s=self.excitation.period_s)
                 self._features_period = pos // P - 1
+                self._features_heard = float(self._heard_window.mean())
 
 
 @dataclass(frozen=True, eq=False)

@@ -30,6 +30,11 @@ class AcousticGraspEnv(AasEnv):
     object, +10 for a recording of the grasped object, which ends the episode (success).
     ``acoustic.cadence`` (or ``sense_mode``) ``"every_step"`` records every step, ``"never"``
     never (pure control); ``acoustic=False``-like ``{"enabled": False}`` drops the entries.
+    ``"stream"``: the microphone records through every physics step while the excitation
+    loops; the observation adds ``audio`` (this step's ``dt`` x 44.1 kHz samples) and
+    ``acoustic`` holds the features of the latest complete excitation period. The sense
+    action then ends the episode with success once a whole period was heard through the
+    grasp (``info["heard_fraction"]``).
     """
 
     _acoustic_defaults = {"cadence": "action"}
@@ -69,14 +74,21 @@ class AcousticGraspEnv(AasEnv):
             target[i] = min(max(v, low[i]), high[i])
         ctrl[sc.tcp_ctrl] = target
         ctrl[sc.gripper] = MAX_OPENING_M if a[4] > 0 else 0.0
-        mujoco.mj_step(sc.model, sc.data, nstep=self.frame_skip)
+        self._simulate()
         grasped = self._is_grasped()
         mode = self.sense_mode
         sense = mode == "every_step" or (mode == "action" and a[5] > 0)
         info = {"grasped": grasped, "is_success": False}
         terminated = False
         bonus = 0.0
-        if sense:
+        if mode == "stream":
+            self._last_acoustic = self._stream_entries()
+            heard = self._stream.stream.latest_features_heard
+            info["heard_fraction"] = heard
+            # Success: asked to stop while grasping, after a whole period heard through the grasp.
+            if a[5] > 0 and grasped and heard > 0.99:
+                bonus, terminated, info["is_success"] = 10.0, True, True
+        elif sense:
             acoustic, rec = self._sense()
             self._last_acoustic = acoustic
             info.update(self._ground_truth(contacts=True))

@@ -23,6 +23,7 @@ from aas_gym.scene import (DEFAULT_OBJECT_NAMES, ObjectSpec, build_scene, get_ob
                            touch_sensor_name)
 from aas_gym.scenario import DomainRandomization, choose_objects, default_distractors, place_objects, settle
 from aas_gym.sim_sensor import SensorVariation, SimAcousticSensor
+from aas_gym.sim_stream import SimAcousticStream
 from sensors import LeakRecording, load_leak
 from sensors.grasp_task import (HOME_TCP, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT, STATE_SIZE,
                                 AcousticConfig, check_grip_force, proprio_spaces)
@@ -70,9 +71,9 @@ def resolve_excitation(excitation):
 class _Scene:
     """One compiled scene (model, data, hand, sensor) for a tuple of objects."""
 
-    def __init__(self, objects: tuple[ObjectSpec, ...]):
+    def __init__(self, objects: tuple[ObjectSpec, ...], contact_signature: bool = False):
         self.objects = objects
-        self.model = build_scene(list(objects))
+        self.model = build_scene(list(objects), contact_signature=contact_signature)
         self.data = mujoco.MjData(self.model)
         self.hand = Hand(self.model)
         self.sensor = SimAcousticSensor(self.model, self.data, on_no_grasp="silence")
@@ -141,6 +142,9 @@ class AasEnv(gym.Env):
     #: Distractors only at the target's -x end (tasks that grasp on the +x half).
     _far_end_only = False
 
+    #: A step is one scripted grasp and recording (a probe), not one control period.
+    _step_is_probe = False
+
     #: The acoustic observation's defaults for this task (subclasses override ``cadence``).
     _acoustic_defaults: dict = {}
 
@@ -174,12 +178,19 @@ class AasEnv(gym.Env):
         self.width, self.height, self.camera_name = int(width), int(height), camera_name
         self.leak, self.fingertip = _load_leaks(leak), fingertip
         self._variation = SensorVariation()
+        self._stream: SimAcousticStream | None = None
         self._scenes: OrderedDict[tuple, _Scene] = OrderedDict()
         self._renderer = None
         self._viewer = None
         self._warned_no_display = False
         self._scene: _Scene = self._get_scene((self.objects[0],))
         self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self.dt)))
+        if self.acoustic.streaming and not self._step_is_probe:
+            exact = self.dt * self.excitation.sample_rate_hz
+            if abs(exact - round(exact)) > 1e-6:
+                raise ValueError(f"a streamed step must hold a whole number of samples: dt = {self.dt} s gives "
+                                 f"{exact:.3f} at {self.excitation.sample_rate_hz} Hz; choose frame_skip so "
+                                 "that it does (the default 25 gives 2205)")
 
     @property
     def duration_s(self) -> float:
@@ -195,6 +206,17 @@ class AasEnv(gym.Env):
         """Samples in one recording."""
         return self.acoustic.n_samples(self.excitation.sample_rate_hz)
 
+    @property
+    def step_samples(self) -> int:
+        """Samples the microphone records during one env step (``dt`` x sample rate)."""
+        return int(round(self.dt * self.excitation.sample_rate_hz))
+
+    @property
+    def audio_samples(self) -> int:
+        """Length of a streamed observation's ``audio``: one step's samples (probe envs,
+        whose step is a whole scripted grasp, stream the ``duration_s`` hold instead)."""
+        return self.n_samples if self._step_is_probe else self.step_samples
+
     # --- reset template ---------------------------------------------------------------------
     def reset(self, *, seed=None, options=None):
         """New episode: draw the target and its scene, place everything and let it settle
@@ -206,6 +228,7 @@ class AasEnv(gym.Env):
         self._get_scene(self._choose_objects(target))
         self._place_objects()
         self._variation = self._draw_variation()
+        self._stream = self._new_stream() if self.acoustic.streaming and not self._step_is_probe else None
         obs, info = self._reset_episode(options)
         if self.render_mode == "human":
             self.render()
@@ -220,7 +243,7 @@ class AasEnv(gym.Env):
         if objects in self._scenes:
             self._scenes.move_to_end(objects)
         else:
-            self._scenes[objects] = _Scene(objects)
+            self._scenes[objects] = _Scene(objects, contact_signature=self.acoustic.streaming)
             self._scenes[objects].sensor.leak = self.leak
             self._scenes[objects].sensor.fingertip = self.fingertip
             while len(self._scenes) > self.MAX_CACHED_SCENES:
@@ -311,7 +334,7 @@ class AasEnv(gym.Env):
         return proprio_spaces(with_object)
 
     def _acoustic_spaces(self) -> dict:
-        return self.acoustic.spaces(self.excitation.sample_rate_hz)
+        return self.acoustic.spaces(self.excitation.sample_rate_hz, self.audio_samples)
 
     def _state_obs(self, with_object: bool) -> tuple[dict, np.ndarray]:
         """Proprioception (``tcp``, ``tcp_velocity``, ``gripper`` = opening [m], opening speed
@@ -334,13 +357,46 @@ class AasEnv(gym.Env):
 
     def _sense(self, excitation=None) -> tuple[dict, object]:
         """Record through the current grasp with this episode's variation: observation
-        entries (per ``acoustic``) and the AcousticObservation."""
+        entries (per ``acoustic``) and the AcousticObservation. Streamed, the hand holds
+        the grasp for ``duration_s`` while the physics runs and the microphone records."""
         excitation = self.excitation if excitation is None else excitation
+        if self.acoustic.streaming:
+            return self._stream_hold(excitation)
         rec = self.sensor.sense(excitation, self.duration_s, variation=self._variation, rng=self.np_random)
         return self.acoustic.entries(rec), rec
 
     def _empty_acoustic(self) -> dict:
-        return self.acoustic.empty(self.excitation.sample_rate_hz)
+        return self.acoustic.empty(self.excitation.sample_rate_hz, self.audio_samples)
+
+    # --- streaming --------------------------------------------------------------------------
+    def _new_stream(self, excitation=None) -> SimAcousticStream:
+        return SimAcousticStream(self.sensor, self.excitation if excitation is None else excitation,
+                                 variation=self._variation, rng=self.np_random)
+
+    def _simulate(self) -> None:
+        """One env step of physics (``frame_skip`` MuJoCo steps); streamed, the microphone
+        records through every one of them (``_stream_audio`` holds the samples)."""
+        if self._stream is None:
+            mujoco.mj_step(self._scene.model, self._scene.data, nstep=self.frame_skip)
+            return
+        self._stream_audio = self._stream.step_physics(self.frame_skip, self.step_samples)
+
+    def _stream_entries(self) -> dict:
+        """The streamed observation entries after ``_simulate``."""
+        return self.acoustic.stream_entries(self._stream.latest_features(), self._stream_audio)
+
+    def _stream_hold(self, excitation) -> tuple[dict, object]:
+        """A probe streamed: a new stream (the hand was placed anew) records while the
+        physics holds the grasp for ``duration_s``; the entries and the recording."""
+        from sensors import AcousticObservation
+
+        stream = self._new_stream(excitation)
+        n_steps = max(1, int(round(self.duration_s / self.model.opt.timestep)))
+        audio = stream.step_physics(n_steps, self.n_samples)
+        meta = stream.metadata
+        meta.update({"grasped": stream.stream.latest_features_heard > 0.99, "heard_body": stream.heard_body})
+        rec = AcousticObservation(audio, stream.sample_rate_hz, stream.stream.excitation, metadata=meta)
+        return self.acoustic.stream_entries(stream.latest_features(), audio), rec
 
     def _is_grasped(self) -> bool:
         """Both sensor fingertips touch the target (this runs every step: MuJoCo's contact

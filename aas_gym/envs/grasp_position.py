@@ -29,6 +29,7 @@ class GraspPositionEnv(AasEnv):
     """
 
     _far_end_only = True
+    _step_is_probe = True
 
     def __init__(self, objects=("wood_bar",), *, n_positions: int = 13, spacing_m: float = 0.005,
                  action_format: str = "normalized", **kwargs) -> None:

@@ -32,6 +32,7 @@ class ObjectRecognitionEnv(AasEnv):
     """
 
     _acoustic_defaults = {"cadence": "every_step"}
+    _step_is_probe = True
 
     def __init__(self, objects=None, *, probe_cost: float = 0.01, max_position_m: float = 0.05,
                  action_format: str = "box", **kwargs) -> None:

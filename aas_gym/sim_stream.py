@@ -1,0 +1,192 @@
+"""The simulated microphone of a MuJoCo scene, recording without a break while it moves.
+
+:class:`SimAcousticStream` follows a scene (built with ``contact_signature=True``) physics
+step by physics step: after each ``mj_step`` its :meth:`~SimAcousticStream.grasp_state` says
+what touches the heard object now (a ``sensors.GraspState``: both fingertip contacts, table,
+other objects and hand links, with forces, points, normals and friction), and
+``sensors.AcousticStream`` synthesizes the microphone through that series, carrying every
+state across changes.
+
+Reading the contact list costs far more than a physics step, while a steady grasp changes
+nothing the sound depends on. So each step first compares the scene's contact signature, a
+few MuJoCo contact sensors per object and partner (count, net force, force-weighted point;
+see ``aas_gym.scene.add_contact_signature_sensors``), in the object's frame, with the
+signature of the last contact list it read. Only when a count changed, or a net force or
+point moved beyond the stream's ``ContactTolerance``, does it read the contact list again;
+otherwise it hands the stream the same ``GraspState`` object, and the stream synthesizes
+all those steps in one call. Changes the signature does not see: a force moving among
+contacts with one partner at constant net force and point.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+
+from aas_gym.scene import signature_partners, signature_sensor_name
+from aas_gym.sim_sensor import NO_VARIATION, SensorVariation, SimAcousticSensor
+from sensors import Contact, Excitation
+from sensors.streaming import AcousticStream, ContactTolerance, GraspState
+
+__all__ = ["SimAcousticStream", "span_bounds"]
+
+
+def span_bounds(n_samples: int, n_steps: int) -> np.ndarray:
+    """Sample boundaries of ``n_steps`` physics steps sharing ``n_samples`` samples (the
+    step k records samples [b[k], b[k+1]); lengths differ by at most one)."""
+    return (np.arange(n_steps + 1) * int(n_samples)) // int(n_steps)
+
+
+class SimAcousticStream:
+    """A continuously recording microphone on the scene of ``sensor``.
+
+    Parameters
+    ----------
+    sensor : the scene's ``aas_gym.SimAcousticSensor`` (modal models, fingertip model, leak,
+        contact stream). Its MuJoCo model must carry the contact-signature sensors
+        (``build_scene(..., contact_signature=True)``).
+    excitation : looped without a break (``sensors.Excitation`` or a name).
+    variation : this episode's ``SensorVariation`` (noise, leak scale, material scales).
+    rng : the noise generator (``numpy.random.Generator`` or seed).
+    tolerance : when contacts count as unchanged (``sensors.ContactTolerance``).
+    """
+
+    def __init__(self, sensor: SimAcousticSensor, excitation: Excitation | str, *,
+                 variation: SensorVariation | None = None, rng=None,
+                 tolerance: ContactTolerance | None = None) -> None:
+        if isinstance(excitation, str):
+            excitation = Excitation.by_name(excitation)
+        variation = NO_VARIATION if variation is None else variation
+        if not isinstance(variation, SensorVariation):
+            raise TypeError(f"variation must be a SensorVariation, got {type(variation).__name__}")
+        self.sensor, self.variation = sensor, variation
+        self.model, self.data = sensor.model, sensor.data
+        noise = sensor.noise_std if variation.noise_std is None else variation.noise_std
+        self.tolerance = tolerance or ContactTolerance()
+        self.stream = AcousticStream(excitation, fingertip=sensor.fingertip,
+                                     leak=sensor._leak_for(excitation, variation.leak_scale), noise_std=noise,
+                                     rng=rng if rng is not None else sensor.rng, tolerance=self.tolerance)
+        self.bodies = sensor.bodies
+        self._vec_adr, self._count_adr = _signature_addresses(self.model, self.bodies)
+        self._n_partners = self._vec_adr.shape[1] // 2
+        self._body_ids = np.array([mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, b)
+                                   for b in self.bodies])
+        self._min_force_n = sensor.min_force_n
+        self._ref_counts = self._ref_vec = None  # signature when the contacts were last read
+        self._heard_index = 0
+        self._state: GraspState | None = None
+        self._heard: str | None = None           # the body the stream follows
+        self.contact_reads = 0
+
+    @property
+    def sample_rate_hz(self) -> int:
+        return self.stream.sample_rate_hz
+
+    # -- per physics step --------------------------------------------------------------------
+    def _signature(self, b: int) -> tuple[np.ndarray, np.ndarray]:
+        """The contact counts of every object with every partner (and of all its contacts),
+        and the net forces [N] then points [m] with each partner of object ``b`` in its frame
+        ((2 n_partners, 3)); a few microseconds (this runs every physics step)."""
+        d = self.data
+        sd = d.sensordata
+        R = d.xmat[self._body_ids[b]].reshape(3, 3)
+        vec = sd[self._vec_adr[b]] @ R
+        vec[self._n_partners:] -= d.xpos[self._body_ids[b]] @ R
+        return sd[self._count_adr], vec
+
+    def _changed(self, counts: np.ndarray, vec: np.ndarray) -> bool:
+        # Plain floats: a dozen numbers compare six times faster than through numpy calls.
+        if counts.tolist() != self._ref_counts:
+            return True
+        tol, n = self.tolerance, self._n_partners
+        v, ref = vec.tolist(), self._ref_vec
+        for (x, y, z), (a, b, c) in zip(v[:n], ref[:n]):
+            if (math.sqrt((x - a) ** 2 + (y - b) ** 2 + (z - c) ** 2)
+                    > tol.force_rtol * math.sqrt(a * a + b * b + c * c) + tol.force_atol_n):
+                return True
+        p = tol.position_m
+        return any(abs(x - a) > p or abs(y - b) > p or abs(z - c) > p for (x, y, z), (a, b, c) in zip(v[n:], ref[n:]))
+
+    def grasp_state(self) -> GraspState:
+        """What touches the heard object after the latest physics step (the previous
+        ``GraspState`` object itself while the contact signature did not change)."""
+        if self._state is not None:
+            counts, vec = self._signature(self._heard_index)
+            if not self._changed(counts, vec):
+                return self._state
+        self._state = self._read_state()
+        counts, vec = self._signature(self._heard_index)
+        self._ref_counts, self._ref_vec = counts.tolist(), vec.tolist()
+        return self._state
+
+    def _read_state(self) -> GraspState:
+        """Read the contact list: the grasped object (both fingertips press it), else the
+        object heard last, else the first (target) object."""
+        self.contact_reads += 1
+        contacts = self.sensor.contacts()
+        body = self.sensor.grasped_body(contacts) or self._heard or self.bodies[0]
+        self._heard = body
+        self._heard_index = self.bodies.index(body)
+        c = contacts[body]
+        tips = {}
+        for kind in ("actuator", "mic"):
+            patch = c.merged(kind)
+            tips[kind] = None if patch is None else Contact(position_m=patch[0], normal=patch[1],
+                                                            force_n=patch[2], friction=patch[3])
+        others = c.select(~np.isin(c.kinds, ("actuator", "mic"))).to_sensor_contacts(self._min_force_n)
+        model = self.sensor._scaled_model(body, self.variation)
+        return GraspState(model, tips["actuator"], tips["mic"], tuple(others), object_key=body)
+
+    # -- recording ---------------------------------------------------------------------------
+    def step_physics(self, n_steps: int, n_samples: int) -> np.ndarray:
+        """``mj_step`` ``n_steps`` times and record ``n_samples`` across them (each physics
+        step's share per :func:`span_bounds`); returns the float32 samples."""
+        m, d = self.model, self.data
+        b = span_bounds(n_samples, n_steps)
+        spans = []
+        for k in range(int(n_steps)):
+            mujoco.mj_step(m, d)
+            spans.append((int(b[k + 1] - b[k]), self.grasp_state()))
+        return self.stream.advance(spans)
+
+    def latest_features(self) -> np.ndarray | None:
+        """140-d features of the latest complete excitation period (``None`` before one)."""
+        return self.stream.latest_features()
+
+    @property
+    def heard_body(self) -> str | None:
+        """The object the stream follows (``None`` before the first step)."""
+        return self._heard
+
+    @property
+    def metadata(self) -> dict:
+        meta = self.stream.metadata
+        meta.update({"heard_body": self._heard, "contact_reads": self.contact_reads,
+                     "randomization": self.variation.to_dict()})
+        return meta
+
+
+def _signature_addresses(model: mujoco.MjModel, bodies: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+    """sensordata indices of the signature sensors: per object (2 n_partners, 3) of its net
+    forces then its points, and one flat array of every contact count; a clear error when
+    the scene was built without them."""
+    table = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "table") >= 0
+    vec, count = [], []
+    for body in bodies:
+        forces, points = [], []
+        for partner in signature_partners(bodies, body, table):
+            sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, signature_sensor_name(body, partner))
+            if sid < 0:
+                raise ValueError("the scene has no contact-signature sensors: build it with "
+                                 "aas_gym.scene.build_scene(..., contact_signature=True) to stream sound")
+            a = int(model.sensor_adr[sid])     # count, force (3), point (3)
+            count.append(a)
+            forces.append(np.arange(a + 1, a + 4))
+            points.append(np.arange(a + 4, a + 7))
+        vec.append(forces + points)
+        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, signature_sensor_name(body, "*"))
+        count.append(int(model.sensor_adr[sid]))
+    return np.array(vec), np.array(count)
