@@ -80,3 +80,23 @@ def period_lags(recording: np.ndarray, excitation: Excitation, latency_samples: 
         lags.append(lo + int(np.argmax(c[lo:hi])) - k * P)
         k += 1
     return np.asarray(lags, dtype=int)
+
+
+def period_mismatch(recording: np.ndarray, period_samples: int, lags) -> np.ndarray:
+    """Relative RMS difference of each complete aligned period from the one before it
+    (one value per period after the first).
+
+    A looped excitation through a linear, time-invariant path (a loopback, a held object in
+    its steady state) records the same samples every period; dropped, inserted or corrupted
+    samples that leave the latency unchanged (e.g. a block lost and one repeated in the same
+    period) show here and not in the lags. ``lags``: :func:`period_lags` (period k starts at
+    sample ``lags[k] + k * period_samples``)."""
+    x = np.asarray(recording, dtype=float)
+    P = int(period_samples)
+    periods = [x[int(lag) + k * P:int(lag) + (k + 1) * P] for k, lag in enumerate(lags)]
+    periods = [p for p in periods if p.size == P]
+    out = []
+    for a, b in zip(periods, periods[1:]):
+        ref = max(float(np.sqrt(np.mean(a * a))), float(np.sqrt(np.mean(b * b))), 1e-12)
+        out.append(float(np.sqrt(np.mean((b - a) ** 2))) / ref)
+    return np.asarray(out)

@@ -12,6 +12,7 @@ from typing import Any
 from sensors import AcousticObservation, Excitation
 from sensors.leak import save_leak
 
+from .errors import DeviceLostError
 from .rig import PyAudioRig, RigRecording, RigWarning, XrunError
 
 
@@ -35,8 +36,9 @@ class RealAcousticSensor:
         trim_preroll: cut the recording to the simulated layout (see
             :meth:`RigRecording.to_observation`); ``False`` keeps the pre-roll and sets
             ``start_time_s`` to the latency.
-        retries: re-record this many times when a recording has xruns or lost
-            synchronization (rig ``xrun_policy="raise"``); each retry is warned.
+        retries: re-record this many times when a recording has xruns, lost
+            synchronization (rig ``xrun_policy="raise"``) or lost its device before the
+            excitation came back (a sound server still starting); each retry is warned.
         save_dir: if set, every observation is saved there atomically as
             ``<time>_<excitation>.npz`` (samples stream to a partial file while recording).
         labels: metadata labels added to every observation (``sense`` can add more).
@@ -65,8 +67,12 @@ class RealAcousticSensor:
         for attempt in range(self.retries + 1):
             try:
                 return self.rig.record(excitation, duration_s, save_path=save_path, labels=labels)
-            except XrunError as exc:
-                if attempt == self.retries:
+            except (XrunError, DeviceLostError) as exc:
+                # A stream that dies as it starts, before any excitation came back (a sound
+                # server still coming up after a restart), is retried like an xrun; one lost
+                # mid-recording is raised at once with its partial file.
+                started = exc.recording is not None and exc.recording.latency_samples is not None
+                if attempt == self.retries or (isinstance(exc, DeviceLostError) and started):
                     raise
                 if exc.partial_path is not None:  # a retry follows: this one is superseded
                     Path(exc.partial_path).unlink(missing_ok=True)

@@ -19,7 +19,7 @@ from sensors import Excitation
 from .devices import AudioDevice, _alsa_hint, _captured_stderr, pyaudio
 from .errors import (DeviceLostError, ExcitationNotFoundError, RigError, RigWarning, UnsupportedSampleRateError,
                      XrunError)
-from .latency import find_latency, period_lags
+from .latency import find_latency, period_lags, period_mismatch
 
 if TYPE_CHECKING:
     from .rig import PyAudioRig
@@ -282,6 +282,15 @@ class _Session:
             if drift > rig.sync_tolerance_samples:
                 problems.append(f"sample synchronization lost: the excitation period drifted by {drift} samples "
                                 f"(per-period latencies {sorted(set(lags))[:8]}), samples were dropped or inserted")
+            else:
+                # aligned, but is every period the same? (a lost block and a repeated one in
+                # the same period keep the latency)
+                mismatch = period_mismatch(span, self.P, lags)
+                bad = np.flatnonzero(mismatch > rig.period_tolerance)
+                if bad.size:
+                    problems.append(f"period {int(bad[0]) + 1} differs from the one before by "
+                                    f"{100 * mismatch[bad[0]]:.2g} % RMS (tolerance {100 * rig.period_tolerance:.2g} %): "
+                                    "samples were dropped, inserted or corrupted")
         flags: dict[str, int] = {}
         for ev in self.events:
             if ev["flag"] != "priming_output":

@@ -270,3 +270,46 @@ def test_an_unreachable_ray_address_fails_fast_and_says_so(tmp_path):
     assert time.perf_counter() - t0 < 15 and not (tmp_path / "d").exists()
     with pytest.raises(ConnectionError, match="within"):
         check_ray_reachable(f"ray://127.0.0.1:{port}", timeout_s=2)
+
+
+class _DevicesThatDie:
+    """The part of ``real.PyAudioRig`` that ``RealAcousticSensor`` calls, failing as a sound
+    device does: ``plan`` holds, per call, ``"start"`` (the stream dies before the
+    excitation came back), ``"mid"`` (after) or ``"ok"``."""
+
+    sample_rate_hz = 44100
+
+    def __init__(self, plan):
+        self.plan, self.calls = list(plan), 0
+
+    def record(self, excitation, duration_s, *, save_path=None, labels=None):
+        import real
+        from real.rig import AudioDevice, RigRecording
+
+        what = self.plan[self.calls]
+        self.calls += 1
+        dev = AudioDevice(0, "default", "ALSA", 1, 1, 44100.0)
+        mic = np.concatenate([np.zeros(300), excitation.loop(duration_s + 0.1)]).astype(np.float32)
+        rec = RigRecording(input=mic[:, None], mic_channel=0, sample_rate_hz=44100, excitation=excitation,
+                           duration_s=duration_s, latency_samples=None if what == "start" else 300,
+                           period_lags_samples=[], events=[], input_device=dev, output_device=dev,
+                           stream_mode="separate", reported_latency_s={}, started_at="t", complete=what == "ok")
+        if what == "ok":
+            return rec
+        raise real.DeviceLostError("output stream on device 'default' stopped", device="default", recording=rec)
+
+
+def test_a_device_lost_as_the_stream_starts_is_retried_and_one_lost_mid_recording_is_not():
+    import real
+
+    sensor = real.RealAcousticSensor(_DevicesThatDie(["start", "ok"]))
+    with pytest.warns(real.RigWarning, match="retry 1 of 2"):
+        assert sensor.sense("impulse", 0.5).metadata["source"] == "real"
+    rig = _DevicesThatDie(["mid", "ok"])
+    with pytest.raises(real.DeviceLostError):
+        real.RealAcousticSensor(rig).sense("impulse", 0.5)
+    assert rig.calls == 1
+    rig = _DevicesThatDie(["start"] * 3)
+    with pytest.raises(real.DeviceLostError), pytest.warns(real.RigWarning):
+        real.RealAcousticSensor(rig).sense("impulse", 0.5)
+    assert rig.calls == 3

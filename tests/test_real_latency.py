@@ -49,6 +49,22 @@ def test_inserted_samples_show_as_drift():
     assert lags.max() - lags.min() == 2
 
 
+def test_a_lost_and_repeated_block_keeps_the_lags_but_not_the_periods():
+    """A block lost and one repeated within one period: alignment holds, the period differs."""
+    from real.latency import period_mismatch
+
+    ex = sensors.Excitation.by_name("linear")
+    P = ex.period_samples
+    y = 0.3 * ex.loop(2.0)
+    x = np.concatenate([np.zeros(500), y[:P + 5000], y[P + 6024:P + 7048], y[P + 6024:]])  # 1024 lost, 1024 repeated
+    lags = period_lags(x, ex, find_latency(x, ex))
+    assert set(lags.tolist()) == {500}
+    mismatch = period_mismatch(x, P, lags)
+    assert mismatch[0] > 0.1 and mismatch[1] > 0.1 and mismatch.size == 3
+    clean = np.concatenate([np.zeros(500), y]) + 1e-3 * np.random.default_rng(0).standard_normal(500 + y.size)
+    assert period_mismatch(clean, P, period_lags(clean, ex, 500)).max() < 0.02
+
+
 def test_recover_partial_without_raw_files_returns_none(tmp_path):
     assert recover_partial(tmp_path / "nothing.npz") is None
     raw, js, npz = partial_paths(tmp_path / "take.npz")
