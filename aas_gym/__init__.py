@@ -1,7 +1,7 @@
 """MuJoCo scenes, contact datastream, simulated acoustic sensor and Gymnasium environments.
 
-``import aas_gym`` registers ``aas_gym/AcousticGrasp-v0``, ``aas_gym/GraspPosition-v0`` and
-``aas_gym/ObjectRecognition-v0`` with Gymnasium. Heavy modules load on first use.
+``import aas_gym`` registers ``aas_gym/AcousticGrasp-v0``, ``aas_gym/GraspPosition-v0``,
+``aas_gym/ObjectRecognition-v0`` and ``aas_gym/ContactFormation-v0`` with Gymnasium. Heavy modules load on first use.
 Headless Linux: without a display, ``MUJOCO_GL`` defaults to ``egl`` (set it yourself, e.g.
 to ``osmesa``, before importing mujoco to choose otherwise).
 """
@@ -28,6 +28,7 @@ _ENVS = {
     "aas_gym/AcousticGrasp-v0": ("aas_gym.envs.acoustic_grasp:AcousticGraspEnv", 200),
     "aas_gym/GraspPosition-v0": ("aas_gym.envs.grasp_position:GraspPositionEnv", 1),
     "aas_gym/ObjectRecognition-v0": ("aas_gym.envs.object_recognition:ObjectRecognitionEnv", 10),
+    "aas_gym/ContactFormation-v0": ("aas_gym.envs.contact_formation:ContactFormationEnv", 100),
 }
 for _id, (_entry, _steps) in _ENVS.items():
     if _id not in _gym.registry:
@@ -54,6 +55,7 @@ _LAZY = {
     "release": "aas_gym.grasp",
     "DomainRandomization": "aas_gym.scenario",
     "MujocoRobot": "aas_gym.robot",
+    "SimAcousticStream": "aas_gym.sim_stream",
 }
 
 __all__ = sorted(_LAZY)

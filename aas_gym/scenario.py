@@ -149,6 +149,28 @@ def place_objects(model: mujoco.MjModel, data: mujoco.MjData, objects: Sequence[
     return Layout((float(xy[0]), float(xy[1])), yaw, tuple(crossings))
 
 
+def place_beside(data: mujoco.MjData, objects: Sequence[ObjectSpec], free_joints: Sequence[tuple[int, int]],
+                 rng: np.random.Generator, randomization: DomainRandomization, spacing_m: float = 0.08) -> Layout:
+    """The target and one other object lying flat and parallel on the table, ``spacing_m``
+    apart along y (target at -y): the other is a plinth the hand can set the target on
+    (``aas_gym/ContactFormation-v0``). Centres move by up to ``placement_m`` along x and 5 mm
+    along y, yaws by up to ``yaw_rad`` / 3 (kept small: the hand carries the target across
+    without turning). Does not step the physics."""
+    if len(objects) != 2:
+        raise ValueError(f"place_beside places a target and one other object, got {len(objects)} objects")
+    r = randomization
+    yaws = []
+    for i, (obj, joint) in enumerate(zip(objects, free_joints)):
+        x = float(rng.uniform(-r.placement_m, r.placement_m)) if r.placement_m > 0 else 0.0
+        y = (i - 0.5) * spacing_m + (float(rng.uniform(-0.005, 0.005)) if r.placement_m > 0 else 0.0)
+        yaw = float(rng.uniform(-r.yaw_rad, r.yaw_rad)) / 3 if r.yaw_rad > 0 else 0.0
+        _set_free_pose(data, joint, [x, y, obj.half_extents_m[2]], euler_to_quat(yaw))
+        yaws.append(yaw)
+        if i == 0:
+            target_xy = (x, y)
+    return Layout(target_xy, yaws[0], ())
+
+
 def settle(model: mujoco.MjModel, data: mujoco.MjData, duration_s: float = 0.4) -> None:
     """Let the placed scene come to rest."""
     mujoco.mj_forward(model, data)

@@ -9,13 +9,15 @@ state across changes.
 
 Reading the contact list costs far more than a physics step, while a steady grasp changes
 nothing the sound depends on. So each step first compares the scene's contact signature, a
-few MuJoCo contact sensors per object and partner (count, net force, force-weighted point;
-see ``aas_gym.scene.add_contact_signature_sensors``), in the object's frame, with the
-signature of the last contact list it read. Only when a count changed, or a net force or
-point moved beyond the stream's ``ContactTolerance``, does it read the contact list again;
-otherwise it hands the stream the same ``GraspState`` object, and the stream synthesizes
-all those steps in one call. Changes the signature does not see: a force moving among
-contacts with one partner at constant net force and point.
+few MuJoCo contact sensors per object and partner (net force and force-weighted point; see
+``aas_gym.scene.add_contact_signature_sensors``), in the object's frame, with the signature
+of the last contact list it read. Only when a partner starts or stops pressing (net force
+above the tolerance's ``force_atol_n``), an object becomes touched by both fingertips, or a
+net force or point moved beyond the stream's ``ContactTolerance`` does it read the contact
+list again; otherwise it hands the stream the same ``GraspState`` object, and the stream
+synthesizes all those steps in one call. Changes the signature does not see: a force moving
+among the contacts with one partner at constant net force and point, and contacts without
+force coming and going (they do not damp).
 """
 
 from __future__ import annotations
@@ -70,12 +72,12 @@ class SimAcousticStream:
                                      leak=sensor._leak_for(excitation, variation.leak_scale), noise_std=noise,
                                      rng=rng if rng is not None else sensor.rng, tolerance=self.tolerance)
         self.bodies = sensor.bodies
-        self._vec_adr, self._count_adr = _signature_addresses(self.model, self.bodies)
+        self._vec_adr, self._grasp_adr = _signature_addresses(self.model, self.bodies)
         self._n_partners = self._vec_adr.shape[1] // 2
         self._body_ids = np.array([mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, b)
                                    for b in self.bodies])
         self._min_force_n = sensor.min_force_n
-        self._ref_counts = self._ref_vec = None  # signature when the contacts were last read
+        self._ref_present = self._ref_vec = None  # signature when the contacts were last read
         self._heard_index = 0
         self._state: GraspState | None = None
         self._heard: str | None = None           # the body the stream follows
@@ -86,40 +88,46 @@ class SimAcousticStream:
         return self.stream.sample_rate_hz
 
     # -- per physics step --------------------------------------------------------------------
-    def _signature(self, b: int) -> tuple[np.ndarray, np.ndarray]:
-        """The contact counts of every object with every partner (and of all its contacts),
-        and the net forces [N] then points [m] with each partner of object ``b`` in its frame
-        ((2 n_partners, 3)); a few microseconds (this runs every physics step)."""
+    def _signature(self, b: int) -> tuple[list, list]:
+        """Which partners press on object ``b`` (net force above the tolerance's
+        ``force_atol_n``), which objects both fingertips touch (a grasp may move to another),
+        and object ``b``'s net forces [N] then force-weighted points [m] per partner in its
+        frame; a few microseconds (this runs every physics step)."""
         d = self.data
         sd = d.sensordata
         R = d.xmat[self._body_ids[b]].reshape(3, 3)
         vec = sd[self._vec_adr[b]] @ R
-        vec[self._n_partners:] -= d.xpos[self._body_ids[b]] @ R
-        return sd[self._count_adr], vec
+        n = self._n_partners
+        vec[n:] -= d.xpos[self._body_ids[b]] @ R
+        v = vec.tolist()
+        atol = self.tolerance.force_atol_n
+        present = [x * x + y * y + z * z > atol * atol for x, y, z in v[:n]]
+        return present + (sd[self._grasp_adr] > 0).tolist(), v
 
-    def _changed(self, counts: np.ndarray, vec: np.ndarray) -> bool:
+    def _changed(self, present: list, v: list) -> bool:
         # Plain floats: a dozen numbers compare six times faster than through numpy calls.
-        if counts.tolist() != self._ref_counts:
+        if present != self._ref_present:
             return True
         tol, n = self.tolerance, self._n_partners
-        v, ref = vec.tolist(), self._ref_vec
+        ref = self._ref_vec
         for (x, y, z), (a, b, c) in zip(v[:n], ref[:n]):
             if (math.sqrt((x - a) ** 2 + (y - b) ** 2 + (z - c) ** 2)
                     > tol.force_rtol * math.sqrt(a * a + b * b + c * c) + tol.force_atol_n):
                 return True
         p = tol.position_m
-        return any(abs(x - a) > p or abs(y - b) > p or abs(z - c) > p for (x, y, z), (a, b, c) in zip(v[n:], ref[n:]))
+        # points of partners that press (a point without force is meaningless)
+        return any(on and (abs(x - a) > p or abs(y - b) > p or abs(z - c) > p)
+                   for on, (x, y, z), (a, b, c) in zip(present, v[n:], ref[n:]))
 
     def grasp_state(self) -> GraspState:
         """What touches the heard object after the latest physics step (the previous
         ``GraspState`` object itself while the contact signature did not change)."""
         if self._state is not None:
-            counts, vec = self._signature(self._heard_index)
-            if not self._changed(counts, vec):
+            present, vec = self._signature(self._heard_index)
+            if not self._changed(present, vec):
                 return self._state
         self._state = self._read_state()
-        counts, vec = self._signature(self._heard_index)
-        self._ref_counts, self._ref_vec = counts.tolist(), vec.tolist()
+        self._ref_present, self._ref_vec = self._signature(self._heard_index)
         return self._state
 
     def _read_state(self) -> GraspState:
@@ -171,22 +179,21 @@ class SimAcousticStream:
 
 def _signature_addresses(model: mujoco.MjModel, bodies: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
     """sensordata indices of the signature sensors: per object (2 n_partners, 3) of its net
-    forces then its points, and one flat array of every contact count; a clear error when
-    the scene was built without them."""
+    forces then its points, and the contact counts of every object with both fingertips;
+    a clear error when the scene was built without them."""
     table = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "table") >= 0
-    vec, count = [], []
+    vec, tips = [], []
     for body in bodies:
         forces, points = [], []
-        for partner in signature_partners(bodies, body, table):
+        for i, partner in enumerate(signature_partners(bodies, body, table)):
             sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, signature_sensor_name(body, partner))
             if sid < 0:
                 raise ValueError("the scene has no contact-signature sensors: build it with "
                                  "aas_gym.scene.build_scene(..., contact_signature=True) to stream sound")
             a = int(model.sensor_adr[sid])     # count, force (3), point (3)
-            count.append(a)
+            if i < 2:                          # the fingertips
+                tips.append(a)
             forces.append(np.arange(a + 1, a + 4))
             points.append(np.arange(a + 4, a + 7))
         vec.append(forces + points)
-        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, signature_sensor_name(body, "*"))
-        count.append(int(model.sensor_adr[sid]))
-    return np.array(vec), np.array(count)
+    return np.array(vec), np.array(tips)

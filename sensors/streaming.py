@@ -358,20 +358,39 @@ class AcousticStream:
         y = np.zeros(total)
         heard = np.zeros(total, dtype=bool)
         start = self.sample_index
-        i = 0
-        while i < len(resolved):
-            # merge consecutive spans that use the same systems: one synthesis call for them
-            n, g, key = resolved[i]
-            grip = key.grip_force_n
-            j = i + 1
-            while j < len(resolved) and resolved[j][2].same_systems(key):
-                n += resolved[j][0]
-                grip = min(grip, resolved[j][2].grip_force_n)
-                j += 1
-            off = self.sample_index - start
-            self._span(n, g, key, grip, y[off:off + n])
-            heard[off:off + n] = key.heard
-            i = j
+        # merge consecutive spans that use the same systems: one synthesis call for them
+        groups = []                                       # (n, grasp, resolved, lowest grip)
+        for n, g, key in resolved:
+            if groups and key.same_systems(groups[-1][2]):
+                n0, g0, key0, grip0 = groups[-1]
+                groups[-1] = (n0 + n, g0, key0, min(grip0, key.grip_force_n))
+            else:
+                groups.append((n, g, key, key.grip_force_n))
+        k = 0
+        while k < len(groups):
+            n, g, key, grip = groups[k]
+            if not key.heard:
+                off = self.sample_index - start
+                self._span(n, g, key, y[off:off + n], None)
+                k += 1
+                continue
+            # The drive (fingertip model) does not depend on the object's contacts: one call
+            # covers every heard group of this object and fingertip in a row.
+            m = k + 1
+            while (m < len(groups) and groups[m][2].heard and groups[m][2].object_key == key.object_key
+                   and groups[m][2].fingertip is key.fingertip):
+                m += 1
+            run = groups[k:m]
+            self._object_state(g)                         # ring-down over a gap, drive reset
+            f = self._drive_force(key.fingertip, min(r[3] for r in run), self.sample_index,
+                                  sum(r[0] for r in run))
+            at = 0
+            for n_i, g_i, key_i, _ in run:
+                off = self.sample_index - start
+                self._span(n_i, g_i, key_i, y[off:off + n_i], f[at:at + n_i + 1])
+                heard[off:off + n_i] = True
+                at += n_i
+            k = m
         return self._record(start, y, heard)
 
     def latest_features(self) -> np.ndarray | None:
@@ -501,14 +520,14 @@ class AcousticStream:
             self._current = key
         return st
 
-    def _span(self, n: int, g: GraspState, res: "_Resolved", grip_force_n, out: np.ndarray) -> None:
+    def _span(self, n: int, g: GraspState, res: "_Resolved", out: np.ndarray, u: np.ndarray | None) -> None:
+        """Synthesize n samples under one set of systems; ``u``: the drive force at samples
+        s .. s + n when heard."""
         st = self._object_state(g)
         s = self.sample_index
         if res.heard:
-            u = self._drive_force(res.fingertip, grip_force_n, s, n)
             sysm = res.system                 # n + 1 samples: s .. s + n
-            y = sysm.response(u[:n], st.x)
-            out[:] = y
+            out[:] = sysm.response(u[:n], st.x)
             st.x = sysm.final_state(u, st.x)
             st.geometry = (g.actuator.position_m, g.actuator.normal, g.mic.position_m, g.mic.normal)
             self.heard_samples += n
@@ -522,7 +541,7 @@ class AcousticStream:
 
     def _drive_force(self, tip: FingertipModel, grip_force_n: float, s: int, n: int) -> np.ndarray:
         """Dynamic actuator contact force at samples s .. s + n (piecewise linear between);
-        ``grip_force_n`` (the lowest over the span) sets the separation check."""
+        ``grip_force_n`` (the lowest over the spans it covers) sets the separation check."""
         act, mic = self._drive_systems_for(tip)
         d = self._drive
         if d is None or d.act is not act:

@@ -681,7 +681,8 @@ class _LazyInverseRows:
     def get(self):
         if self._rows is None:
             n = self.lu.shape[0]
-            self._rows = sla.lu_solve((self.lu, self.piv), np.eye(n), check_finite=False)[self.keep]
+            with _BLAS.limit(limits=1, user_api="blas"):   # as _lti_parts: small, one thread
+                self._rows = sla.lu_solve((self.lu, self.piv), np.eye(n), check_finite=False)[self.keep]
         return self._rows
 
 

@@ -133,6 +133,8 @@ class AasEnv(gym.Env):
         include_waveform: add the raw recording under ``waveform``.
         randomization: ``DomainRandomization`` (or a dict of its knobs, or ``False`` for none).
         leak, fingertip: passed to ``SimAcousticSensor``.
+        stream_tolerance: with ``acoustic.cadence="stream"``, when the contacts count as
+            unchanged (``sensors.ContactTolerance``; default its defaults).
         frame_skip, render_mode, width, height, camera_name: as in Gymnasium's MuJoCo envs.
     """
 
@@ -155,7 +157,7 @@ class AasEnv(gym.Env):
                  include_waveform: bool | None = None, sense_mode: str | None = None,
                  randomization=None, frame_skip: int = 25, render_mode: str | None = None,
                  width: int = 480, height: int = 480, camera_name: str = "closeup",
-                 leak=None, fingertip=None) -> None:
+                 leak=None, fingertip=None, stream_tolerance=None) -> None:
         self.objects = [get_object(o) for o in objects]
         if not self.objects:
             raise ValueError("objects must name at least one object")
@@ -177,6 +179,7 @@ class AasEnv(gym.Env):
         self.render_mode = render_mode
         self.width, self.height, self.camera_name = int(width), int(height), camera_name
         self.leak, self.fingertip = _load_leaks(leak), fingertip
+        self.stream_tolerance = stream_tolerance
         self._variation = SensorVariation()
         self._stream: SimAcousticStream | None = None
         self._scenes: OrderedDict[tuple, _Scene] = OrderedDict()
@@ -371,7 +374,7 @@ class AasEnv(gym.Env):
     # --- streaming --------------------------------------------------------------------------
     def _new_stream(self, excitation=None) -> SimAcousticStream:
         return SimAcousticStream(self.sensor, self.excitation if excitation is None else excitation,
-                                 variation=self._variation, rng=self.np_random)
+                                 variation=self._variation, rng=self.np_random, tolerance=self.stream_tolerance)
 
     def _simulate(self) -> None:
         """One env step of physics (``frame_skip`` MuJoCo steps); streamed, the microphone
