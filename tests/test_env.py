@@ -9,7 +9,8 @@ import aas_gym  # noqa: F401  (registers the envs)
 from aas_gym.envs.base import DomainRandomization
 from scripted_policy import reach_until_grasped
 
-ENV_IDS = ["aas_gym/AcousticGrasp-v0", "aas_gym/GraspPosition-v0", "aas_gym/ObjectRecognition-v0"]
+ENV_IDS = ["aas_gym/AcousticGrasp-v0", "aas_gym/GraspPosition-v0", "aas_gym/ObjectRecognition-v0",
+           "aas_gym/ContactFormation-v0"]
 # Smallest settings that still exercise everything: 0.5 s recordings (one excitation period).
 FAST = {"duration_s": 0.5}
 
@@ -154,8 +155,7 @@ def test_nonfinite_or_misshapen_actions_are_refused(env_id, n, bad):
     np.testing.assert_array_equal(env.data.qpos, qpos)
 
 
-@pytest.mark.parametrize("env_id", ["aas_gym/AcousticGrasp-v0", "aas_gym/GraspPosition-v0",
-                                    "aas_gym/ObjectRecognition-v0"])
+@pytest.mark.parametrize("env_id", ENV_IDS)
 def test_stable_baselines3_accepts_the_default_spaces(env_id):
     """SB3's own checker, warnings as errors: symmetric Box actions, no Dict action."""
     import warnings
@@ -169,7 +169,7 @@ def test_stable_baselines3_accepts_the_default_spaces(env_id):
 
 def test_every_env_renders_human_on_reset():
     """The reset template renders for render_mode="human" in every env (headless: it warns)."""
-    for env_id in ("aas_gym/AcousticGrasp-v0", "aas_gym/GraspPosition-v0", "aas_gym/ObjectRecognition-v0"):
+    for env_id in ENV_IDS:
         env = gym.make(env_id, duration_s=0.5, render_mode="human", disable_env_checker=True).unwrapped
         env._warned_no_display = False
         with pytest.warns(UserWarning, match="no display"):
