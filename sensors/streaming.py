@@ -240,10 +240,13 @@ class SystemCache:
 @dataclass
 class _ObjectState:
     model: Any
-    x: np.ndarray                    # scaled modal state at sample ``at``
+    x: np.ndarray | None             # scaled modal state at sample ``at`` (None: ``steady`` holds it)
     at: int
     geometry: tuple | None = None    # last closed grasp's (drive p, n, mic p, n): for ring-down builds
     last: GraspState | None = None   # contacts of its latest span (for gaps while not in the stream)
+    system: ModalSystem | None = None  # the system of its latest heard samples ...
+    settled: int = 0                 # ... and how many of them ran under a periodic drive
+    steady: "_Steady | None" = None  # while in periodic steady state: the state is periodic
 
 
 @dataclass
@@ -253,8 +256,32 @@ class _Drive:
     fingertip: FingertipModel
     act: ModalSystem                 # exciter force -> dynamic actuator contact force
     mic: ModalSystem                 # exciter force -> dynamic mic contact force (separation check)
-    x: np.ndarray = field(default_factory=lambda: np.zeros(8))
+    x: np.ndarray | None = field(default_factory=lambda: np.zeros(8))   # None: periodic
     at: int = 0
+    run: int = 0                     # samples driven since it started from rest
+
+
+@dataclass
+class _Steady:
+    """A linear system in periodic steady state under the looped excitation: its output and
+    state repeat every period (the transient decayed to below exp(-SETTLE_E_FOLDS))."""
+
+    output: np.ndarray               # one period, indexed by loop phase
+    state0: np.ndarray               # the state at phase 0
+    system: ModalSystem
+    force: np.ndarray                # one period of the force driving it (phase-indexed)
+
+    def state_at(self, s: int, P: int) -> np.ndarray:
+        """The state at absolute sample ``s`` (propagated from phase 0)."""
+        p = s % P
+        if p == 0:
+            return self.state0.copy()
+        return self.system.final_state(self.force[:p + 1], self.state0)
+
+
+#: A system counts as in periodic steady state after its slowest mode decayed this many
+#: e-folds under the periodic drive: exp(-30) ~ 1e-13 of the transient is left.
+SETTLE_E_FOLDS = 30.0
 
 
 # ----------------------------------------------------------------------------------------
@@ -317,6 +344,9 @@ class AcousticStream:
         self._current: Hashable | None = None
         self._drive: _Drive | None = None
         self._drive_systems: "OrderedDict[FingertipModel, tuple[ModalSystem, ModalSystem]]" = OrderedDict()
+        self._steady: "OrderedDict[tuple, _Steady]" = OrderedDict()     # (system, drive) -> steady state
+        self._drive_steadies: dict = {}           # fingertip model -> the drive's steady states
+        self.steady_samples = 0                   # samples taken from a periodic steady state
         self._tips: dict[Hashable, FingertipModel] = {}
         self._last_grasp: GraspState | None = None
         self._last_resolved = None
@@ -382,12 +412,12 @@ class AcousticStream:
                 m += 1
             run = groups[k:m]
             self._object_state(g)                         # ring-down over a gap, drive reset
-            f = self._drive_force(key.fingertip, min(r[3] for r in run), self.sample_index,
-                                  sum(r[0] for r in run))
+            f, steady = self._drive_force(key.fingertip, min(r[3] for r in run), self.sample_index,
+                                          sum(r[0] for r in run))
             at = 0
             for n_i, g_i, key_i, _ in run:
                 off = self.sample_index - start
-                self._span(n_i, g_i, key_i, y[off:off + n_i], f[at:at + n_i + 1])
+                self._span(n_i, g_i, key_i, y[off:off + n_i], f[at:at + n_i + 1], steady)
                 heard[off:off + n_i] = True
                 at += n_i
             k = m
@@ -507,11 +537,11 @@ class AcousticStream:
         if st is None:
             st = _ObjectState(g.model, np.zeros(2 * r), self.sample_index)
             self._objects[key] = st
-        elif len(st.x) != 2 * r:
-            raise ValueError(f"object {key!r} changed its number of modes ({len(st.x) // 2} -> {r})")
+        elif len(st.x if st.x is not None else st.steady.state0) != 2 * r:
+            raise ValueError(f"object {key!r} changed its number of modes -> {r}")
         if st.at < self.sample_index:
             # the object was out of the stream: ring it down over the gap under its last contacts
-            if np.any(st.x) and st.geometry is not None and st.last is not None:
+            if np.any(self._x(st)) and st.geometry is not None and st.last is not None:
                 Phi = self._ring_system(st.last, st.geometry).transition_matrix()
                 st.x = np.linalg.matrix_power(Phi, self.sample_index - st.at) @ st.x
             st.at = self.sample_index
@@ -520,45 +550,107 @@ class AcousticStream:
             self._current = key
         return st
 
-    def _span(self, n: int, g: GraspState, res: "_Resolved", out: np.ndarray, u: np.ndarray | None) -> None:
+    def _x(self, st: _ObjectState) -> np.ndarray:
+        """The object's state at sample ``st.at``, out of its periodic steady state if it was in one."""
+        if st.x is None:
+            st.x = st.steady.state_at(st.at, len(self._period))
+            st.steady = None
+        return st.x
+
+    def _span(self, n: int, g: GraspState, res: "_Resolved", out: np.ndarray, u: np.ndarray | None,
+              steady_drive: "_Steady | None" = None) -> None:
         """Synthesize n samples under one set of systems; ``u``: the drive force at samples
-        s .. s + n when heard."""
+        s .. s + n when heard; ``steady_drive``: the drive is in periodic steady state."""
         st = self._object_state(g)
         s = self.sample_index
         if res.heard:
             sysm = res.system                 # n + 1 samples: s .. s + n
-            out[:] = sysm.response(u[:n], st.x)
-            st.x = sysm.final_state(u, st.x)
+            if sysm is not st.system or steady_drive is None:
+                st.system, st.settled = sysm, 0
+            if st.steady is not None and st.steady.system is sysm and steady_drive is not None:
+                # periodic steady state: the output repeats every period, nothing to compute
+                P = len(self._period)
+                out[:] = st.steady.output[(s + np.arange(n)) % P]
+                self.steady_samples += n
+            else:
+                x = self._x(st)
+                out[:] = sysm.response(u[:n], x)
+                st.x = sysm.final_state(u, x)
+                if steady_drive is not None:
+                    st.settled += n
+                    if st.settled * sysm.slowest_decay_rate_per_s() >= SETTLE_E_FOLDS * self.sample_rate_hz:
+                        st.steady, st.x = self._steady_of(sysm, steady_drive), None
             st.geometry = (g.actuator.position_m, g.actuator.normal, g.mic.position_m, g.mic.normal)
             self.heard_samples += n
         else:
             self._drive = None
-            if np.any(st.x) and st.geometry is not None:
-                st.x = self._ring_system(g, st.geometry).final_state(np.zeros(n + 1), st.x)
+            st.system = None
+            x = self._x(st)
+            if np.any(x) and st.geometry is not None:
+                st.x = self._ring_system(g, st.geometry).final_state(np.zeros(n + 1), x)
         st.last = g
         st.at = s + n
         self.sample_index = s + n
 
-    def _drive_force(self, tip: FingertipModel, grip_force_n: float, s: int, n: int) -> np.ndarray:
-        """Dynamic actuator contact force at samples s .. s + n (piecewise linear between);
-        ``grip_force_n`` (the lowest over the spans it covers) sets the separation check."""
+    def _steady_of(self, sysm: ModalSystem, drive: "_Steady") -> _Steady:
+        """The periodic steady state of ``sysm`` under the steady drive force (cached)."""
+        key = (id(sysm), id(drive.output))
+        hit = self._steady.get(key)
+        if hit is not None and hit.system is sysm and hit.force is drive.output:
+            self._steady.move_to_end(key)
+            return hit
+        f = drive.output
+        st = _Steady(sysm.periodic_response(f), sysm.periodic_state(f), sysm, f)
+        self._steady[key] = st
+        while len(self._steady) > 8:
+            self._steady.popitem(last=False)
+        return st
+
+    def _drive_force(self, tip: FingertipModel, grip_force_n: float, s: int, n: int):
+        """Dynamic actuator contact force at samples s .. s + n (piecewise linear between) and
+        the drive's periodic steady state if it is in it (else ``None``); ``grip_force_n``
+        (the lowest over the spans it covers) sets the separation check."""
         act, mic = self._drive_systems_for(tip)
+        P = len(self._period)
         d = self._drive
         if d is None or d.act is not act:
-            x0 = np.zeros(8) if d is None else d.x          # same contact, new parameters: keep state
+            if d is None:
+                x0 = np.zeros(8)
+            else:                                            # same contact, new parameters: keep state
+                x0 = d.x if d.x is not None else self._drive_steady(tip, act, mic)[0].state_at(s, P)
             d = self._drive = _Drive(tip, act, mic, x0, s)
-        fe = tip.actuator_force_n * self._excitation(s, n + 1)
-        x0 = d.x if np.any(d.x) else None
-        f = act.response(fe, x0)
-        f_mic = mic.response(fe, x0)
+        if d.x is None:
+            # periodic steady state: the forces repeat every period
+            steady, steady_mic = self._drive_steady(tip, act, mic)
+            idx = (s + np.arange(n + 1)) % P
+            f, f_mic = steady.output[idx], steady_mic.output[idx]
+        else:
+            fe = tip.actuator_force_n * self._excitation(s, n + 1)
+            x0 = d.x if np.any(d.x) else None
+            f = act.response(fe, x0)
+            f_mic = mic.response(fe, x0)
+            d.x = act.final_state(fe[:n + 1], x0)
+            d.run += n
+            if d.run * act.slowest_decay_rate_per_s() >= SETTLE_E_FOLDS * self.sample_rate_hz:
+                d.x = None                                   # from here on: periodic
+            steady = None
         lowest = grip_force_n + min(f.min(), f_mic.min())
         self.min_contact_force_n = min(self.min_contact_force_n, lowest)
         if lowest < 0:
             self.fingertip_separated = True
-        d.x = act.final_state(fe[:n + 1], x0)
         d.fingertip, d.at = tip, s + n
         # the state is at sample s + n; the next span starts there with force f[n]
-        return f
+        return f, steady
+
+    def _drive_steady(self, tip, act, mic) -> tuple[_Steady, _Steady]:
+        """The drive's periodic steady state (actuator and mic contact forces), cached with its systems."""
+        hit = self._drive_steadies.get(tip)
+        if hit is None or hit[0].system is not act:
+            fe = tip.actuator_force_n * self._period
+            hit = (_Steady(act.periodic_response(fe), act.periodic_state(fe), act, fe),
+                   _Steady(mic.periodic_response(fe), mic.periodic_state(fe), mic, fe))
+            self._drive_steadies[tip] = hit
+        return hit
 
     def _excitation(self, s: int, n: int) -> np.ndarray:
         P = len(self._period)

@@ -558,6 +558,31 @@ class ModalSystem:
             y += np.fft.irfft(np.fft.rfft(u) * np.fft.rfft(hp), P)
         return y
 
+    def periodic_state(self, force_period_n) -> np.ndarray:
+        """Scaled state at phase 0 of the periodic steady state under a force that repeats
+        ``force_period_n`` forever (the state :meth:`periodic_response` runs through):
+        x0 = Phi^P x0 + (one period from rest), solved per part in its own coordinates."""
+        u = _force(force_period_n)
+        P = len(u)
+        x = np.zeros(2 * self.n_modes)
+        if P == 0:
+            return x
+        ext = np.concatenate([u, u[:1]])      # samples 0 .. P of the looped force
+        for p in self.parts:
+            x[p.idx] = p.from_coords(p.periodic_vector(p.propagate(None, ext), P))
+        return x
+
+    def slowest_decay_rate_per_s(self) -> float:
+        """The smallest decay rate [1/s] of the simulated modes (0: one does not decay):
+        a transient has fallen to exp(-k) of its start after k / rate seconds."""
+        if getattr(self, "_slowest", None) is None:
+            rates = []
+            for p in self.parts:
+                lam = p.lam if isinstance(p, _EigenPart) else np.linalg.eigvals(p.A)
+                rates.append(float(np.min(-np.real(lam))) if len(lam) else np.inf)
+            self._slowest = max(0.0, min(rates)) if rates else np.inf
+        return self._slowest
+
     def transition_matrix(self) -> np.ndarray:
         """One-step map Phi of the scaled state (2 r_model square; dropped modes: identity)."""
         n = 2 * self.n_modes

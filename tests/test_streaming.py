@@ -167,7 +167,10 @@ def test_static_grasp_chunks_equal_one_recording(bar, kind):
     tab = table()
     leak = make_leak(exc)
     tip = FingertipModel()
-    rec = simulate_recording(bar, exc, 1.2, act, mic, tab, fingertip=tip, leak=leak, noise_std=1e-4,
+    # long enough for the drive and the steel bar (slowest mode 12 /s: 30 e-folds in 2.5 s) to
+    # reach their periodic steady state, from where
+    # the stream repeats one precomputed period instead of synthesizing
+    rec = simulate_recording(bar, exc, 4.5, act, mic, tab, fingertip=tip, leak=leak, noise_std=1e-4,
                              rng=np.random.default_rng(11))
     ref = rec.waveform.astype(float)
     stream = AcousticStream(exc, tip, leak=leak, noise_std=1e-4, rng=np.random.default_rng(11),
@@ -185,6 +188,7 @@ def test_static_grasp_chunks_equal_one_recording(bar, kind):
     assert np.abs(y - ref).max() / np.abs(ref).max() <= 1e-9
     assert stream.systems.misses == 1
     assert not stream.metadata["fingertip_separated"]
+    assert stream.steady_samples > 0.15 * len(ref), stream.steady_samples
 
 
 def test_default_fingertip_follows_the_grasp_as_simulate_recording(bar):

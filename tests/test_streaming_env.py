@@ -146,7 +146,8 @@ def test_streamed_steps_need_a_whole_number_of_samples():
 
 
 def test_contact_formation_episode_visits_formations_that_the_forces_confirm():
-    env = gym.make("aas_gym/ContactFormation-v0", objects=["aluminium_bar"], plinths=["steel_bar"])
+    env = gym.make("aas_gym/ContactFormation-v0", objects=["aluminium_bar"], plinths=["steel_bar"],
+                   max_episode_steps=100)
     obs, info = env.reset(seed=2)
     assert info["grasp_success"] and info["formation"] == "table"
     seen, rewards = set(), []

@@ -26,8 +26,10 @@ FORMATIONS = ("free", "table", "object")
 #: A contact counts for the ground truth above this normal force [N] (MuJoCo's resting
 #: contacts carry far more; grazing ones during a transition less).
 TRUTH_FORCE_N = 0.2
-#: Fastest scripted TCP motion per env step [m] (0.1 m/s at 20 Hz).
-MAX_STEP_M = 0.005
+#: Spread of the grasp height on the object [m].
+GRASP_HEIGHT_M = 0.003
+#: Fastest scripted TCP motion per env step [m] (0.16 m/s at 20 Hz).
+MAX_STEP_M = 0.008
 #: Contacts of a moving object change force at every step; within 10 % (0.2 N) of the
 #: contact set a system was built for, it is reused: contact-damped decay rates within 10 %
 #: (the randomized damping spans +-5 %), a third of the system builds of the defaults
@@ -45,13 +47,26 @@ class _Segment:
     steps: int
 
 
+# What may follow where the target rests, and how likely (the plinth is visited often).
+_NEXT = {"table": (("rest_table", "slide_table", "lift"), (0.25, 0.25, 0.5)),
+         "plinth": (("rest_object", "slide_object", "lift"), (0.3, 0.3, 0.4)),
+         "air": (("set_down_table", "set_down_object", "hover"), (0.35, 0.45, 0.2))}
+
+
+def offset_z(script: list[_Segment]) -> float:
+    """Height of the latest waypoint of a script (0: the grasp pose on the table)."""
+    return script[-1].offset[2] if script else 0.0
+
+
 class ContactFormationEnv(AasEnv):
     """Report the contact formation of a held, moving object from sound and proprioception.
 
     Each episode places the target and one other object (the plinth, from ``plinths``) side
     by side on the table, grasps the target and plays a random script: rest or press on the
-    table, slide along it, lift off, carry over the plinth, set down or press on it, slide
-    along it, lift again; each segment lasts 0.3-1 s and the hand moves at up to 0.1 m/s.
+    table, slide along it, lift off (1-10 mm: touching or not is a fine call), carry over the
+    plinth, set down or press on it, slide along it, lift again; each segment lasts 0.25-0.7 s
+    and the hand moves at up to 0.16 m/s. The grasp height on the target varies by +-3 mm, so
+    proprioception alone does not place the object's bottom to the millimetre.
 
     Action (Discrete(3)): the reported formation, ``FORMATIONS`` = free / table / object.
     Observation (Dict): proprioception (``tcp``, ``tcp_velocity``, ``gripper``), ``acoustic``
@@ -95,10 +110,13 @@ class ContactFormationEnv(AasEnv):
         sc = self._scene
         grip = self._episode_grip_force()
         # Grasp the target near its centre, resting on the table (retry if the pads slip off).
+        # The height of the grasp on the object varies by +-3 mm, so the TCP height alone
+        # does not say where the object's bottom is to the millimetre.
         for _ in range(3):
             position = float(self.np_random.uniform(-0.02, 0.02))
-            result = planar_grasp(sc.model, sc.data, sc.bodies[0], position, grip, hand=sc.hand,
-                                  stream=sc.stream)
+            height = float(self.np_random.uniform(-GRASP_HEIGHT_M, GRASP_HEIGHT_M))
+            result = planar_grasp(sc.model, sc.data, sc.bodies[0], position, grip, height_offset_m=height,
+                                  hand=sc.hand, stream=sc.stream)
             if result.success:
                 break
         self._home = sc.hand.tcp(sc.data).copy()
@@ -119,20 +137,16 @@ class ContactFormationEnv(AasEnv):
         return obs, info
 
     def _draw_script(self, max_steps: int = 400) -> list[_Segment]:
-        """A random walk over segments, each 6-20 steps, until ``max_steps`` are covered."""
+        """A random walk over segments, each 5-14 steps, until ``max_steps`` are covered."""
         rng = self.np_random
         dy, top = self._plinth_offset
         script, total, where = [], 0, "table"    # where the target rests: table / air / plinth
         x = 0.0
         while total < max_steps:
-            steps = int(rng.integers(6, 21))
+            steps = int(rng.integers(5, 15))
             press = float(rng.uniform(0.001, 0.004))
-            if where == "table":
-                kind = ("rest_table", "slide_table", "lift")[int(rng.integers(3))]
-            elif where == "plinth":
-                kind = ("rest_object", "slide_object", "lift")[int(rng.integers(3))]
-            else:
-                kind = ("set_down_table", "set_down_object", "hover")[int(rng.integers(3))]
+            kinds, weights = _NEXT[where]
+            kind = kinds[int(rng.choice(len(kinds), p=weights))]
             y = dy if where == "plinth" else 0.0
             if kind in ("rest_table", "rest_object"):
                 offset = (x, y, (top if where == "plinth" else 0.0) - press)
@@ -140,7 +154,9 @@ class ContactFormationEnv(AasEnv):
                 x = float(np.clip(x + rng.choice([-1, 1]) * rng.uniform(0.01, 0.03), -0.03, 0.03))
                 offset = (x, y, (top if where == "plinth" else 0.0) - press)
             elif kind in ("lift", "hover"):
-                offset = (x, y, top + float(rng.uniform(0.015, 0.04)))
+                # close above the surface it left (1-10 mm): touching or not is a fine call
+                base = top if where == "plinth" else 0.0
+                offset = (x, y, max(base, offset_z(script)) + float(rng.uniform(0.001, 0.01)))
                 where = "air"
             elif kind == "set_down_table":
                 offset, where = (x, 0.0, -press), "table"

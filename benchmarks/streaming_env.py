@@ -1,0 +1,129 @@
+"""Cost of the streaming microphone per env step, against the same env with sensing off.
+
+    python benchmarks/streaming_env.py [--chunks 9] [--steps 20] [--no-write]
+
+For objects of about 12, 46 and 100 modes below Nyquist (aluminium bar, ABS bar, PLA tube),
+two envs are built with the same seed: ``acoustic={"cadence": "stream"}`` and
+``acoustic={"enabled": False}``. Two scenes per object:
+
+- ``held``: ``aas_gym/AcousticGrasp-v0``, the object grasped (scripted ``planar_grasp``) and
+  held still; each step streams 0.05 s (2205 samples through 25 physics steps);
+- ``moving``: ``aas_gym/ContactFormation-v0``'s script (lift, carry, set down, press, slide)
+  with a steel-bar plinth: contacts change all the time.
+
+Each chunk of ``--steps`` env steps is timed on both envs in turn (interleaved, so load from
+other processes hits both alike); reported are the medians over chunks: milliseconds per
+step, the ratio streamed / off, and the real-time factor of the streamed env (0.05 s of
+simulated time per step / its cost). Times are CPU times of this process (the machine is
+shared). Goal (issue 12): streaming keeps at least 50x real time for objects of up to 50
+modes. Sensing off against bare MuJoCo is ``benchmarks/env.py``'s physics table.
+
+Writes ``docs/benchmarks/streaming_env.md``.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import argparse  # noqa: E402
+import platform  # noqa: E402
+import statistics  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import gymnasium as gym  # noqa: E402
+import numpy as np  # noqa: E402
+
+import aas_gym  # noqa: E402,F401  (registers the envs)
+from aas_gym.grasp import planar_grasp  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+OBJECTS = ("aluminium_bar", "abs_bar", "pla_tube")
+_clock = time.process_time
+HOLD = np.array([0, 0, 0, 0, -1, 0], np.float32)
+
+
+def _held_env(obj: str, acoustic: dict):
+    env = gym.make("aas_gym/AcousticGrasp-v0", objects=[obj], randomization=False, max_episode_steps=None,
+                   acoustic=acoustic, disable_env_checker=True)
+    env.reset(seed=0)
+    u = env.unwrapped
+    sc = u._scene
+    assert planar_grasp(sc.model, sc.data, sc.bodies[0], 0.02, 40.0, hand=sc.hand).success
+    sc.ctrl[sc.tcp_ctrl] = sc.hand.tcp(sc.data)
+    if u._stream is not None:
+        u._stream = u._new_stream()        # the grasp just closed
+    return env, (lambda: env.step(HOLD))
+
+
+def _moving_env(obj: str, acoustic: dict):
+    env = gym.make("aas_gym/ContactFormation-v0", objects=[obj], plinths=["steel_bar"], max_episode_steps=None,
+                   acoustic=acoustic, disable_env_checker=True)
+    env.reset(seed=0)
+    return env, (lambda: env.step(0))
+
+
+def measure(make, obj: str, chunks: int, steps: int) -> dict:
+    on, step_on = make(obj, {"cadence": "stream"})
+    off, step_off = make(obj, {"enabled": False})
+    for _ in range(3):              # warm: systems, drive, scipy imports
+        step_on(), step_off()
+    costs_on, costs_off = [], []
+    for _ in range(chunks):
+        for step, costs in ((step_on, costs_on), (step_off, costs_off)):
+            t0 = _clock()
+            for _ in range(steps):
+                step()
+            costs.append((_clock() - t0) / steps)
+    u = on.unwrapped
+    stream = u._stream
+    modes = int((stream.sensor.modal_model(stream.sensor.bodies[0]).frequencies_hz < 22050).sum())
+    on_s, off_s = statistics.median(costs_on), statistics.median(costs_off)
+    out = {"object": obj, "modes": modes, "on_ms": on_s * 1e3, "off_ms": off_s * 1e3, "ratio": on_s / off_s,
+           "rtf": u.dt / on_s, "builds": stream.stream.systems.misses, "reads": stream.contact_reads,
+           "steps": (chunks * steps + 3)}
+    on.close(), off.close()
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--chunks", type=int, default=9)
+    ap.add_argument("--steps", type=int, default=20)
+    ap.add_argument("--no-write", action="store_true")
+    args = ap.parse_args(argv)
+    rows = []
+    for scene, make in (("held", _held_env), ("moving", _moving_env)):
+        for obj in OBJECTS:
+            r = measure(make, obj, args.chunks, args.steps)
+            r["scene"] = scene
+            rows.append(r)
+            print(f"{scene:6s} {obj:14s} {r['modes']:4d} modes  streamed {r['on_ms']:7.2f} ms  off {r['off_ms']:6.2f} ms"
+                  f"  ratio {r['ratio']:6.1f}  {r['rtf']:6.1f}x real time  builds {r['builds']}, reads {r['reads']}"
+                  f" in {r['steps']} steps", flush=True)
+    lines = ["# Streaming microphone: cost per env step", "",
+             f"`python benchmarks/streaming_env.py --chunks {args.chunks} --steps {args.steps}` on "
+             f"{platform.node() or 'this machine'} ({os.cpu_count()} CPUs, shared), Python {platform.python_version()}, "
+             f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}. See the script's docstring for the scenes.",
+             "Medians over interleaved chunks, CPU time of the process; real-time factor = 0.05 s / streamed cost.", "",
+             "| scene | object | modes < Nyquist | streamed [ms/step] | sensing off [ms/step] | streamed / off |"
+             " real-time factor | goal | system builds | contact reads | steps |",
+             "|---|---|---:|---:|---:|---:|---:|---|---:|---:|---:|"]
+    for r in rows:
+        goal = ">= 50x" if r["modes"] <= 50 else ""
+        lines.append(f"| {r['scene']} | {r['object']} | {r['modes']} | {r['on_ms']:.2f} | {r['off_ms']:.2f} | "
+                     f"{r['ratio']:.1f} | {r['rtf']:.0f}x | {goal} | {r['builds']} | {r['reads']} | {r['steps']} |")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if not args.no_write:
+        out = ROOT / "docs" / "benchmarks" / "streaming_env.md"
+        out.write_text(text)
+        print(f"wrote {out}")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
