@@ -172,3 +172,21 @@ def test_contact_formation_refuses_bad_reports_and_runs_on_proprioception_alone(
             env.step(bad)
     with pytest.raises(ValueError, match="scene"):
         gym.make("aas_gym/ContactFormation-v0", scene="single")
+
+
+def test_contact_formation_baselines_train_and_report_per_class():
+    from aas_gym.experiments.contact_formation import collect, evaluate, format_table, step_band_levels
+
+    data = collect(3, seed=5, steps=40, progress=False, objects=["aluminium_bar"], plinths=["steel_bar"])
+    assert data.acoustic.shape == (120, 164) and data.proprio.shape == (120, 11)
+    assert set(data.episode.tolist()) == {0, 1, 2} and np.all(np.isfinite(data.acoustic))
+    results = evaluate(data, seed=0)
+    assert set(results) == {"sound", "proprioception", "sound + proprioception"}
+    for r in results.values():
+        assert 0 <= r["accuracy"] <= 1 and sum(r["n_test"].values()) == 40   # one whole episode
+    assert "| sound |" in format_table(results)
+    # the band levels of a pure tone peak in its band
+    tone = np.sin(2 * np.pi * 800 * np.arange(2205) / 44100)
+    levels = step_band_levels(tone, 44100)
+    assert levels.shape == (24,) and np.argmax(levels) == np.searchsorted(
+        np.geomspace(50.0, 20000.0, 25), 800) - 1
