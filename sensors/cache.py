@@ -84,25 +84,45 @@ def entry_path(key: str, cache_dir=None) -> Path:
     return _dir(cache_dir) / f"{key}.npz"
 
 
+#: Name of the content checksum stored with every entry.
+CHECKSUM = "_sha256"
+
+
+def _checksum(arrays: dict) -> str:
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        if name != CHECKSUM:
+            _feed(h, name)
+            _feed(h, np.asarray(arrays[name]))
+    return h.hexdigest()
+
+
 def load_arrays(key: str, cache_dir=None) -> dict | None:
-    """The arrays stored under ``key``, or None (missing or unreadable entries are misses)."""
+    """The arrays stored under ``key``, or None: missing, unreadable or corrupt entries (their
+    content checksum does not match, or they have none) are misses, rebuilt and rewritten."""
     path = entry_path(key, cache_dir)
     if not path.is_file():
         return None
     try:
         with np.load(path, allow_pickle=False) as data:
-            return {name: data[name] for name in data.files}
+            arrays = {name: data[name] for name in data.files}
     except Exception as exc:  # a truncated or foreign file: treat as a miss, it will be rewritten
         log.warning("ignoring unreadable cache entry %s: %s", path, exc)
         return None
+    stored = str(arrays.pop(CHECKSUM, ""))
+    if stored != _checksum(arrays):
+        log.warning("ignoring corrupt cache entry %s: its content checksum does not match", path)
+        return None
+    return arrays
 
 
 def save_arrays(key: str, arrays: dict, cache_dir=None) -> Path | None:
-    """Store ``arrays`` under ``key`` atomically; returns the path (None if not writable)."""
+    """Store ``arrays`` under ``key`` atomically with a content checksum; returns the path
+    (None if not writable)."""
     path = entry_path(key, cache_dir)
     try:
         with atomic_open(path) as f:
-            np.savez(f, **arrays)
+            np.savez(f, **arrays, **{CHECKSUM: np.array(_checksum(arrays))})
         return path
     except OSError as exc:
         log.warning("could not write cache entry %s: %s", path, exc)

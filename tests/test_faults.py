@@ -313,3 +313,32 @@ def test_a_device_lost_as_the_stream_starts_is_retried_and_one_lost_mid_recordin
     with pytest.raises(real.DeviceLostError), pytest.warns(real.RigWarning):
         real.RealAcousticSensor(rig).sense("impulse", 0.5)
     assert rig.calls == 3
+
+
+def test_a_tampered_or_damaged_modal_cache_entry_is_rebuilt_not_served(tmp_path):
+    """Well-formed entries with doubled frequencies, NaN shapes or flipped bytes: the content
+    checksum fails, the entry counts as a miss, the model is solved again and rewritten."""
+    from sensors import MATERIALS, ModalModel
+
+    def bar():
+        return ModalModel.bar(0.2, 0.025, 0.025, MATERIALS["wood"], resolution=0.5, max_frequency_hz=8000.0,
+                              cache_dir=tmp_path, progress=False)
+
+    truth = bar().frequencies_hz
+    (entry,) = tmp_path.glob("*.npz")
+    assert bar().metadata["cache_hit"]
+    with np.load(entry) as data:
+        arrays = {k: data[k] for k in data.files}
+    tampered = [dict(arrays, frequencies_hz=2 * arrays["frequencies_hz"]),
+                dict(arrays, mode_shapes=np.full_like(arrays["mode_shapes"], np.nan)),
+                {k: v for k, v in arrays.items() if k != "_sha256"}]          # an entry without one
+    for bad in tampered:
+        np.savez(entry, **bad)
+        model = bar()
+        assert not model.metadata.get("cache_hit") and np.array_equal(model.frequencies_hz, truth)
+        assert bar().metadata["cache_hit"]                                   # rewritten whole
+    raw = bytearray(entry.read_bytes())
+    raw[len(raw) // 2:len(raw) // 2 + 64] = bytes(64)                        # 64 bytes zeroed
+    entry.write_bytes(bytes(raw))
+    model = bar()
+    assert not model.metadata.get("cache_hit") and np.array_equal(model.frequencies_hz, truth)
