@@ -16,6 +16,7 @@ import numpy as np
 
 from sensors import Excitation
 
+from . import bounded
 from .devices import AudioDevice, _alsa_hint, _captured_stderr, pyaudio
 from .errors import (DeviceLostError, ExcitationNotFoundError, RigError, RigWarning, UnsupportedSampleRateError,
                      XrunError)
@@ -173,22 +174,24 @@ class _Session:
             got += block.shape[0]
         return got
 
-    def _stop(self) -> None:
-        """Stop and close the streams; a stream of a vanished device may block in PortAudio,
-        so this runs in a helper thread that is given up on after a few seconds."""
+    def _stop(self) -> bool:
+        """Stop and close the streams. A stream of a stalled or vanished sound server blocks
+        in PortAudio until the server answers, so this waits at most the rig's
+        ``server_timeout_s`` (:mod:`real.bounded`); returns False if it gave up (the streams
+        then close when the server answers, and new sessions are refused until they have)."""
         self.stopping = True
+        streams = [s for _, s in self.streams]
 
         def close_all():
-            with _captured_stderr():
-                for _, s in self.streams:
-                    with contextlib.suppress(Exception):
-                        s.stop_stream()
-                    with contextlib.suppress(Exception):
-                        s.close()
+            for s in streams:
+                with contextlib.suppress(Exception):
+                    s.stop_stream()
+                with contextlib.suppress(Exception):
+                    s.close()
 
-        t = threading.Thread(target=close_all, name="aas-rig-close", daemon=True)
-        t.start()
-        t.join(5.0)
+        with _captured_stderr():
+            done, _ = bounded.call_bounded(close_all, self.rig.server_timeout_s, "closing the streams")
+        return done
 
     def run(self) -> RigRecording:
         rig = self.rig

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import os
 import stat
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -313,3 +315,80 @@ def test_a_device_lost_as_the_stream_starts_is_retried_and_one_lost_mid_recordin
     with pytest.raises(real.DeviceLostError), pytest.warns(real.RigWarning):
         real.RealAcousticSensor(rig).sense("impulse", 0.5)
     assert rig.calls == 3
+
+
+
+def _eventually(predicate, timeout_s: float = 30.0) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while not predicate() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return predicate()
+
+
+def test_a_blocked_portaudio_call_is_given_up_on_in_order_and_cleaned_up_late():
+    """Issue 17 item 6, without a sound server: calls run one after another on a daemon
+    thread, the caller waits at most its timeout, and what a late call produced is cleaned up."""
+    from real import bounded
+
+    assert bounded.wait_until_idle(10) is None
+    release, order, cleaned = threading.Event(), [], []
+
+    def blocked():
+        release.wait(30)
+        order.append("blocked")
+        return "late session"
+
+    try:
+        assert bounded.call_bounded(blocked, 0.05, "initializing", on_late_result=cleaned.append) == (False, None)
+        assert bounded.pending() == "initializing"
+        # a later call waits behind it, and is given up on too
+        assert bounded.call_bounded(lambda: order.append("next"), 0.05, "terminating") == (False, None)
+        assert bounded.pending() == "terminating" and bounded.wait_until_idle(0.05) == "terminating"
+        assert order == []
+    finally:
+        release.set()
+    assert bounded.wait_until_idle(30) is None
+    assert order == ["blocked", "next"]
+    assert _eventually(lambda: cleaned == ["late session"])  # cleaned up on the call's own thread
+    # calls that finish in time return their result or raise their error
+    assert bounded.call_bounded(lambda: 42, 30, "listing") == (True, 42)
+    with pytest.raises(ZeroDivisionError):
+        bounded.call_bounded(lambda: 1 / 0, 30, "listing")
+
+
+class _StalledPyAudio:
+    """A ``pyaudio`` module whose sound server does not answer until ``release`` is set."""
+
+    def __init__(self):
+        self.release, self.terminated = threading.Event(), []
+        fake = self
+
+        class PyAudio:
+            def __init__(self):
+                fake.release.wait(30)
+
+            def terminate(self):
+                fake.terminated.append(self)
+
+        self.PyAudio = PyAudio
+
+
+def test_a_sound_server_that_does_not_answer_fails_the_session_instead_of_hanging(monkeypatch):
+    import real
+    from real import bounded, devices
+
+    fake = _StalledPyAudio()
+    monkeypatch.setattr(devices, "pyaudio", fake)
+    try:
+        with pytest.raises(real.DeviceLostError, match="did not answer within 0.1 s") as info:
+            with devices._portaudio(0.1):
+                pass
+        assert info.value.device == "default"
+        # while PortAudio is still blocked, the next session says so at once instead of queueing
+        with pytest.raises(real.DeviceLostError, match="still initializing"):
+            with devices._portaudio(0.1):
+                pass
+    finally:
+        fake.release.set()
+    assert bounded.wait_until_idle(30) is None
+    assert _eventually(lambda: len(fake.terminated) == 1)  # the session that came too late is closed

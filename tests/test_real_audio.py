@@ -440,3 +440,63 @@ def test_loopback_restarts_right_after_its_server_was_killed(tmp_path):
         assert again.pid != lb.pid and loopback.is_running(tmp_path / "p")
     finally:
         loopback.stop_loopback(tmp_path / "p")
+
+
+_STALL_CHILD = """
+import sys, time, real, sensors
+rig = real.PyAudioRig(output_gain=0.5)
+ex = sensors.Excitation.by_name("linear")
+for attempt in ("during", "after"):
+    t = time.monotonic()
+    try:
+        rig.record(ex, 30.0, save_path=sys.argv[1] if attempt == "during" else None)
+        print(attempt, "returned", flush=True)
+    except real.RigError as exc:
+        print(attempt, type(exc).__name__, round(time.monotonic() - t, 1), str(exc).replace(chr(10), " "), flush=True)
+"""
+
+
+def test_a_stalled_sound_server_does_not_hang_the_recording(audio_loopback, tmp_path):
+    """Issue 17 item 6. SIGSTOP the server 1 s into a recording and keep it stopped: the
+    recording (in a child process, whose PortAudio stays blocked until the server answers)
+    returns while the server is still stopped, with what was recorded saved; a recording
+    started during the stall fails at once instead of queueing behind the blocked calls.
+    Before, the child hung in PortAudio for as long as the server was stopped."""
+    # the server now running (an earlier test may have restarted it under a new pid)
+    pid = loopback.start_loopback(audio_loopback.sink, runtime_dir=audio_loopback.runtime_dir).pid
+    assert pid > 0  # never signal -1 (every process)
+    target = tmp_path / "take.npz"
+    env = {**os.environ, **audio_loopback.env(), "PYTHONPATH": str(Path(real.__file__).parents[1])}
+    proc = subprocess.Popen([sys.executable, "-c", _STALL_CHILD, str(target)], env=env, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+    out, hung = "", False
+    try:
+        raw = tmp_path / "take.partial.f32"
+        deadline = time.monotonic() + 60
+        while (not raw.exists() or raw.stat().st_size < 4 * 44100) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert raw.exists(), "the child never started recording"
+        os.kill(pid, signal.SIGSTOP)
+        try:  # about 5 s: stall_timeout_s + server_timeout_s, then server_timeout_s
+            out, _ = proc.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            hung = True
+    finally:
+        os.kill(pid, signal.SIGCONT)
+        if proc.poll() is None:
+            proc.kill()
+            out = proc.communicate()[0]
+    assert not hung, f"the recording hung while the sound server was stopped: {out}"
+    lines = dict(line.split(" ", 1) for line in out.splitlines())
+    print(f"stalled server: {lines}")
+    assert proc.returncode == 0, out
+    assert lines["during"].startswith("DeviceLostError"), out
+    assert lines["after"].startswith("DeviceLostError") and any(
+        why in lines["after"] for why in ("still closing the streams", "still terminating", "did not answer within")), out
+    part = sensors.AcousticObservation.load(tmp_path / "take.partial.npz")
+    assert part.metadata["partial"] and "DeviceLostError" in part.metadata["error"]
+    assert part.waveform.size >= 44100
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["take.partial.npz"]
+    # the server answers again (xruns of a loaded machine are not the question here)
+    rec = real.PyAudioRig(output_gain=GAIN, xrun_policy="ignore").record(sensors.Excitation.by_name("impulse"), 0.5)
+    assert rec.complete and rec.latency_samples is not None
