@@ -18,7 +18,9 @@ flags) and a lost synchronization are reported in the metadata and, by ``xrun_po
 raised (:class:`XrunError`), warned (:class:`RigWarning`) or ignored. A recording that stops
 early (device gone, Ctrl-C, error) keeps what was recorded: the exception carries it as
 ``.recording``, and with a ``save_path`` the samples were streamed to ``<name>.partial.f32``
-(+ ``.partial.json``) while recording and end up in ``<name>.partial.npz``.
+(+ ``.partial.json``) while recording and end up in ``<name>.partial.npz``. A disk that fills
+up (or refuses the file) loses nothing either: the recording finishes in memory and comes back
+on :class:`StorageError`, with what fitted on disk as its ``partial_path``.
 """
 
 from __future__ import annotations
@@ -32,12 +34,12 @@ from sensors import Excitation
 from .devices import (SERVER_TIMEOUT_S, AudioDevice, _portaudio, _quiet_stderr, check_sample_rate, list_devices,
                       resolve_device)
 from .errors import (DeviceLostError, DeviceNotFoundError, ExcitationNotFoundError, NoAudioDeviceError, RigError,
-                     RigWarning, UnsupportedSampleRateError, XrunError)
+                     RigWarning, StorageError, UnsupportedSampleRateError, XrunError)
 from .rig_recording import RigRecording, partial_paths, recover_partial
 from .session import _Session
 
 __all__ = ["AudioDevice", "DeviceLostError", "DeviceNotFoundError", "ExcitationNotFoundError", "NoAudioDeviceError",
-           "PyAudioRig", "RigError", "RigRecording", "RigWarning", "UnsupportedSampleRateError", "XrunError",
+           "PyAudioRig", "RigError", "RigRecording", "RigWarning", "StorageError", "UnsupportedSampleRateError", "XrunError",
            "list_devices", "partial_paths", "recover_partial", "resolve_device", "check_sample_rate"]
 
 
@@ -155,6 +157,9 @@ class PyAudioRig:
                 ``server_timeout_s`` or PortAudio is still blocked in an earlier call.
             DeviceLostError, ExcitationNotFoundError, XrunError, KeyboardInterrupt: during;
                 :class:`RigError` s carry the samples recorded so far as ``.recording``.
+            StorageError: the partial file could not be written (disk full, file too large):
+                the recording is complete in ``.recording``; ``.partial_path`` holds what
+                fitted (``recover_partial(path, out_dir=...)`` makes an .npz of it elsewhere).
         """
         if not isinstance(excitation, Excitation):
             raise TypeError(f"excitation must be a sensors.Excitation, got {type(excitation).__name__}")

@@ -7,6 +7,7 @@ the CLI's failures (test_cli)."""
 
 from __future__ import annotations
 
+import errno
 import os
 import stat
 import threading
@@ -392,3 +393,61 @@ def test_a_sound_server_that_does_not_answer_fails_the_session_instead_of_hangin
         fake.release.set()
     assert bounded.wait_until_idle(30) is None
     assert _eventually(lambda: len(fake.terminated) == 1)  # the session that came too late is closed
+
+
+class _DiskThatFills:
+    """A raw partial file on a disk with ``room`` bytes left: short writes, then ENOSPC."""
+
+    def __init__(self, fh, room: int):
+        self.fh, self.room = fh, room
+
+    def write(self, data) -> int:
+        if self.room == 0:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(self.fh.name))
+        n = self.fh.write(bytes(data[: self.room]))
+        self.room -= n
+        return n
+
+    def fileno(self) -> int:
+        return self.fh.fileno()
+
+    @property
+    def closed(self) -> bool:
+        return self.fh.closed
+
+    def close(self) -> None:
+        self.fh.close()
+
+
+def test_a_full_disk_keeps_an_exact_prefix_and_recovery_keeps_the_raw_files_until_it_can_write(tmp_path):
+    """Issue 17 item 1, without a sound server (the rig's side: test_real_audio). The writer
+    never raises, keeps whole frames of exactly the first samples, and says why it stopped;
+    recover_partial writes elsewhere on request and removes nothing it has not saved."""
+    import real
+    import sensors
+    from real.rig_recording import _PartialWriter
+
+    ex = sensors.Excitation.by_name("impulse")
+    header = {"channels": 2, "mic_channel": 1, "sample_rate_hz": ex.sample_rate_hz, "excitation": ex.to_dict(),
+              "metadata": {"source": "real"}}
+    w = _PartialWriter(tmp_path / "disk" / "take.npz", header)
+    w._fh = _DiskThatFills(w._fh, room=1003)  # 125 frames of 8 bytes and 3 bytes of the next
+    blocks = [np.random.default_rng(i).standard_normal((40, 2)).astype(np.float32) for i in range(6)]
+    for b in blocks:
+        w.append(b)  # never raises
+    w.close()
+    assert w.error is not None and w.error.errno == errno.ENOSPC and w.frames_written == 125 and w.has_data
+    sent = np.concatenate(blocks)
+    # nowhere to write the .npz: a clear error, and the raw files stay
+    blocked = tmp_path / "a_file"
+    blocked.write_text("")
+    with pytest.raises(real.StorageError, match="out_dir") as info:
+        real.recover_partial(w.raw_path, out_dir=blocked / "sub")
+    assert isinstance(info.value, OSError) and info.value.errno is not None
+    assert sorted(p.name for p in w.raw_path.parent.iterdir()) == ["take.partial.f32", "take.partial.json"]
+    # elsewhere: the exact prefix, whole frames only
+    out = real.recover_partial(tmp_path / "disk" / "take.npz", out_dir=tmp_path / "elsewhere")
+    assert out == tmp_path / "elsewhere" / "take.partial.npz" and list(w.raw_path.parent.iterdir()) == []
+    obs = sensors.AcousticObservation.load(out)
+    np.testing.assert_array_equal(obs.waveform, sent[:125, 1])
+    assert obs.metadata["partial"] and not obs.metadata["complete"]

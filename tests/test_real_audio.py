@@ -9,6 +9,7 @@ Needs Debian pulseaudio + libasound2-plugins (+ portaudio19-dev for PyAudio).
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import signal
@@ -500,3 +501,80 @@ def test_a_stalled_sound_server_does_not_hang_the_recording(audio_loopback, tmp_
     # the server answers again (xruns of a loaded machine are not the question here)
     rec = real.PyAudioRig(output_gain=GAIN, xrun_policy="ignore").record(sensors.Excitation.by_name("impulse"), 0.5)
     assert rec.complete and rec.latency_samples is not None
+
+
+_FULL_DISK_CHILD = """
+import json, os, resource, signal, sys
+from pathlib import Path
+import numpy as np, real, sensors
+disk, out, limit = Path(sys.argv[1]), Path(sys.argv[2]), int(sys.argv[3])
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG, as on a full disk
+rig = real.PyAudioRig(output_gain=0.5)
+ex = sensors.Excitation.by_name("linear")
+soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+resource.setrlimit(resource.RLIMIT_FSIZE, (limit, hard))  # no file of this process grows past `limit` bytes
+report = {"raised": None}
+try:
+    try:
+        rig.record(ex, 1.0, save_path=disk / "take.npz")
+    except real.StorageError as err:
+        rec = err.recording
+        report.update(raised=type(err).__name__, is_os_error=isinstance(err, OSError), errno=err.errno,
+                      message=str(err), partial_path=str(err.partial_path), device=err.device,
+                      is_last=rec is rig.last_recording)
+        try:  # recovering beside the partial files, on the same full disk
+            real.recover_partial(disk / "take.npz")
+            report["again"] = None
+        except real.StorageError as again:
+            report["again"] = [again.errno, str(again)]
+        report["files_while_full"] = sorted(os.listdir(disk))
+finally:
+    resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+if report["raised"]:
+    report.update(complete=rec.complete, latency=rec.latency_samples)
+    np.save(out / "input.npy", rec.input)
+    rec.save(out / "whole.npz")  # the whole recording, from memory, on a disk with room
+print(json.dumps(report))
+"""
+
+
+def test_a_full_disk_during_a_recording_loses_nothing(audio_loopback, tmp_path):
+    """Issue 17 item 1. The recording's process may write at most 64 KiB per file
+    (RLIMIT_FSIZE, in a child process: no root, no tmpfs), about 0.37 s of the streamed
+    partial file. Before, the first refused write ended the recording and the error path
+    failed again on the same disk. Now the recording finishes in memory and comes back on
+    StorageError with what fitted on disk, an exact prefix; recovery on the full disk says
+    so and keeps the raw files, recovery elsewhere works."""
+    limit = 64 * 1024
+    disk, out = tmp_path / "disk", tmp_path / "out"
+    out.mkdir()
+    env = {**os.environ, **audio_loopback.env(), "PYTHONPATH": str(Path(real.__file__).parents[1])}
+    proc = subprocess.run([sys.executable, "-c", _FULL_DISK_CHILD, str(disk), str(out), str(limit)], env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    report = json.loads(proc.stdout.splitlines()[-1])
+    assert report["raised"] == "StorageError", report
+    assert report["is_os_error"] and report["errno"] == errno.EFBIG and report["device"] == "default"
+    raw = disk / "take.partial.f32"
+    assert report["partial_path"] == str(raw) and str(raw) in report["message"] and report["is_last"]
+    # the recording finished, whole, in memory
+    rec_input = np.load(out / "input.npy")
+    assert report["complete"] and report["latency"] is not None
+    # what fitted on the disk: exactly the first samples, up to the limit
+    on_disk = np.fromfile(raw, dtype="<f4")
+    assert on_disk.size == limit // 4 < rec_input.shape[0]
+    np.testing.assert_array_equal(on_disk, rec_input[:on_disk.size, 0])
+    # recovery on the still-full disk: a clear error, nothing removed
+    errno_again, message_again = report["again"]
+    assert errno_again == errno.EFBIG and "out_dir" in message_again
+    assert report["files_while_full"] == ["take.partial.f32", "take.partial.json"]
+    # recovery elsewhere, which empties the full disk
+    part_path = real.recover_partial(disk / "take.npz", out_dir=tmp_path / "elsewhere")
+    assert part_path == tmp_path / "elsewhere" / "take.partial.npz" and list(disk.iterdir()) == []
+    part = sensors.AcousticObservation.load(part_path)
+    assert part.metadata["partial"] and not part.metadata["complete"]
+    np.testing.assert_array_equal(part.waveform, on_disk)
+    # and the whole recording saved from memory is the kept span of what was recorded
+    whole = sensors.AcousticObservation.load(out / "whole.npz")
+    lat, n = report["latency"], int(round(1.0 * 44100))
+    np.testing.assert_array_equal(whole.waveform, rec_input[lat:lat + n, 0])
