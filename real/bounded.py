@@ -38,15 +38,20 @@ class _Call:
         except BaseException as exc:  # handed to the caller (or dropped if it gave up)
             self.error = exc
         finally:
+            self.previous = None  # nothing keeps a chain of finished calls alive
             with _lock:
                 late = self.abandoned
-                self.done.set()
-            self.previous = None  # nothing keeps a chain of finished calls alive
-        if late and self.error is None and self.on_late_result is not None:
+                if not late:
+                    self.done.set()  # under the lock: the caller either sees it or gave up
+        if late:
+            # The clean-up is a PortAudio call too: the next call starts after it.
             try:
-                self.on_late_result(self.result)
+                if self.error is None and self.on_late_result is not None:
+                    self.on_late_result(self.result)
             except Exception:  # nobody waits for this clean-up any more
                 pass
+            finally:
+                self.done.set()
 
 
 def call_bounded(fn: Callable[[], Any], timeout_s: float, what: str, *,
