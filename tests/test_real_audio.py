@@ -509,7 +509,7 @@ from pathlib import Path
 import numpy as np, real, sensors
 disk, out, limit = Path(sys.argv[1]), Path(sys.argv[2]), int(sys.argv[3])
 signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG, as on a full disk
-rig = real.PyAudioRig(output_gain=0.5)
+rig = real.PyAudioRig(output_gain=0.5, stall_timeout_s=5.0)  # a loaded machine is not the question here
 ex = sensors.Excitation.by_name("linear")
 soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
 resource.setrlimit(resource.RLIMIT_FSIZE, (limit, hard))  # no file of this process grows past `limit` bytes
