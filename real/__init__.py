@@ -18,7 +18,7 @@ _LAZY = {
     "AudioDevice": "real.devices", "list_devices": "real.devices",
     "DeviceLostError": "real.errors", "DeviceNotFoundError": "real.errors", "ExcitationNotFoundError": "real.errors",
     "NoAudioDeviceError": "real.errors", "RigError": "real.errors", "RigWarning": "real.errors",
-    "UnsupportedSampleRateError": "real.errors", "XrunError": "real.errors",
+    "StorageError": "real.errors", "UnsupportedSampleRateError": "real.errors", "XrunError": "real.errors",
     "PyAudioRig": "real.rig", "RigRecording": "real.rig_recording", "recover_partial": "real.rig_recording",
     "RealAcousticSensor": "real.sensor", "record_leaks": "real.sensor",
     "RealGraspEnv": "real.env", "RobotInterface": "real.env", "RobotState": "real.env",

@@ -11,7 +11,8 @@ from typing import Any, Iterator
 
 import numpy as np
 
-from .errors import DeviceNotFoundError, NoAudioDeviceError, UnsupportedSampleRateError
+from . import bounded
+from .errors import DeviceLostError, DeviceNotFoundError, NoAudioDeviceError, UnsupportedSampleRateError
 
 try:  # PyAudio is the optional extra [real]; the error says how to get it.
     import pyaudio
@@ -65,18 +66,39 @@ def _alsa_hint(lines: list[str], n: int = 3) -> str:
     return (" [" + " | ".join(useful[-n:]) + "]") if useful else ""
 
 
+#: Longest wait for a sound-server call that can block (initializing PortAudio, closing the
+#: streams, terminating) before the rig gives up on it, seconds.
+SERVER_TIMEOUT_S = 3.0
+
+
 @contextlib.contextmanager
-def _portaudio() -> Iterator[Any]:
+def _portaudio(timeout_s: float = SERVER_TIMEOUT_S) -> Iterator[Any]:
     """A fresh PortAudio session (device lists are read at initialization, so a new
-    session sees devices that appeared or vanished since the last one)."""
+    session sees devices that appeared or vanished since the last one).
+
+    Initializing and terminating wait at most ``timeout_s`` each for a sound server that does
+    not answer (:mod:`real.bounded`): :class:`DeviceLostError` instead of a hang. While a call
+    given up on earlier is still blocked, a new session fails at once saying so (it would
+    only queue behind it).
+    """
     pa_mod = _require_pyaudio()
+    still = bounded.wait_until_idle(timeout_s)
+    if still is not None:
+        raise DeviceLostError(f"the sound server has not answered for a while: PortAudio is still {still} from an "
+                              "earlier recording (server stalled or stopped?); wait until it answers again, or "
+                              "restart this process", device="default")
     with _captured_stderr():
-        pa = pa_mod.PyAudio()
+        done, pa = bounded.call_bounded(pa_mod.PyAudio, timeout_s, "initializing",
+                                        on_late_result=lambda late: late.terminate())
+    if not done:
+        raise DeviceLostError(f"the sound server did not answer within {timeout_s:g} s: PortAudio could not "
+                              "initialize (server stalled or stopped?)", device="default")
     try:
         yield pa
     finally:
+        # Behind a close that is still blocked, do not wait again: terminate after it.
         with _captured_stderr():
-            pa.terminate()
+            bounded.call_bounded(pa.terminate, 0.0 if bounded.pending() else timeout_s, "terminating")
 
 
 @dataclass(frozen=True)

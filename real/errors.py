@@ -48,5 +48,20 @@ class XrunError(RigError):
     """Overflow/underrun flags or lost sample synchronization (``xrun_policy="raise"``)."""
 
 
+class StorageError(RigError, OSError):
+    """Writing a recording to disk failed (disk full, file too large, no permission). The
+    samples are not lost: ``recording`` holds all of them in memory, ``partial_path`` the
+    file with what fitted (if any), and ``errno`` / ``strerror`` / ``filename`` say why (it is
+    an ``OSError`` too, so ``except OSError`` handlers still see it)."""
+
+    def __init__(self, message: str, *, cause: OSError | None = None, **kwargs) -> None:
+        super().__init__(message, **kwargs)
+        if cause is not None:
+            self.errno, self.strerror, self.filename = cause.errno, cause.strerror, cause.filename
+
+    def __str__(self) -> str:  # OSError's would print "[Errno n] ..." without the message
+        return str(self.args[0]) if self.args else ""
+
+
 class RigWarning(UserWarning):
     """Overflow/underrun or lost synchronization under ``xrun_policy="warn"``."""

@@ -18,7 +18,9 @@ flags) and a lost synchronization are reported in the metadata and, by ``xrun_po
 raised (:class:`XrunError`), warned (:class:`RigWarning`) or ignored. A recording that stops
 early (device gone, Ctrl-C, error) keeps what was recorded: the exception carries it as
 ``.recording``, and with a ``save_path`` the samples were streamed to ``<name>.partial.f32``
-(+ ``.partial.json``) while recording and end up in ``<name>.partial.npz``.
+(+ ``.partial.json``) while recording and end up in ``<name>.partial.npz``. A disk that fills
+up (or refuses the file) loses nothing either: the recording finishes in memory and comes back
+on :class:`StorageError`, with what fitted on disk as its ``partial_path``.
 """
 
 from __future__ import annotations
@@ -29,14 +31,15 @@ from typing import Any
 
 from sensors import Excitation
 
-from .devices import AudioDevice, _portaudio, _quiet_stderr, check_sample_rate, list_devices, resolve_device
+from .devices import (SERVER_TIMEOUT_S, AudioDevice, _portaudio, _quiet_stderr, check_sample_rate, list_devices,
+                      resolve_device)
 from .errors import (DeviceLostError, DeviceNotFoundError, ExcitationNotFoundError, NoAudioDeviceError, RigError,
-                     RigWarning, UnsupportedSampleRateError, XrunError)
+                     RigWarning, StorageError, UnsupportedSampleRateError, XrunError)
 from .rig_recording import RigRecording, partial_paths, recover_partial
 from .session import _Session
 
 __all__ = ["AudioDevice", "DeviceLostError", "DeviceNotFoundError", "ExcitationNotFoundError", "NoAudioDeviceError",
-           "PyAudioRig", "RigError", "RigRecording", "RigWarning", "UnsupportedSampleRateError", "XrunError",
+           "PyAudioRig", "RigError", "RigRecording", "RigWarning", "StorageError", "UnsupportedSampleRateError", "XrunError",
            "list_devices", "partial_paths", "recover_partial", "resolve_device", "check_sample_rate"]
 
 
@@ -66,6 +69,12 @@ class PyAudioRig:
             boundary, playing the end of the loop: devices that lose their first output
             buffer lose part of the lead-in, and a real object is already vibrating in its
             steady state when the first aligned period starts.
+        server_timeout_s: longest wait for a sound-server call that can block (PortAudio's
+            initialization, closing the streams, termination). A recording whose server
+            stalls returns within about ``stall_timeout_s + 2 * server_timeout_s`` with a
+            :class:`DeviceLostError` carrying the partial recording (saved with a
+            ``save_path``); while PortAudio is still blocked, new recordings in this process
+            fail at once with a :class:`DeviceLostError` saying so.
 
     Raises at construction if PortAudio finds no device, the named device does not exist, or
     it refuses ``sample_rate_hz``; every error names the device.
@@ -77,7 +86,7 @@ class PyAudioRig:
                  frames_per_buffer: int = 1024, stream_mode: str = "separate", output_gain: float = 1.0,
                  max_latency_s: float = 2.0, start_timeout_s: float = 5.0, stall_timeout_s: float = 1.0,
                  xrun_policy: str = "raise", sync_tolerance_samples: int = 0, period_tolerance: float = 0.1,
-                 lead_in_s: float = 0.1) -> None:
+                 lead_in_s: float = 0.1, server_timeout_s: float = SERVER_TIMEOUT_S) -> None:
         if stream_mode not in ("separate", "duplex"):
             raise ValueError(f"stream_mode must be 'separate' or 'duplex', got {stream_mode!r}")
         if xrun_policy not in ("raise", "warn", "ignore"):
@@ -111,8 +120,11 @@ class PyAudioRig:
         if not (math.isfinite(lead_in_s) and lead_in_s >= 0):
             raise ValueError(f"lead_in_s must be >= 0, got {lead_in_s!r}")
         self.lead_in_s = float(lead_in_s)
+        if not (math.isfinite(server_timeout_s) and server_timeout_s > 0):
+            raise ValueError(f"server_timeout_s must be > 0, got {server_timeout_s!r}")
+        self.server_timeout_s = float(server_timeout_s)
         self.last_recording: RigRecording | None = None
-        with _portaudio() as pa:
+        with _portaudio(self.server_timeout_s) as pa:
             self.input_device, self.output_device = self._resolve(pa)
 
     def _resolve(self, pa) -> tuple[AudioDevice, AudioDevice]:
@@ -141,8 +153,13 @@ class PyAudioRig:
 
         Raises:
             NoAudioDeviceError, DeviceNotFoundError, UnsupportedSampleRateError: before recording.
+            DeviceLostError: before recording too, if the sound server does not answer within
+                ``server_timeout_s`` or PortAudio is still blocked in an earlier call.
             DeviceLostError, ExcitationNotFoundError, XrunError, KeyboardInterrupt: during;
                 :class:`RigError` s carry the samples recorded so far as ``.recording``.
+            StorageError: the partial file could not be written (disk full, file too large):
+                the recording is complete in ``.recording``; ``.partial_path`` holds what
+                fitted (``recover_partial(path, out_dir=...)`` makes an .npz of it elsewhere).
         """
         if not isinstance(excitation, Excitation):
             raise TypeError(f"excitation must be a sensors.Excitation, got {type(excitation).__name__}")
@@ -151,7 +168,7 @@ class PyAudioRig:
         duration_s = float(duration_s)
         if not (math.isfinite(duration_s) and duration_s > 0):
             raise ValueError(f"duration_s must be > 0, got {duration_s!r}")
-        with _portaudio() as pa:
+        with _portaudio(self.server_timeout_s) as pa:
             din, dout = self._resolve(pa)
             self.input_device, self.output_device = din, dout
             session = _Session(self, pa, din, dout, excitation, duration_s, save_path, labels, on_progress)

@@ -16,9 +16,10 @@ import numpy as np
 
 from sensors import Excitation
 
+from . import bounded
 from .devices import AudioDevice, _alsa_hint, _captured_stderr, pyaudio
-from .errors import (DeviceLostError, ExcitationNotFoundError, RigError, RigWarning, UnsupportedSampleRateError,
-                     XrunError)
+from .errors import (DeviceLostError, ExcitationNotFoundError, RigError, RigWarning, StorageError,
+                     UnsupportedSampleRateError, XrunError)
 from .latency import find_latency, period_lags, period_mismatch
 
 if TYPE_CHECKING:
@@ -173,22 +174,24 @@ class _Session:
             got += block.shape[0]
         return got
 
-    def _stop(self) -> None:
-        """Stop and close the streams; a stream of a vanished device may block in PortAudio,
-        so this runs in a helper thread that is given up on after a few seconds."""
+    def _stop(self) -> bool:
+        """Stop and close the streams. A stream of a stalled or vanished sound server blocks
+        in PortAudio until the server answers, so this waits at most the rig's
+        ``server_timeout_s`` (:mod:`real.bounded`); returns False if it gave up (the streams
+        then close when the server answers, and new sessions are refused until they have)."""
         self.stopping = True
+        streams = [s for _, s in self.streams]
 
         def close_all():
-            with _captured_stderr():
-                for _, s in self.streams:
-                    with contextlib.suppress(Exception):
-                        s.stop_stream()
-                    with contextlib.suppress(Exception):
-                        s.close()
+            for s in streams:
+                with contextlib.suppress(Exception):
+                    s.stop_stream()
+                with contextlib.suppress(Exception):
+                    s.close()
 
-        t = threading.Thread(target=close_all, name="aas-rig-close", daemon=True)
-        t.start()
-        t.join(5.0)
+        with _captured_stderr():
+            done, _ = bounded.call_bounded(close_all, self.rig.server_timeout_s, "closing the streams")
+        return done
 
     def run(self) -> RigRecording:
         rig = self.rig
@@ -242,21 +245,22 @@ class _Session:
             if isinstance(exc, RigError):
                 exc.recording, exc.partial_path = rec, path
                 if path is not None:
-                    exc.args = (f"{exc.args[0]} -- the {rec.input.shape[0] / rig.sample_rate_hz:.2f} s recorded so far "
-                                f"are saved in {path}",)
+                    exc.args = (f"{exc.args[0]} -- {self._where_saved(rec, path)}",)
             rig.last_recording = rec
             raise
         self._stop()
         self._drain(parts)
         rec = self._recording(parts, latency, reported, complete=True, error=None)
         rig.last_recording = rec
+        if self.writer is not None and self.writer.error is not None:
+            raise self._storage_error(rec)
         if rec.problems and rig.xrun_policy != "ignore":
             msg = (f"recording on input {self.din} / output {self.dout}: " + "; ".join(rec.problems))
             if rig.xrun_policy == "raise":
                 rec.complete = False
                 rec.error = msg
                 path = self._save_partial(rec)
-                raise XrunError(msg + (f" -- the recording is saved in {path}" if path else ""),
+                raise XrunError(msg + (f" -- {self._where_saved(rec, path)}" if path else ""),
                                 device=self.din.name, recording=rec, partial_path=path)
             warnings.warn(msg, RigWarning, stacklevel=3)
         if rec.clipped and rig.xrun_policy != "ignore":
@@ -304,13 +308,38 @@ class _Session:
             error=error, lead_in_samples=self.lead_in)
 
     def _save_partial(self, rec: RigRecording) -> Path | None:
-        if self.writer is None:
+        """Save ``rec`` as ``<name>.partial.npz`` and drop the streamed files; if the disk
+        refuses, keep the streamed files (what fitted) and return the raw one."""
+        w = self.writer
+        if w is None:
             return None
-        self.writer.close()
+        w.close()
         if rec.input.shape[0] == 0:
-            self.writer.discard()
+            w.discard()
             return None
-        obs = rec.to_observation(trim=False, labels=self.labels)
-        obs.save(self.writer.npz_path)
-        self.writer.discard()
-        return self.writer.npz_path
+        try:
+            rec.to_observation(trim=False, labels=self.labels).save(w.npz_path)
+        except OSError as exc:
+            w.error = w.error or exc
+            return w.raw_path if w.has_data else None
+        w.discard()
+        return w.npz_path
+
+    def _where_saved(self, rec: RigRecording, path: Path) -> str:
+        sr, n = self.rig.sample_rate_hz, rec.input.shape[0]
+        if path == self.writer.npz_path:
+            return f"the {n / sr:.2f} s recorded {'' if rec.complete else 'so far '}are saved in {path}"
+        return (f"the disk took only the first {self.writer.frames_written / sr:.2f} s of the {n / sr:.2f} s "
+                f"recorded ({self.writer.error.strerror or self.writer.error}): they are in {path} "
+                "(real.recover_partial(path, out_dir=...) makes an .npz of them), all of them in .recording")
+
+    def _storage_error(self, rec: RigRecording) -> StorageError:
+        """The streamed file failed (disk full, file too large) but the recording is whole in
+        memory: say where what fitted went."""
+        cause = self.writer.error
+        path = self._save_partial(rec)
+        where = self._where_saved(rec, path) if path is not None else (
+            f"nothing could be written to {self.writer.raw_path.parent}")
+        return StorageError(f"writing the recording to {self.writer.raw_path} failed ({cause.strerror or cause}); "
+                            f"the recording is complete in memory (.recording, rig.last_recording) -- {where}",
+                            cause=cause, device=self.din.name, recording=rec, partial_path=path)

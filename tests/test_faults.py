@@ -7,8 +7,10 @@ the CLI's failures (test_cli)."""
 
 from __future__ import annotations
 
+import errno
 import os
 import stat
+import threading
 
 import numpy as np
 import pytest
@@ -342,3 +344,132 @@ def test_a_tampered_or_damaged_modal_cache_entry_is_rebuilt_not_served(tmp_path)
     entry.write_bytes(bytes(raw))
     model = bar()
     assert not model.metadata.get("cache_hit") and np.array_equal(model.frequencies_hz, truth)
+
+
+
+def test_a_blocked_portaudio_call_is_given_up_on_in_order_and_cleaned_up_late():
+    """Issue 17 item 6, without a sound server: calls run one after another on a daemon
+    thread, the caller waits at most its timeout, and what a late call produced is cleaned up."""
+    from real import bounded
+
+    assert bounded.wait_until_idle(10) is None
+    release, order, cleaned = threading.Event(), [], []
+
+    def blocked():
+        release.wait(30)
+        order.append("blocked")
+        return "late session"
+
+    try:
+        assert bounded.call_bounded(blocked, 0.05, "initializing",
+                                    on_late_result=lambda r: (cleaned.append(r), order.append("cleaned"))) == (False, None)
+        assert bounded.pending() == "initializing"
+        # a later call waits behind it, and is given up on too
+        assert bounded.call_bounded(lambda: order.append("next"), 0.05, "terminating") == (False, None)
+        assert bounded.pending() == "terminating" and bounded.wait_until_idle(0.05) == "terminating"
+        assert order == []
+    finally:
+        release.set()
+    assert bounded.wait_until_idle(30) is None
+    # the late result is cleaned up (a PortAudio call too) before the next call runs
+    assert order == ["blocked", "cleaned", "next"] and cleaned == ["late session"]
+    # calls that finish in time return their result or raise their error
+    assert bounded.call_bounded(lambda: 42, 30, "listing") == (True, 42)
+    with pytest.raises(ZeroDivisionError):
+        bounded.call_bounded(lambda: 1 / 0, 30, "listing")
+
+
+class _StalledPyAudio:
+    """A ``pyaudio`` module whose sound server does not answer until ``release`` is set."""
+
+    def __init__(self):
+        self.release, self.terminated = threading.Event(), []
+        fake = self
+
+        class PyAudio:
+            def __init__(self):
+                fake.release.wait(30)
+
+            def terminate(self):
+                fake.terminated.append(self)
+
+        self.PyAudio = PyAudio
+
+
+def test_a_sound_server_that_does_not_answer_fails_the_session_instead_of_hanging(monkeypatch):
+    import real
+    from real import bounded, devices
+
+    fake = _StalledPyAudio()
+    monkeypatch.setattr(devices, "pyaudio", fake)
+    try:
+        with pytest.raises(real.DeviceLostError, match="did not answer within 0.1 s") as info:
+            with devices._portaudio(0.1):
+                pass
+        assert info.value.device == "default"
+        # while PortAudio is still blocked, the next session says so at once instead of queueing
+        with pytest.raises(real.DeviceLostError, match="still initializing"):
+            with devices._portaudio(0.1):
+                pass
+    finally:
+        fake.release.set()
+    assert bounded.wait_until_idle(30) is None
+    assert len(fake.terminated) == 1  # the session that came too late is closed
+
+
+class _DiskThatFills:
+    """A raw partial file on a disk with ``room`` bytes left: short writes, then ENOSPC."""
+
+    def __init__(self, fh, room: int):
+        self.fh, self.room = fh, room
+
+    def write(self, data) -> int:
+        if self.room == 0:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(self.fh.name))
+        n = self.fh.write(bytes(data[: self.room]))
+        self.room -= n
+        return n
+
+    def fileno(self) -> int:
+        return self.fh.fileno()
+
+    @property
+    def closed(self) -> bool:
+        return self.fh.closed
+
+    def close(self) -> None:
+        self.fh.close()
+
+
+def test_a_full_disk_keeps_an_exact_prefix_and_recovery_keeps_the_raw_files_until_it_can_write(tmp_path):
+    """Issue 17 item 1, without a sound server (the rig's side: test_real_audio). The writer
+    never raises, keeps whole frames of exactly the first samples, and says why it stopped;
+    recover_partial writes elsewhere on request and removes nothing it has not saved."""
+    import real
+    import sensors
+    from real.rig_recording import _PartialWriter
+
+    ex = sensors.Excitation.by_name("impulse")
+    header = {"channels": 2, "mic_channel": 1, "sample_rate_hz": ex.sample_rate_hz, "excitation": ex.to_dict(),
+              "metadata": {"source": "real"}}
+    w = _PartialWriter(tmp_path / "disk" / "take.npz", header)
+    w._fh = _DiskThatFills(w._fh, room=1003)  # 125 frames of 8 bytes and 3 bytes of the next
+    blocks = [np.random.default_rng(i).standard_normal((40, 2)).astype(np.float32) for i in range(6)]
+    for b in blocks:
+        w.append(b)  # never raises
+    w.close()
+    assert w.error is not None and w.error.errno == errno.ENOSPC and w.frames_written == 125 and w.has_data
+    sent = np.concatenate(blocks)
+    # nowhere to write the .npz: a clear error, and the raw files stay
+    blocked = tmp_path / "a_file"
+    blocked.write_text("")
+    with pytest.raises(real.StorageError, match="out_dir") as info:
+        real.recover_partial(w.raw_path, out_dir=blocked / "sub")
+    assert isinstance(info.value, OSError) and info.value.errno is not None
+    assert sorted(p.name for p in w.raw_path.parent.iterdir()) == ["take.partial.f32", "take.partial.json"]
+    # elsewhere: the exact prefix, whole frames only
+    out = real.recover_partial(tmp_path / "disk" / "take.npz", out_dir=tmp_path / "elsewhere")
+    assert out == tmp_path / "elsewhere" / "take.partial.npz" and list(w.raw_path.parent.iterdir()) == []
+    obs = sensors.AcousticObservation.load(out)
+    np.testing.assert_array_equal(obs.waveform, sent[:125, 1])
+    assert obs.metadata["partial"] and not obs.metadata["complete"]

@@ -9,6 +9,7 @@ Needs Debian pulseaudio + libasound2-plugins (+ portaudio19-dev for PyAudio).
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import signal
@@ -444,3 +445,140 @@ def test_loopback_restarts_right_after_its_server_was_killed(tmp_path):
         assert again.pid != lb.pid and loopback.is_running(tmp_path / "p")
     finally:
         loopback.stop_loopback(tmp_path / "p")
+
+
+_STALL_CHILD = """
+import sys, time, real, sensors
+rig = real.PyAudioRig(output_gain=0.5)
+ex = sensors.Excitation.by_name("linear")
+for attempt in ("during", "after"):
+    t = time.monotonic()
+    try:
+        rig.record(ex, 30.0, save_path=sys.argv[1] if attempt == "during" else None)
+        print(attempt, "returned", flush=True)
+    except real.RigError as exc:
+        print(attempt, type(exc).__name__, round(time.monotonic() - t, 1), str(exc).replace(chr(10), " "), flush=True)
+"""
+
+
+def test_a_stalled_sound_server_does_not_hang_the_recording(audio_loopback, tmp_path):
+    """Issue 17 item 6. SIGSTOP the server 1 s into a recording and keep it stopped: the
+    recording (in a child process, whose PortAudio stays blocked until the server answers)
+    returns while the server is still stopped, with what was recorded saved; a recording
+    started during the stall fails at once instead of queueing behind the blocked calls.
+    Before, the child hung in PortAudio for as long as the server was stopped."""
+    # the server now running (an earlier test may have restarted it under a new pid)
+    pid = loopback.start_loopback(audio_loopback.sink, runtime_dir=audio_loopback.runtime_dir).pid
+    assert pid > 0  # never signal -1 (every process)
+    target = tmp_path / "take.npz"
+    env = {**os.environ, **audio_loopback.env(), "PYTHONPATH": str(Path(real.__file__).parents[1])}
+    proc = subprocess.Popen([sys.executable, "-c", _STALL_CHILD, str(target)], env=env, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+    out, hung = "", False
+    try:
+        raw = tmp_path / "take.partial.f32"
+        deadline = time.monotonic() + 60
+        while (not raw.exists() or raw.stat().st_size < 4 * 44100) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert raw.exists(), "the child never started recording"
+        os.kill(pid, signal.SIGSTOP)
+        try:  # about 5 s: stall_timeout_s + server_timeout_s, then server_timeout_s
+            out, _ = proc.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            hung = True
+    finally:
+        os.kill(pid, signal.SIGCONT)
+        if proc.poll() is None:
+            proc.kill()
+            out = proc.communicate()[0]
+    assert not hung, f"the recording hung while the sound server was stopped: {out}"
+    lines = dict(line.split(" ", 1) for line in out.splitlines())
+    print(f"stalled server: {lines}")
+    assert proc.returncode == 0, out
+    assert lines["during"].startswith("DeviceLostError"), out
+    assert lines["after"].startswith("DeviceLostError") and any(
+        why in lines["after"] for why in ("still closing the streams", "still terminating", "did not answer within")), out
+    part = sensors.AcousticObservation.load(tmp_path / "take.partial.npz")
+    assert part.metadata["partial"] and "DeviceLostError" in part.metadata["error"]
+    assert part.waveform.size >= 44100
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["take.partial.npz"]
+    # the server answers again (xruns of a loaded machine are not the question here)
+    rec = real.PyAudioRig(output_gain=GAIN, xrun_policy="ignore").record(sensors.Excitation.by_name("impulse"), 0.5)
+    assert rec.complete and rec.latency_samples is not None
+
+
+_FULL_DISK_CHILD = """
+import json, os, resource, signal, sys
+from pathlib import Path
+import numpy as np, real, sensors
+disk, out, limit = Path(sys.argv[1]), Path(sys.argv[2]), int(sys.argv[3])
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG, as on a full disk
+rig = real.PyAudioRig(output_gain=0.5, stall_timeout_s=5.0)  # a loaded machine is not the question here
+ex = sensors.Excitation.by_name("linear")
+soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+resource.setrlimit(resource.RLIMIT_FSIZE, (limit, hard))  # no file of this process grows past `limit` bytes
+report = {"raised": None}
+try:
+    try:
+        rig.record(ex, 1.0, save_path=disk / "take.npz")
+    except real.StorageError as err:
+        rec = err.recording
+        report.update(raised=type(err).__name__, is_os_error=isinstance(err, OSError), errno=err.errno,
+                      message=str(err), partial_path=str(err.partial_path), device=err.device,
+                      is_last=rec is rig.last_recording)
+        try:  # recovering beside the partial files, on the same full disk
+            real.recover_partial(disk / "take.npz")
+            report["again"] = None
+        except real.StorageError as again:
+            report["again"] = [again.errno, str(again)]
+        report["files_while_full"] = sorted(os.listdir(disk))
+finally:
+    resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+if report["raised"]:
+    report.update(complete=rec.complete, latency=rec.latency_samples)
+    np.save(out / "input.npy", rec.input)
+    rec.save(out / "whole.npz")  # the whole recording, from memory, on a disk with room
+print(json.dumps(report))
+"""
+
+
+def test_a_full_disk_during_a_recording_loses_nothing(audio_loopback, tmp_path):
+    """Issue 17 item 1. The recording's process may write at most 64 KiB per file
+    (RLIMIT_FSIZE, in a child process: no root, no tmpfs), about 0.37 s of the streamed
+    partial file. Before, the first refused write ended the recording and the error path
+    failed again on the same disk. Now the recording finishes in memory and comes back on
+    StorageError with what fitted on disk, an exact prefix; recovery on the full disk says
+    so and keeps the raw files, recovery elsewhere works."""
+    limit = 64 * 1024
+    disk, out = tmp_path / "disk", tmp_path / "out"
+    out.mkdir()
+    env = {**os.environ, **audio_loopback.env(), "PYTHONPATH": str(Path(real.__file__).parents[1])}
+    proc = subprocess.run([sys.executable, "-c", _FULL_DISK_CHILD, str(disk), str(out), str(limit)], env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    report = json.loads(proc.stdout.splitlines()[-1])
+    assert report["raised"] == "StorageError", report
+    assert report["is_os_error"] and report["errno"] == errno.EFBIG and report["device"] == "default"
+    raw = disk / "take.partial.f32"
+    assert report["partial_path"] == str(raw) and str(raw) in report["message"] and report["is_last"]
+    # the recording finished, whole, in memory
+    rec_input = np.load(out / "input.npy")
+    assert report["complete"] and report["latency"] is not None
+    # what fitted on the disk: exactly the first samples, up to the limit
+    on_disk = np.fromfile(raw, dtype="<f4")
+    assert on_disk.size == limit // 4 < rec_input.shape[0]
+    np.testing.assert_array_equal(on_disk, rec_input[:on_disk.size, 0])
+    # recovery on the still-full disk: a clear error, nothing removed
+    errno_again, message_again = report["again"]
+    assert errno_again == errno.EFBIG and "out_dir" in message_again
+    assert report["files_while_full"] == ["take.partial.f32", "take.partial.json"]
+    # recovery elsewhere, which empties the full disk
+    part_path = real.recover_partial(disk / "take.npz", out_dir=tmp_path / "elsewhere")
+    assert part_path == tmp_path / "elsewhere" / "take.partial.npz" and list(disk.iterdir()) == []
+    part = sensors.AcousticObservation.load(part_path)
+    assert part.metadata["partial"] and not part.metadata["complete"]
+    np.testing.assert_array_equal(part.waveform, on_disk)
+    # and the whole recording saved from memory is the kept span of what was recorded
+    whole = sensors.AcousticObservation.load(out / "whole.npz")
+    lat, n = report["latency"], int(round(1.0 * 44100))
+    np.testing.assert_array_equal(whole.waveform, rec_input[lat:lat + n, 0])
