@@ -206,12 +206,31 @@ def _check_positive(**values: float) -> None:
             raise MeshError(f"{name} must be a finite positive number, got {value!r}")
 
 
+#: Default limit on the degrees of freedom of a P2 model (3 per node): about 1 GB for K and M
+#: and several times that for the eigensolver, tens of minutes on two cores. ``max_dof=``
+#: raises it (or ``None`` removes it).
+DEFAULT_MAX_DOF = 300_000
+#: P2 degrees of freedom per vertex of a linear tet mesh (a vertex has about six edges, each
+#: carrying a mid-edge node: 3 (1 + 6) ~ 20; measured 18-22 on the project's meshes).
+P2_DOF_PER_VERTEX = 20
+
+
+def check_size(n_vertices: int, max_dof: int | None, what: str) -> None:
+    """Refuse, before building it, a mesh whose P2 model would exceed ``max_dof``."""
+    dof = P2_DOF_PER_VERTEX * int(n_vertices)
+    if max_dof is not None and dof > max_dof:
+        gb = dof * 90 * 2 * 12 / 1e9      # ~90 nonzeros per row of K and of M, 12 bytes each
+        raise MeshError(f"{what} would have about {dof:,} degrees of freedom (limit {max_dof:,}; K and M "
+                        f"alone ~{gb:.1f} GB, the eigensolver several times that): coarsen it with "
+                        "element_size_m= or a smaller resolution=, or raise the limit with max_dof=")
+
+
 def _divisions(extent: float, h: float, minimum: int) -> int:
     return max(minimum, int(math.ceil(extent / h - 1e-9)))
 
 
 def bar_mesh(length_m: float, width_m: float, height_m: float, element_size_m: float | None = None,
-             resolution: float = 1.0) -> TetMesh:
+             resolution: float = 1.0, max_dof: int | None = DEFAULT_MAX_DOF) -> TetMesh:
     """Structured tet mesh of a box: length along x, width along y, height along z.
 
     Args:
@@ -219,6 +238,8 @@ def bar_mesh(length_m: float, width_m: float, height_m: float, element_size_m: f
             cross-section side divided by ``resolution`` (4 P2 elements across: torsion and
             the higher bending modes of a 25 mm ABS bar below 10 kHz within 1%).
         resolution: Multiplies the number of elements in every direction.
+        max_dof: refuse (``MeshError``) a mesh whose P2 model would be larger (see
+            :func:`check_size`).
     """
     _check_positive(length_m=length_m, width_m=width_m, height_m=height_m, resolution=resolution)
     h = element_size_m if element_size_m is not None else min(width_m, height_m) / 4.0
@@ -226,6 +247,7 @@ def bar_mesh(length_m: float, width_m: float, height_m: float, element_size_m: f
     h = h / resolution
     ny, nz = _divisions(width_m, h, 2), _divisions(height_m, h, 2)
     nx = _divisions(length_m, h * 1.5, 4)  # P2 tolerates elongated cells along the beam axis
+    check_size((ny + 1) * (nz + 1) * (nx + 1), max_dof, f"a {length_m:g} x {width_m:g} x {height_m:g} m bar mesh")
     y = np.linspace(-0.5 * width_m, 0.5 * width_m, ny + 1)
     z = np.linspace(-0.5 * height_m, 0.5 * height_m, nz + 1)
     yy, zz = np.meshgrid(y, z, indexing="ij")
@@ -237,7 +259,8 @@ def bar_mesh(length_m: float, width_m: float, height_m: float, element_size_m: f
 
 
 def tube_mesh(length_m: float, outer_radius_m: float, inner_radius_m: float,
-              element_size_m: float | None = None, resolution: float = 1.0) -> TetMesh:
+              element_size_m: float | None = None, resolution: float = 1.0,
+              max_dof: int | None = DEFAULT_MAX_DOF) -> TetMesh:
     """Structured tet mesh of a hollow cylinder along x (annulus cross-section).
 
     Default: 24 elements around (curved P2 edges make that accurate), 1 through a thin wall,
@@ -265,6 +288,8 @@ def tube_mesh(length_m: float, outer_radius_m: float, inner_radius_m: float,
         n_theta = n_min
         h_x = max(h_x, 2 * math.pi * outer_radius_m / n_theta * 3.0)
     nx = _divisions(length_m, h_x, 4)
+    check_size((n_r + 1) * n_theta * (nx + 1), max_dof,
+               f"a {length_m:g} m tube mesh (radii {outer_radius_m:g} / {inner_radius_m:g} m)")
     theta = 2 * math.pi * np.arange(n_theta) / n_theta
     r = np.linspace(inner_radius_m, outer_radius_m, n_r + 1)
     rr, tt = np.meshgrid(r, theta, indexing="ij")
@@ -279,7 +304,7 @@ def tube_mesh(length_m: float, outer_radius_m: float, inner_radius_m: float,
 
 
 def rod_mesh(length_m: float, radius_m: float, element_size_m: float | None = None,
-             resolution: float = 1.0) -> TetMesh:
+             resolution: float = 1.0, max_dof: int | None = DEFAULT_MAX_DOF) -> TetMesh:
     """Structured tet mesh of a solid cylinder along x (O-grid: square core plus a ring)."""
     _check_positive(length_m=length_m, radius_m=radius_m, resolution=resolution)
     if element_size_m is None:
@@ -290,6 +315,8 @@ def rod_mesh(length_m: float, radius_m: float, element_size_m: float | None = No
     n_theta = 4 * m
     s = 0.5 * radius_m  # half-width of the square core
     n_ring = max(1, int(round((radius_m - s) / (2 * s / m))))
+    check_size(((m + 1) ** 2 + n_ring * n_theta) * (_divisions(length_m, 2 * s / m * 1.5, 4) + 1), max_dof,
+               f"a {length_m:g} m rod mesh (radius {radius_m:g} m)")
     # Core grid.
     c = np.linspace(-s, s, m + 1)
     cy, cz = np.meshgrid(c, c, indexing="ij")
@@ -440,7 +467,7 @@ def validate_surface(mesh) -> "trimesh.Trimesh":  # noqa: F821
 
 
 def tetrahedralize_surface(mesh, element_size_m: float | None = None, resolution: float = 1.0,
-                           cache: bool = True, cache_dir=None) -> TetMesh:
+                           cache: bool = True, cache_dir=None, max_dof: int | None = DEFAULT_MAX_DOF) -> TetMesh:
     """Tetrahedralize a watertight surface with pytetwild (fTetWild), cached on disk.
 
     The envelope is set so the output boundary stays within 0.1% of the smallest
@@ -465,6 +492,9 @@ def tetrahedralize_surface(mesh, element_size_m: float | None = None, resolution
         element_size_m = float(extents.min()) / 4.0
     _check_positive(element_size_m=element_size_m, resolution=resolution)
     h = element_size_m / resolution
+    # a tet mesh of edge h has about 1.7 vertices per h^3 of volume (regular tets of h^3 / 8.5)
+    check_size(int(1.7 * abs(float(surface.volume)) / h ** 3), max_dof,
+               f"a {extents[0]:.3g} x {extents[1]:.3g} x {extents[2]:.3g} m surface meshed at {h:.3g} m")
     epsilon = max(1e-3 * float(extents.min()) / diag, 1e-6)
     key = cache_mod.content_key("tetwild", verts, faces, h, epsilon)
     if cache:

@@ -17,7 +17,7 @@ from . import cache as cache_mod
 from . import modal_io
 from .eigen import solve_modes
 from .fem import assemble
-from .meshing import check_tet_quality, quadratic_mesh
+from .meshing import DEFAULT_MAX_DOF, check_tet_quality, quadratic_mesh
 
 log = logging.getLogger("sensors.modal_model")
 
@@ -95,7 +95,7 @@ def _solve(cls, key, make_mesh, material, opts, meta):
 
 
 _DEFAULTS = dict(element="p2", max_frequency_hz=DEFAULT_MAX_FREQUENCY_HZ, resolution=1.0, element_size_m=None,
-                 cache=True, cache_dir=None, progress=None)
+                 cache=True, cache_dir=None, progress=None, max_dof=DEFAULT_MAX_DOF)
 
 
 def options(options: dict) -> dict:

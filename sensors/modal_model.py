@@ -20,9 +20,12 @@ from . import modal_build, modal_io
 from .damping import modal_damping_matrix
 from .fem import assemble, shape_functions
 from .materials import get_material
-from .meshing import TetMesh, bar_mesh, rod_mesh, tet_volumes, tetrahedralize_surface, tube_mesh, validate_surface
+from .meshing import MeshError, TetMesh, bar_mesh, rod_mesh, tet_volumes, tetrahedralize_surface, tube_mesh, validate_surface
 from .modal_basis import material_scaling
 from .tet_locator import TetLocator, closest_points_on_triangles  # noqa: F401  (re-exported)
+
+#: Sizes [m] of what a gripper holds: a mesh outside is probably in another unit (``scale=``).
+MIN_OBJECT_SIZE_M, MAX_OBJECT_SIZE_M = 2e-3, 2.0
 
 __all__ = ["ModalModel", "closest_points_on_triangles"]
 
@@ -252,15 +255,29 @@ class ModalModel:
         return cls._build_structured("rod", rod_mesh, dict(length_m=length_m, radius_m=radius_m), material, options)
 
     @classmethod
-    def from_mesh(cls, mesh, material, **options) -> "ModalModel":
+    def from_mesh(cls, mesh, material, *, scale: float | None = None, **options) -> "ModalModel":
         """Any watertight ``trimesh.Trimesh`` (metres), tetrahedralized with pytetwild.
 
         The mesh is used in its own frame. Options as :meth:`bar`; ``element_size_m``
-        defaults to a quarter of the smallest bounding-box extent.
+        defaults to a quarter of the smallest bounding-box extent. ``scale`` multiplies the
+        vertices first (``1e-3`` for a mesh in millimetres); without it, a mesh larger than
+        2 m or smaller than 2 mm is refused as probably in the wrong unit.
         """
         opts = modal_build.options(options)
         material = get_material(material)
         surface = validate_surface(mesh)
+        size = float(np.ptp(np.asarray(surface.vertices), axis=0).max())
+        if scale is None and not MIN_OBJECT_SIZE_M <= size <= MAX_OBJECT_SIZE_M:
+            hint = "1e-3 if it is in millimetres" if size > MAX_OBJECT_SIZE_M else "1e3 if its unit is 1000 times too large"
+            raise MeshError(f"the mesh is {size:.3g} m across, outside {MIN_OBJECT_SIZE_M * 1e3:g} mm .. "
+                            f"{MAX_OBJECT_SIZE_M:g} m: is it in another unit? Pass scale= ({hint}); scale=1 "
+                            "keeps it as it is")
+        if scale is not None:
+            if not (np.isfinite(scale) and scale > 0):
+                raise MeshError(f"scale must be a finite positive number, got {scale!r}")
+            if scale != 1:
+                surface = surface.copy()
+                surface.apply_scale(float(scale))
         v = np.asarray(surface.vertices, dtype=np.float64)
         f = np.asarray(surface.faces, dtype=np.int64)
         key = cache_mod.content_key("modal-mesh", v, f, material.to_dict(), modal_build.key_options(opts))
@@ -268,7 +285,7 @@ class ModalModel:
         def make():
             return tetrahedralize_surface(surface, element_size_m=opts["element_size_m"],
                                           resolution=opts["resolution"], cache=opts["cache"],
-                                          cache_dir=opts["cache_dir"])
+                                          cache_dir=opts["cache_dir"], max_dof=opts["max_dof"])
 
         extents = np.ptp(v, axis=0)
         meta = {"kind": "mesh", "dimensions_m": {"extent_x_m": float(extents[0]), "extent_y_m": float(extents[1]),
@@ -288,6 +305,9 @@ class ModalModel:
             cache_dir: Cache directory (default $AAS_GYM_CACHE or ~/.cache/aas_gym).
             progress: None (a progress bar appears if the build takes over a second),
                 True (always) or False (never).
+            max_dof: refuse, before meshing, a model larger than this many degrees of
+                freedom (default ``sensors.meshing.DEFAULT_MAX_DOF`` = 300,000; ``None``: no
+                limit) with a ``MeshError`` that says how to coarsen it.
         """
         opts = modal_build.options(options)
         material = get_material(material)
@@ -303,6 +323,7 @@ class ModalModel:
         key = cache_mod.content_key("modal-" + kind, dims, material.to_dict(), modal_build.key_options(opts))
 
         def make():
-            return mesher(**dims, element_size_m=opts["element_size_m"], resolution=opts["resolution"])
+            return mesher(**dims, element_size_m=opts["element_size_m"], resolution=opts["resolution"],
+                          max_dof=opts["max_dof"])
 
         return modal_build.build(cls, key, make, material, opts, {"kind": kind, "dimensions_m": {k: float(v) for k, v in dims.items()}})

@@ -473,3 +473,41 @@ def test_a_full_disk_keeps_an_exact_prefix_and_recovery_keeps_the_raw_files_unti
     obs = sensors.AcousticObservation.load(out)
     np.testing.assert_array_equal(obs.waveform, sent[:125, 1])
     assert obs.metadata["partial"] and not obs.metadata["complete"]
+
+
+@pytest.mark.parametrize("build", [
+    lambda M, m: M.bar(0.2, 0.2, 0.001, m),                        # a 200 x 200 x 1 mm plate
+    lambda M, m: M.bar(5.0, 0.02, 0.02, m),                        # a 5 m bar
+    lambda M, m: M.bar(0.2, 0.02, 0.02, m, resolution=20),
+    lambda M, m: M.tube(0.2, 0.01, 0.009999, m),                   # a 1 um tube wall
+    lambda M, m: M.rod(0.2, 0.01, m, element_size_m=1e-4),
+], ids=["plate", "5 m bar", "resolution 20", "1 um wall", "fine rod"])
+def test_hostile_sizes_are_refused_at_once_with_a_way_out(build):
+    """Each ran for minutes or exhausted memory; now a MeshError before any meshing."""
+    import time
+
+    from sensors import MATERIALS, MeshError, ModalModel
+
+    t0 = time.process_time()
+    with pytest.raises(MeshError, match="degrees of freedom.*max_dof="):
+        build(ModalModel, MATERIALS["steel"])
+    assert time.process_time() - t0 < 5.0   # refused, not attempted (generous on a loaded machine)
+
+
+@pytest.mark.slow
+def test_a_mesh_in_the_wrong_unit_is_refused_suggesting_scale(tmp_path):
+    import trimesh
+
+    from sensors import MATERIALS, MeshError, ModalModel
+
+    box_mm = trimesh.creation.box([200.0, 20.0, 20.0])                # millimetres
+    with pytest.raises(MeshError, match=r"200 m across.*scale= \(1e-3"):
+        ModalModel.from_mesh(box_mm, MATERIALS["steel"], cache_dir=tmp_path, progress=False)
+    with pytest.raises(MeshError, match=r"across.*scale="):
+        ModalModel.from_mesh(trimesh.creation.box([1e-3, 1e-3, 1e-3]), MATERIALS["steel"], cache_dir=tmp_path)
+    sliver = trimesh.creation.box([0.2, 0.02, 1e-5])                  # 10 um thick
+    with pytest.raises(MeshError, match="degrees of freedom"):
+        ModalModel.from_mesh(sliver, MATERIALS["steel"], scale=1.0, cache_dir=tmp_path, progress=False)
+    model = ModalModel.from_mesh(box_mm, MATERIALS["steel"], scale=1e-3, cache_dir=tmp_path, progress=False,
+                                 max_frequency_hz=3000.0)
+    assert abs(np.ptp(model.nodes_m[:, 0]) - 0.2) < 1e-3
