@@ -417,7 +417,7 @@ def test_grasp_and_sense_through_the_real_audio_path(audio_loopback):
     from scripted_policy import reach_and_grasp
 
     robot = MujocoRobot(randomization=False)
-    sensor = real.RealAcousticSensor(real.PyAudioRig(output_gain=0.5))
+    sensor = real.RealAcousticSensor(real.PyAudioRig(output_gain=0.5, frames_per_buffer=4096))  # see the rig fixture
     env = RealGraspEnv(robot, sensor, excitation="linear", duration_s=1.0)
     obs, _ = env.reset(seed=1)
     obs = reach_and_grasp(env, obs)
