@@ -1,5 +1,6 @@
-"""One recording on the rig: the PortAudio streams, their callbacks, the watch loop and the
-checks after it (latency, synchronization, xruns)."""
+"""The rig's PortAudio streams and their callbacks (:class:`_Streams`, shared with
+``real.rig_stream``), and one recording on them: the watch loop and the checks after it
+(latency, synchronization, xruns)."""
 
 from __future__ import annotations
 
@@ -25,19 +26,17 @@ if TYPE_CHECKING:
     from .rig import PyAudioRig
 from .rig_recording import _FLAGS, _PROBLEM_FLAGS, RigRecording, _PartialWriter
 
-class _Session:
-    """One recording: streams, callbacks, the watch loop and the post-checks."""
+
+class _Streams:
+    """The rig's PortAudio streams with the excitation looping on the actuator channel: the
+    callbacks, opening and starting, liveness and stopping. Input blocks queue up in
+    ``in_chunks`` (PortAudio's thread appends, the caller's thread drains)."""
 
     POLL_S = 0.02
-    DETECT_EVERY_S = 0.1
 
-    def __init__(self, rig: PyAudioRig, pa, din: AudioDevice, dout: AudioDevice, excitation: Excitation,
-                 duration_s: float, save_path, labels, on_progress=None) -> None:
+    def __init__(self, rig: PyAudioRig, pa, din: AudioDevice, dout: AudioDevice, excitation: Excitation) -> None:
         self.rig, self.pa, self.din, self.dout = rig, pa, din, dout
-        self.on_progress = on_progress
-        self.excitation, self.duration_s = excitation, duration_s
-        self.labels = labels
-        self.n_target = int(round(duration_s * rig.sample_rate_hz))
+        self.excitation = excitation
         # One period, actuator channel only, interleaved; tiled so any callback's block is a
         # contiguous slice.
         P = excitation.period_samples
@@ -56,14 +55,6 @@ class _Session:
         self.streams: list[Any] = []
         self.stopping = False
         self.started_at = _dt.datetime.now(_dt.timezone.utc).isoformat()
-        self.writer = None
-        if save_path is not None:
-            self.writer = _PartialWriter(Path(save_path), {
-                "channels": rig.input_channels, "mic_channel": rig.mic_channel, "sample_rate_hz": rig.sample_rate_hz,
-                "dtype": "float32le interleaved", "excitation": excitation.to_dict(),
-                "metadata": {"source": "real", "device": {"input": din.to_dict(), "output": dout.to_dict()},
-                             "recorded_at": self.started_at, "labels": dict(labels or {}),
-                             "excitation": excitation.name}})
 
     # PortAudio threads ------------------------------------------------------------------
 
@@ -162,16 +153,13 @@ class _Session:
                                   "during the recording (device disconnected or sound server gone)",
                                   device=self.din.name)
 
-    def _drain(self, parts: list[np.ndarray]) -> int:
-        got = 0
+    def _take(self) -> list[np.ndarray]:
+        """The input blocks queued since the last call, ``(frames, input_channels)`` each."""
         ch = self.rig.input_channels
+        out = []
         while self.in_chunks:
-            block = np.frombuffer(self.in_chunks.popleft(), dtype=np.float32).reshape(-1, ch)
-            parts.append(block)
-            if self.writer is not None:
-                self.writer.append(block)
-            got += block.shape[0]
-        return got
+            out.append(np.frombuffer(self.in_chunks.popleft(), dtype=np.float32).reshape(-1, ch))
+        return out
 
     def _stop(self) -> None:
         """Stop and close the streams; a stream of a vanished device may block in PortAudio,
@@ -190,6 +178,56 @@ class _Session:
         t.start()
         t.join(5.0)
 
+    def _reported_latency(self) -> dict[str, float]:
+        """PortAudio's own input/output latency estimates, seconds."""
+        reported = {}
+        for kind, s in self.streams:
+            with contextlib.suppress(Exception):
+                if kind in ("input", "duplex"):
+                    reported["input"] = float(s.get_input_latency())
+                if kind in ("output", "duplex"):
+                    reported["output"] = float(s.get_output_latency())
+        return reported
+
+    def _flag_problems(self) -> list[str]:
+        """One line per callback status flag seen (priming the output is no problem)."""
+        flags: dict[str, int] = {}
+        for ev in self.events:
+            if ev["flag"] != "priming_output":
+                flags[f"{ev['stream']} {ev['flag']}"] = flags.get(f"{ev['stream']} {ev['flag']}", 0) + 1
+        return [f"{n} callback(s) flagged {k}" for k, n in sorted(flags.items())]
+
+
+class _Session(_Streams):
+    """One recording: the streams, the watch loop and the post-checks."""
+
+    DETECT_EVERY_S = 0.1
+
+    def __init__(self, rig: PyAudioRig, pa, din: AudioDevice, dout: AudioDevice, excitation: Excitation,
+                 duration_s: float, save_path, labels, on_progress=None) -> None:
+        super().__init__(rig, pa, din, dout, excitation)
+        self.on_progress = on_progress
+        self.duration_s = duration_s
+        self.labels = labels
+        self.n_target = int(round(duration_s * rig.sample_rate_hz))
+        self.writer = None
+        if save_path is not None:
+            self.writer = _PartialWriter(Path(save_path), {
+                "channels": rig.input_channels, "mic_channel": rig.mic_channel, "sample_rate_hz": rig.sample_rate_hz,
+                "dtype": "float32le interleaved", "excitation": excitation.to_dict(),
+                "metadata": {"source": "real", "device": {"input": din.to_dict(), "output": dout.to_dict()},
+                             "recorded_at": self.started_at, "labels": dict(labels or {}),
+                             "excitation": excitation.name}})
+
+    def _drain(self, parts: list[np.ndarray]) -> int:
+        got = 0
+        for block in self._take():
+            parts.append(block)
+            if self.writer is not None:
+                self.writer.append(block)
+            got += block.shape[0]
+        return got
+
     def run(self) -> RigRecording:
         rig = self.rig
         parts: list[np.ndarray] = []
@@ -201,12 +239,7 @@ class _Session:
         reported = {}
         try:
             self._start()
-            for kind, s in self.streams:
-                with contextlib.suppress(Exception):
-                    if kind in ("input", "duplex"):
-                        reported["input"] = float(s.get_input_latency())
-                    if kind in ("output", "duplex"):
-                        reported["output"] = float(s.get_output_latency())
+            reported = self._reported_latency()
             while True:
                 time.sleep(self.POLL_S)
                 total += self._drain(parts)
@@ -291,11 +324,7 @@ class _Session:
                     problems.append(f"period {int(bad[0]) + 1} differs from the one before by "
                                     f"{100 * mismatch[bad[0]]:.2g} % RMS (tolerance {100 * rig.period_tolerance:.2g} %): "
                                     "samples were dropped, inserted or corrupted")
-        flags: dict[str, int] = {}
-        for ev in self.events:
-            if ev["flag"] != "priming_output":
-                flags[f"{ev['stream']} {ev['flag']}"] = flags.get(f"{ev['stream']} {ev['flag']}", 0) + 1
-        problems += [f"{n} callback(s) flagged {k}" for k, n in sorted(flags.items())]
+        problems += self._flag_problems()
         return RigRecording(
             input=data, mic_channel=rig.mic_channel, sample_rate_hz=rig.sample_rate_hz, excitation=self.excitation,
             duration_s=self.duration_s, latency_samples=latency, period_lags_samples=lags, events=list(self.events),
