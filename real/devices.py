@@ -65,13 +65,19 @@ def _alsa_hint(lines: list[str], n: int = 3) -> str:
     return (" [" + " | ".join(useful[-n:]) + "]") if useful else ""
 
 
-@contextlib.contextmanager
-def _portaudio() -> Iterator[Any]:
+def _new_portaudio() -> Any:
     """A fresh PortAudio session (device lists are read at initialization, so a new
-    session sees devices that appeared or vanished since the last one)."""
+    session sees devices that appeared or vanished since the last one); the caller
+    terminates it."""
     pa_mod = _require_pyaudio()
     with _captured_stderr():
-        pa = pa_mod.PyAudio()
+        return pa_mod.PyAudio()
+
+
+@contextlib.contextmanager
+def _portaudio() -> Iterator[Any]:
+    """:func:`_new_portaudio` for a ``with`` block."""
+    pa = _new_portaudio()
     try:
         yield pa
     finally:

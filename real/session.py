@@ -52,6 +52,7 @@ class _Streams:
         self.events: list[dict[str, Any]] = []
         self.last_in_t = None
         self.first_in = threading.Event()
+        self.new_input = threading.Event()  # set by every input callback: readers wait on it
         self.streams: list[Any] = []
         self.stopping = False
         self.started_at = _dt.datetime.now(_dt.timezone.utc).isoformat()
@@ -80,6 +81,7 @@ class _Streams:
         self.in_frames += frame_count
         self.last_in_t = time.monotonic()
         self.first_in.set()
+        self.new_input.set()
         return (None, pyaudio.paContinue)
 
     def _out_cb(self, in_data, frame_count, time_info, status):
@@ -161,18 +163,23 @@ class _Streams:
             out.append(np.frombuffer(self.in_chunks.popleft(), dtype=np.float32).reshape(-1, ch))
         return out
 
-    def _stop(self) -> None:
-        """Stop and close the streams; a stream of a vanished device may block in PortAudio,
-        so this runs in a helper thread that is given up on after a few seconds."""
+    def _stop(self, terminate: bool = False) -> None:
+        """Stop and close the streams (and with ``terminate`` end the PortAudio session
+        after them); a stream of a vanished or frozen device may block in PortAudio, so this
+        runs in a helper thread that is given up on after a few seconds. Callers keep
+        PortAudio's diagnostics off the terminal (fd 2 is the process's: a helper that may
+        outlive the call must not redirect it)."""
         self.stopping = True
 
         def close_all():
-            with _captured_stderr():
-                for _, s in self.streams:
-                    with contextlib.suppress(Exception):
-                        s.stop_stream()
-                    with contextlib.suppress(Exception):
-                        s.close()
+            for _, s in self.streams:
+                with contextlib.suppress(Exception):
+                    s.stop_stream()
+                with contextlib.suppress(Exception):
+                    s.close()
+            if terminate:  # after the streams: terminating closes blocked ones again
+                with contextlib.suppress(Exception):
+                    self.pa.terminate()
 
         t = threading.Thread(target=close_all, name="aas-rig-close", daemon=True)
         t.start()
