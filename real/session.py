@@ -54,6 +54,7 @@ class _Streams:
         self.first_in = threading.Event()
         self.new_input = threading.Event()  # set by every input callback: readers wait on it
         self.streams: list[Any] = []
+        self.started: set[str] = set()  # kinds of the streams started (the output waits for the input)
         self.stopping = False
         self.started_at = _dt.datetime.now(_dt.timezone.utc).isoformat()
 
@@ -119,6 +120,7 @@ class _Streams:
                            stream_callback=self._duplex_cb)
             self.streams.append(("duplex", s))
             s.start_stream()
+            self.started.add("duplex")
             self._wait_first_input()
             return
         sin = self._open(channels=rig.input_channels, input=True, input_device_index=self.din.index,
@@ -128,9 +130,11 @@ class _Streams:
                           stream_callback=self._out_cb)
         self.streams.append(("output", sout))
         sin.start_stream()
+        self.started.add("input")
         # The output starts once the input runs, so the first period is always recorded.
         self._wait_first_input()
         sout.start_stream()
+        self.started.add("output")
 
     def _wait_first_input(self) -> None:
         deadline = time.monotonic() + self.rig.start_timeout_s
@@ -146,7 +150,9 @@ class _Streams:
                 active = s.is_active()
             except OSError:
                 active = False
-            if not active and not self.stopping and (kind != "output" or self.first_in.is_set()):
+            # Only started streams: the first input can arrive between the wait for it and
+            # this check, while the output is not started yet (a 'lost' output under load).
+            if not active and not self.stopping and kind in self.started:
                 dev = self.dout if kind == "output" else self.din
                 raise DeviceLostError(f"{kind} stream on device {dev} stopped during the recording "
                                       "(device disconnected or sound server gone)", device=dev.name)
