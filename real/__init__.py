@@ -2,6 +2,8 @@
 
 - :class:`PyAudioRig`, :func:`list_devices`: the actuator output and contact-microphone input.
 - :class:`RealAcousticSensor`: ``sense(excitation, duration_s) -> sensors.AcousticObservation``.
+- :class:`RigStream`: the rig recording without a break while the excitation loops, read
+  piece by piece (``read(n)``, ``latest_features()``), as ``sensors.AcousticStream`` simulates.
 - :func:`record_leaks`: the rig's leak per excitation, in the file format the simulator loads.
 - :class:`RealGraspEnv`, :class:`RobotInterface`, :class:`RobotState`: the AcousticGrasp task on
   a real robot, same spaces as the simulated env (``aas_gym.robot.MujocoRobot`` runs it on
@@ -20,6 +22,7 @@ _LAZY = {
     "NoAudioDeviceError": "real.errors", "RigError": "real.errors", "RigWarning": "real.errors",
     "StorageError": "real.errors", "UnsupportedSampleRateError": "real.errors", "XrunError": "real.errors",
     "PyAudioRig": "real.rig", "RigRecording": "real.rig_recording", "recover_partial": "real.rig_recording",
+    "RigStream": "real.rig_stream",
     "RealAcousticSensor": "real.sensor", "record_leaks": "real.sensor",
     "RealGraspEnv": "real.env", "RobotInterface": "real.env", "RobotState": "real.env",
 }

@@ -71,15 +71,15 @@ def _alsa_hint(lines: list[str], n: int = 3) -> str:
 SERVER_TIMEOUT_S = 3.0
 
 
-@contextlib.contextmanager
-def _portaudio(timeout_s: float = SERVER_TIMEOUT_S) -> Iterator[Any]:
+def _new_portaudio(timeout_s: float = SERVER_TIMEOUT_S) -> Any:
     """A fresh PortAudio session (device lists are read at initialization, so a new
-    session sees devices that appeared or vanished since the last one).
+    session sees devices that appeared or vanished since the last one); the caller
+    terminates it (:func:`_terminate_portaudio`).
 
-    Initializing and terminating wait at most ``timeout_s`` each for a sound server that does
-    not answer (:mod:`real.bounded`): :class:`DeviceLostError` instead of a hang. While a call
-    given up on earlier is still blocked, a new session fails at once saying so (it would
-    only queue behind it).
+    Initializing waits at most ``timeout_s`` for a sound server that does not answer
+    (:mod:`real.bounded`): :class:`DeviceLostError` instead of a hang. While a call given up
+    on earlier is still blocked, a new session fails at once saying so (it would only queue
+    behind it).
     """
     pa_mod = _require_pyaudio()
     still = bounded.wait_until_idle(timeout_s)
@@ -93,12 +93,24 @@ def _portaudio(timeout_s: float = SERVER_TIMEOUT_S) -> Iterator[Any]:
     if not done:
         raise DeviceLostError(f"the sound server did not answer within {timeout_s:g} s: PortAudio could not "
                               "initialize (server stalled or stopped?)", device="default")
+    return pa
+
+
+def _terminate_portaudio(pa, timeout_s: float = SERVER_TIMEOUT_S) -> None:
+    """Terminate a session, waiting at most ``timeout_s``; behind a close that is still
+    blocked, do not wait again: terminate after it."""
+    with _captured_stderr():
+        bounded.call_bounded(pa.terminate, 0.0 if bounded.pending() else timeout_s, "terminating")
+
+
+@contextlib.contextmanager
+def _portaudio(timeout_s: float = SERVER_TIMEOUT_S) -> Iterator[Any]:
+    """:func:`_new_portaudio` for a ``with`` block, terminated (bounded) at its end."""
+    pa = _new_portaudio(timeout_s)
     try:
         yield pa
     finally:
-        # Behind a close that is still blocked, do not wait again: terminate after it.
-        with _captured_stderr():
-            bounded.call_bounded(pa.terminate, 0.0 if bounded.pending() else timeout_s, "terminating")
+        _terminate_portaudio(pa, timeout_s)
 
 
 @dataclass(frozen=True)

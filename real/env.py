@@ -57,6 +57,16 @@ class RealGraspEnv(gym.Env):
     latest recording), ``waveform`` with ``include_waveform``. Reward: minus the TCP-object
     distance, +1 while grasped, +10 for a recording while grasped (ends the episode).
 
+    ``acoustic={"cadence": "stream"}`` (with a :class:`real.RealAcousticSensor`): the rig
+    records without a break while the excitation loops (a :class:`real.RigStream`, started by
+    ``reset``, closed by ``close``). Each step's ``audio`` holds the
+    ``round(control_period_s * sample_rate_hz)`` samples recorded from when the move starts
+    (``info["audio_phase_samples"]`` is their excitation phase; an episode's first step waits
+    for phase 0, at most one period, as the simulated stream starts there), ``acoustic`` the
+    features of the latest complete excitation period.
+    The sense action then ends the episode with success once the object was grasped through
+    a whole period; ``info["stream_problems"]`` lists xruns and lost alignment so far.
+
     Args:
         robot: a :class:`RobotInterface`.
         sensor: a ``sensors.AcousticSensor`` (:class:`real.RealAcousticSensor`, or any other).
@@ -97,12 +107,25 @@ class RealGraspEnv(gym.Env):
         self.home_tcp = np.asarray(home_tcp, dtype=float)
         self.reset_duration_s = float(reset_duration_s)
         self.action_space = spaces.Box(-1.0, 1.0, (6,), np.float32)
-        self.observation_space = spaces.Dict({**proprio_spaces(), **self.acoustic.spaces(self.excitation.sample_rate_hz)})
+        self.audio_samples = int(round(self.control_period_s * self.excitation.sample_rate_hz))
+        if self.acoustic.streaming:
+            from .sensor import RealAcousticSensor  # PortAudio only for a streaming env
+
+            if not isinstance(sensor, RealAcousticSensor):
+                raise TypeError(f"acoustic cadence 'stream' needs a real.RealAcousticSensor (its rig streams), "
+                                f"got {type(sensor).__name__}")
+            if self.audio_samples < 1:
+                raise ValueError(f"control_period_s={control_period_s} s holds no sample at "
+                                 f"{self.excitation.sample_rate_hz} Hz")
+        self.observation_space = spaces.Dict({**proprio_spaces(), **self.acoustic.spaces(
+            self.excitation.sample_rate_hz, self.audio_samples if self.acoustic.streaming else None)})
         self._acoustic = self._empty_acoustic()
         self._target = self.home_tcp.copy()
         self._gripper_closed: bool | None = None
         self._steps = 0
         self.last_recording = None
+        self.stream = None  # the RigStream of the episode (cadence "stream")
+        self._grasped_from: int | None = None  # stream index from which the grasp held
 
     @property
     def duration_s(self) -> float:
@@ -113,7 +136,8 @@ class RealGraspEnv(gym.Env):
         return self.acoustic.cadence
 
     def _empty_acoustic(self) -> dict[str, np.ndarray]:
-        return self.acoustic.empty(self.excitation.sample_rate_hz)
+        return self.acoustic.empty(self.excitation.sample_rate_hz,
+                                   self.audio_samples if self.acoustic.streaming else None)
 
     def _obs(self, s: RobotState) -> dict[str, np.ndarray]:
         obs = {
@@ -137,6 +161,8 @@ class RealGraspEnv(gym.Env):
         self._gripper_closed = False
         self._steps = 0
         self._acoustic = self._empty_acoustic()
+        if self.acoustic.streaming:
+            self._start_stream()
         s = self.robot.state()
         self._target = np.asarray(s.tcp, dtype=float).copy()
         return self._obs(s), {"grasped": bool(s.grasped)}
@@ -144,11 +170,17 @@ class RealGraspEnv(gym.Env):
     def step(self, action):
         # NaN or inf must never reach a real robot: refuse before any command is sent.
         a = np.clip(check_action(action, (6,)), -1.0, 1.0)
+        if self.acoustic.streaming and self.stream is None:
+            raise RuntimeError("reset() starts the acoustic stream: call it before step()")
         self._target = self._target + a[:4] * np.asarray(MAX_DELTA)
         close = not a[4] > 0
         if close != self._gripper_closed:  # command changes only: a real gripper re-grasps otherwise
             self.robot.grasp(self.grip_force_n) if close else self.robot.open()
             self._gripper_closed = close
+        if self.stream is not None:
+            # This step's audio starts as the move does; an episode's first, at phase 0.
+            self.stream.catch_up(period_start=self._steps == 0)
+            audio_start = self.stream.position
         self.robot.move(self._target, self.control_period_s)
         s = self.robot.state()
         self._steps += 1
@@ -159,7 +191,22 @@ class RealGraspEnv(gym.Env):
         terminated = False
         info: dict[str, Any] = {"grasped": grasped, "is_success": False}
         cadence = self.acoustic.cadence if self.acoustic.enabled else "never"
-        if cadence == "every_step" or (cadence == "action" and a[5] > 0):
+        if cadence == "stream":
+            audio = self.stream.read(self.audio_samples)
+            self._acoustic = self.acoustic.stream_entries(self.stream.latest_features(), audio)
+            info["audio_phase_samples"] = audio_start % self.excitation.period_samples
+            info["stream_problems"] = self.stream.problems
+            # Success: asked to stop while grasping, after a whole period recorded through the grasp.
+            if not grasped:
+                self._grasped_from = None
+            elif self._grasped_from is None:
+                self._grasped_from = audio_start
+            k = self.stream.latest_features_period
+            if a[5] > 0 and grasped and k >= 0 and k * self.excitation.period_samples >= self._grasped_from:
+                reward += 10.0
+                terminated = True
+                info["is_success"] = True
+        elif cadence == "every_step" or (cadence == "action" and a[5] > 0):
             rec = self.sensor.sense(self.excitation, self.duration_s)
             self.last_recording = rec
             self._acoustic = self.acoustic.entries(rec)
@@ -172,3 +219,18 @@ class RealGraspEnv(gym.Env):
                 info["is_success"] = True
         truncated = not terminated and self._steps >= self.max_episode_steps
         return self._obs(s), float(reward), terminated, truncated, info
+
+    def _start_stream(self) -> None:
+        """A new stream for the episode (nothing of the last one carries over), aligned."""
+        from .rig_stream import RigStream
+
+        self.close()
+        self.stream = RigStream(self.sensor.rig, self.excitation).start()
+        self.stream.catch_up()
+        self._grasped_from = None
+
+    def close(self) -> None:
+        """Close the stream (cadence ``"stream"``) and release the rig's devices."""
+        if self.stream is not None:
+            self.stream.close()
+            self.stream = None

@@ -1,5 +1,6 @@
-"""One recording on the rig: the PortAudio streams, their callbacks, the watch loop and the
-checks after it (latency, synchronization, xruns)."""
+"""The rig's PortAudio streams and their callbacks (:class:`_Streams`, shared with
+``real.rig_stream``), and one recording on them: the watch loop and the checks after it
+(latency, synchronization, xruns)."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ import numpy as np
 from sensors import Excitation
 
 from . import bounded
-from .devices import AudioDevice, _alsa_hint, _captured_stderr, pyaudio
+from .devices import AudioDevice, _alsa_hint, _captured_stderr, _terminate_portaudio, pyaudio
 from .errors import (DeviceLostError, ExcitationNotFoundError, RigError, RigWarning, StorageError,
                      UnsupportedSampleRateError, XrunError)
 from .latency import find_latency, period_lags, period_mismatch
@@ -26,19 +27,17 @@ if TYPE_CHECKING:
     from .rig import PyAudioRig
 from .rig_recording import _FLAGS, _PROBLEM_FLAGS, RigRecording, _PartialWriter
 
-class _Session:
-    """One recording: streams, callbacks, the watch loop and the post-checks."""
+
+class _Streams:
+    """The rig's PortAudio streams with the excitation looping on the actuator channel: the
+    callbacks, opening and starting, liveness and stopping. Input blocks queue up in
+    ``in_chunks`` (PortAudio's thread appends, the caller's thread drains)."""
 
     POLL_S = 0.02
-    DETECT_EVERY_S = 0.1
 
-    def __init__(self, rig: PyAudioRig, pa, din: AudioDevice, dout: AudioDevice, excitation: Excitation,
-                 duration_s: float, save_path, labels, on_progress=None) -> None:
+    def __init__(self, rig: PyAudioRig, pa, din: AudioDevice, dout: AudioDevice, excitation: Excitation) -> None:
         self.rig, self.pa, self.din, self.dout = rig, pa, din, dout
-        self.on_progress = on_progress
-        self.excitation, self.duration_s = excitation, duration_s
-        self.labels = labels
-        self.n_target = int(round(duration_s * rig.sample_rate_hz))
+        self.excitation = excitation
         # One period, actuator channel only, interleaved; tiled so any callback's block is a
         # contiguous slice.
         P = excitation.period_samples
@@ -54,17 +53,11 @@ class _Session:
         self.events: list[dict[str, Any]] = []
         self.last_in_t = None
         self.first_in = threading.Event()
+        self.new_input = threading.Event()  # set by every input callback: readers wait on it
         self.streams: list[Any] = []
+        self.started: set[str] = set()  # kinds of the streams started (the output waits for the input)
         self.stopping = False
         self.started_at = _dt.datetime.now(_dt.timezone.utc).isoformat()
-        self.writer = None
-        if save_path is not None:
-            self.writer = _PartialWriter(Path(save_path), {
-                "channels": rig.input_channels, "mic_channel": rig.mic_channel, "sample_rate_hz": rig.sample_rate_hz,
-                "dtype": "float32le interleaved", "excitation": excitation.to_dict(),
-                "metadata": {"source": "real", "device": {"input": din.to_dict(), "output": dout.to_dict()},
-                             "recorded_at": self.started_at, "labels": dict(labels or {}),
-                             "excitation": excitation.name}})
 
     # PortAudio threads ------------------------------------------------------------------
 
@@ -90,6 +83,7 @@ class _Session:
         self.in_frames += frame_count
         self.last_in_t = time.monotonic()
         self.first_in.set()
+        self.new_input.set()
         return (None, pyaudio.paContinue)
 
     def _out_cb(self, in_data, frame_count, time_info, status):
@@ -127,6 +121,7 @@ class _Session:
                            stream_callback=self._duplex_cb)
             self.streams.append(("duplex", s))
             s.start_stream()
+            self.started.add("duplex")
             self._wait_first_input()
             return
         sin = self._open(channels=rig.input_channels, input=True, input_device_index=self.din.index,
@@ -136,9 +131,11 @@ class _Session:
                           stream_callback=self._out_cb)
         self.streams.append(("output", sout))
         sin.start_stream()
+        self.started.add("input")
         # The output starts once the input runs, so the first period is always recorded.
         self._wait_first_input()
         sout.start_stream()
+        self.started.add("output")
 
     def _wait_first_input(self) -> None:
         deadline = time.monotonic() + self.rig.start_timeout_s
@@ -154,7 +151,9 @@ class _Session:
                 active = s.is_active()
             except OSError:
                 active = False
-            if not active and not self.stopping and (kind != "output" or self.first_in.is_set()):
+            # Only started streams: the first input can arrive between the wait for it and
+            # this check, while the output is not started yet (a 'lost' output under load).
+            if not active and not self.stopping and kind in self.started:
                 dev = self.dout if kind == "output" else self.din
                 raise DeviceLostError(f"{kind} stream on device {dev} stopped during the recording "
                                       "(device disconnected or sound server gone)", device=dev.name)
@@ -163,22 +162,21 @@ class _Session:
                                   "during the recording (device disconnected or sound server gone)",
                                   device=self.din.name)
 
-    def _drain(self, parts: list[np.ndarray]) -> int:
-        got = 0
+    def _take(self) -> list[np.ndarray]:
+        """The input blocks queued since the last call, ``(frames, input_channels)`` each."""
         ch = self.rig.input_channels
+        out = []
         while self.in_chunks:
-            block = np.frombuffer(self.in_chunks.popleft(), dtype=np.float32).reshape(-1, ch)
-            parts.append(block)
-            if self.writer is not None:
-                self.writer.append(block)
-            got += block.shape[0]
-        return got
+            out.append(np.frombuffer(self.in_chunks.popleft(), dtype=np.float32).reshape(-1, ch))
+        return out
 
-    def _stop(self) -> bool:
-        """Stop and close the streams. A stream of a stalled or vanished sound server blocks
-        in PortAudio until the server answers, so this waits at most the rig's
+    def _stop(self, terminate: bool = False) -> bool:
+        """Stop and close the streams (and with ``terminate`` end the PortAudio session after
+        them: terminating closes blocked ones again). A stream of a stalled or vanished sound
+        server blocks in PortAudio until the server answers, so this waits at most the rig's
         ``server_timeout_s`` (:mod:`real.bounded`); returns False if it gave up (the streams
-        then close when the server answers, and new sessions are refused until they have)."""
+        then close when the server answers, and new sessions are refused until they have).
+        Callers keep PortAudio's diagnostics off the terminal."""
         self.stopping = True
         streams = [s for _, s in self.streams]
 
@@ -191,7 +189,59 @@ class _Session:
 
         with _captured_stderr():
             done, _ = bounded.call_bounded(close_all, self.rig.server_timeout_s, "closing the streams")
+        if terminate:
+            _terminate_portaudio(self.pa, self.rig.server_timeout_s)
         return done
+
+    def _reported_latency(self) -> dict[str, float]:
+        """PortAudio's own input/output latency estimates, seconds."""
+        reported = {}
+        for kind, s in self.streams:
+            with contextlib.suppress(Exception):
+                if kind in ("input", "duplex"):
+                    reported["input"] = float(s.get_input_latency())
+                if kind in ("output", "duplex"):
+                    reported["output"] = float(s.get_output_latency())
+        return reported
+
+    def _flag_problems(self) -> list[str]:
+        """One line per callback status flag seen (priming the output is no problem)."""
+        flags: dict[str, int] = {}
+        for ev in self.events:
+            if ev["flag"] != "priming_output":
+                flags[f"{ev['stream']} {ev['flag']}"] = flags.get(f"{ev['stream']} {ev['flag']}", 0) + 1
+        return [f"{n} callback(s) flagged {k}" for k, n in sorted(flags.items())]
+
+
+class _Session(_Streams):
+    """One recording: the streams, the watch loop and the post-checks."""
+
+    DETECT_EVERY_S = 0.1
+
+    def __init__(self, rig: PyAudioRig, pa, din: AudioDevice, dout: AudioDevice, excitation: Excitation,
+                 duration_s: float, save_path, labels, on_progress=None) -> None:
+        super().__init__(rig, pa, din, dout, excitation)
+        self.on_progress = on_progress
+        self.duration_s = duration_s
+        self.labels = labels
+        self.n_target = int(round(duration_s * rig.sample_rate_hz))
+        self.writer = None
+        if save_path is not None:
+            self.writer = _PartialWriter(Path(save_path), {
+                "channels": rig.input_channels, "mic_channel": rig.mic_channel, "sample_rate_hz": rig.sample_rate_hz,
+                "dtype": "float32le interleaved", "excitation": excitation.to_dict(),
+                "metadata": {"source": "real", "device": {"input": din.to_dict(), "output": dout.to_dict()},
+                             "recorded_at": self.started_at, "labels": dict(labels or {}),
+                             "excitation": excitation.name}})
+
+    def _drain(self, parts: list[np.ndarray]) -> int:
+        got = 0
+        for block in self._take():
+            parts.append(block)
+            if self.writer is not None:
+                self.writer.append(block)
+            got += block.shape[0]
+        return got
 
     def run(self) -> RigRecording:
         rig = self.rig
@@ -204,12 +254,7 @@ class _Session:
         reported = {}
         try:
             self._start()
-            for kind, s in self.streams:
-                with contextlib.suppress(Exception):
-                    if kind in ("input", "duplex"):
-                        reported["input"] = float(s.get_input_latency())
-                    if kind in ("output", "duplex"):
-                        reported["output"] = float(s.get_output_latency())
+            reported = self._reported_latency()
             while True:
                 time.sleep(self.POLL_S)
                 total += self._drain(parts)
@@ -295,11 +340,7 @@ class _Session:
                     problems.append(f"period {int(bad[0]) + 1} differs from the one before by "
                                     f"{100 * mismatch[bad[0]]:.2g} % RMS (tolerance {100 * rig.period_tolerance:.2g} %): "
                                     "samples were dropped, inserted or corrupted")
-        flags: dict[str, int] = {}
-        for ev in self.events:
-            if ev["flag"] != "priming_output":
-                flags[f"{ev['stream']} {ev['flag']}"] = flags.get(f"{ev['stream']} {ev['flag']}", 0) + 1
-        problems += [f"{n} callback(s) flagged {k}" for k, n in sorted(flags.items())]
+        problems += self._flag_problems()
         return RigRecording(
             input=data, mic_channel=rig.mic_channel, sample_rate_hz=rig.sample_rate_hz, excitation=self.excitation,
             duration_s=self.duration_s, latency_samples=latency, period_lags_samples=lags, events=list(self.events),

@@ -146,3 +146,8 @@ def test_real_package_never_imports_aas_gym():
                 names = [node.module]
             offenders += [f"{path.name}: {n}" for n in names if n.split(".")[0] in ("aas_gym", "mujoco")]
     assert not offenders, offenders
+
+
+def test_streaming_needs_the_rig():
+    with pytest.raises(TypeError, match="cadence 'stream' needs a real.RealAcousticSensor"):
+        RealGraspEnv(_CommandLog(), _Recorder(), acoustic={"cadence": "stream"})
