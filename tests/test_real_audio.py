@@ -342,7 +342,13 @@ def test_xrun_policy_on_a_drifting_full_duplex_stream(audio_loopback):
     ex = sensors.Excitation.by_name("linear")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        rec = rig.record(ex, 1.5)
+        try:
+            rec = rig.record(ex, 1.5)
+        except real.DeviceLostError as exc:
+            # Under load ALSA's pulse plugin can stop a duplex stream for good: the rig says
+            # so, naming it, and hands back what it recorded (seen once in 4 loaded runs).
+            assert "duplex stream" in str(exc) and exc.recording is not None and not exc.recording.complete
+            return
     # The rig judges the whole kept recording (1.5 s after the latency, every complete
     # period) by alignment and period-to-period consistency; here each period is compared
     # with the truth, the excitation itself.
