@@ -2,5 +2,19 @@
 
 import os
 
+import pytest
+
 # Headless rendering unless the caller chose a backend (must precede any mujoco import).
 os.environ.setdefault("MUJOCO_GL", "egl")
+
+
+@pytest.fixture(scope="session")
+def audio_loopback(tmp_path_factory):
+    """A PulseAudio null-sink loopback of this test process's own, in a fresh runtime folder:
+    two runs (or two xdist workers) never share (or stop) each other's sound server; the
+    audio test files of one process share it."""
+    from real import loopback
+
+    lb = loopback.start_loopback(runtime_dir=tmp_path_factory.mktemp("pulse"))
+    yield lb
+    loopback.stop_loopback(lb.runtime_dir)

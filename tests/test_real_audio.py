@@ -1,9 +1,10 @@
 """The real audio path, for real: PyAudio -> ALSA -> PulseAudio null sink -> monitor -> PyAudio.
 
-A session fixture starts a private PulseAudio server (``real.loopback``); the tests play each
-excitation and record it back, check latency, window alignment and features, feed the
-recordings to a classifier trained on simulated-source observations, record a leak, and
-inject faults (no device, device vanishing mid-recording, unsupported rate, killed process).
+A session fixture (tests/conftest.py) starts a private PulseAudio server (``real.loopback``);
+the tests play each excitation and record it back, check latency, window alignment and
+features, feed the recordings to a classifier trained on simulated-source observations,
+record a leak, and inject faults (no device, device vanishing mid-recording, unsupported rate,
+killed process).
 Needs Debian pulseaudio + libasound2-plugins (+ portaudio19-dev for PyAudio).
 """
 
@@ -32,22 +33,14 @@ import real  # noqa: E402
 import sensors  # noqa: E402
 from real import loopback  # noqa: E402
 
-# One PulseAudio server, which some tests kill and restart: every test that plays or records
-# audio is in this file, so that `pytest-xdist --dist loadfile` keeps them on one worker
-# (the group mark does the same for `--dist loadgroup`).
+# One PulseAudio server per test process (`audio_loopback`, tests/conftest.py), which some
+# tests kill and restart: the tests that play or record audio are in this file and
+# test_real_stream.py, each on one worker under `pytest-xdist --dist loadfile` (the group
+# mark does the same for `--dist loadgroup`).
 pytestmark = [pytest.mark.audio, pytest.mark.slow, pytest.mark.xdist_group("real_audio")]
 EXCITATIONS = ["impulse", "linear", "exponential"]
 GAIN = 0.5  # headroom: a full-scale loopback reads exactly 1.0, which the rig flags as clipping
 DURATION_S = 1.0
-
-
-@pytest.fixture(scope="session")
-def audio_loopback(tmp_path_factory):
-    """A PulseAudio null-sink loopback of this test run's own, in a fresh runtime folder: two
-    runs on one machine never share (or stop) each other's sound server."""
-    lb = loopback.start_loopback(runtime_dir=tmp_path_factory.mktemp("pulse"))
-    yield lb
-    loopback.stop_loopback(lb.runtime_dir)
 
 
 def _restore(lb) -> None:
