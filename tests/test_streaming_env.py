@@ -190,3 +190,12 @@ def test_contact_formation_baselines_train_and_report_per_class():
     levels = step_band_levels(tone, 44100)
     assert levels.shape == (24,) and np.argmax(levels) == np.searchsorted(
         np.geomspace(50.0, 20000.0, 25), 800) - 1
+
+
+@pytest.mark.parametrize("env_id", ["aas_gym/AcousticGrasp-v0", "aas_gym/ObjectRecognition-v0"])
+def test_streaming_mode_passes_check_env(env_id):
+    from gymnasium.utils.env_checker import check_env
+
+    kwargs = {"objects": ["aluminium_bar", "wood_bar"]} if "Recognition" in env_id else {}
+    env = gym.make(env_id, acoustic={"cadence": "stream", "feature_scale": "db", "duration_s": 0.5}, **kwargs)
+    check_env(env.unwrapped, skip_render_check=True)
