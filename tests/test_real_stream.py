@@ -149,7 +149,11 @@ def _read_until_lost(stream, fault) -> tuple[real.DeviceLostError | None, list[n
     return result.get("error"), result["reads"]
 
 
-@pytest.mark.parametrize("how", ["kill_server", "freeze_server"])
+# "freeze_server" (SIGSTOP) is not run in this process: after a frozen server resumes,
+# PortAudio's terminate can stay blocked for good (seen under load), and every later audio
+# session of the process is then refused by design (real.bounded). The no-hang guarantee for a
+# frozen server is tested in a child process (test_real_audio.py, stalled sound server).
+@pytest.mark.parametrize("how", ["kill_server"])
 def test_lost_device_raises_and_keeps_what_was_recorded(rig, audio_loopback, how):
     """SIGKILL: the streams die. SIGSTOP: the server freezes and the input stalls, while
     PortAudio's streams stay 'active' (the stall timeout catches it)."""
