@@ -279,7 +279,7 @@ class SimAcousticSensor:
         if not (np.isfinite(duration_s) and duration_s > 0):
             raise ValueError(f"duration_s must be > 0, got {duration_s!r}")
         contacts = self.contacts()
-        leak = self._leak_for(excitation, variation.leak_scale)
+        leak = self.leak_for(excitation, variation.leak_scale)
         try:
             body, act, mic, others = self.grasp_contacts(contacts)
         except NoGraspError:
@@ -298,7 +298,7 @@ class SimAcousticSensor:
                 changes["object_mass_kg"] = spec.mass_kg
             fingertip = fingertip.with_(**changes)
         obs = sensors.simulate_recording(
-            self._scaled_model(body, variation), excitation, duration_s, act, mic, other_contacts=others,
+            self.scaled_model(body, variation), excitation, duration_s, act, mic, other_contacts=others,
             fingertip=fingertip, leak=leak, noise_std=noise_std, rng=rng, cache=self.cache)
         obs.metadata.update({
             "source": "sim", "grasped": True, "object_body": body,
@@ -309,7 +309,7 @@ class SimAcousticSensor:
         })
         return obs
 
-    def _leak_for(self, excitation, leak_scale: float = 1.0):
+    def leak_for(self, excitation, leak_scale: float = 1.0):
         """The leak recording for ``excitation`` (scaled by ``leak_scale``), or ``None``."""
         leak = self.leak
         if leak is None:
@@ -325,7 +325,7 @@ class SimAcousticSensor:
                                  dict(leak.metadata))
         return leak
 
-    def _scaled_model(self, body: str, variation: SensorVariation):
+    def scaled_model(self, body: str, variation: SensorVariation):
         """The modal model of ``body`` in the episode's randomized material (an exact
         ``sensors.MaterialView``, memoized so the synthesis cache recognizes it)."""
         model = self.modal_model(body)

@@ -69,7 +69,7 @@ class SimAcousticStream:
         noise = sensor.noise_std if variation.noise_std is None else variation.noise_std
         self.tolerance = tolerance or ContactTolerance()
         self.stream = AcousticStream(excitation, fingertip=sensor.fingertip,
-                                     leak=sensor._leak_for(excitation, variation.leak_scale), noise_std=noise,
+                                     leak=sensor.leak_for(excitation, variation.leak_scale), noise_std=noise,
                                      rng=rng if rng is not None else sensor.rng, tolerance=self.tolerance)
         self.bodies = sensor.bodies
         self._vec_adr, self._grasp_adr = _signature_addresses(self.model, self.bodies)
@@ -145,7 +145,7 @@ class SimAcousticStream:
             tips[kind] = None if patch is None else Contact(position_m=patch[0], normal=patch[1],
                                                             force_n=patch[2], friction=patch[3])
         others = c.select(~np.isin(c.kinds, ("actuator", "mic"))).to_sensor_contacts(self._min_force_n)
-        model = self.sensor._scaled_model(body, self.variation)
+        model = self.sensor.scaled_model(body, self.variation)
         return GraspState(model, tips["actuator"], tips["mic"], tuple(others), object_key=body)
 
     # -- recording ---------------------------------------------------------------------------
