@@ -227,14 +227,14 @@ def _lines(segments: list[tuple[float, float, int]]) -> np.ndarray:
     return _levels(segments)
 
 
-def box(length_m: float = 0.10, width_m: float = 0.07, height_m: float = 0.05, wall_m: float = 0.0025,
+def box(length_m: float = 0.08, width_m: float = 0.06, height_m: float = 0.045, wall_m: float = 0.004,
         material="abs") -> EverydayObject:
     """An open-top ABS box: floor at x = 0, opening at +x, footprint width (y) x length (z)."""
     dims = dict(length_m=length_m, width_m=width_m, height_m=height_m, wall_m=wall_m)
     hw, hl, t = 0.5 * width_m, 0.5 * length_m, wall_m
 
     def mesher(resolution: float = 1.0) -> TetMesh:
-        ny, nz = _n(6, resolution), _n(8, resolution)
+        ny, nz = _n(8, resolution), _n(10, resolution)
         y = _lines([(-hw, -hw + t, 1), (-hw + t, hw - t, ny), (hw - t, hw, 1)])
         z = _lines([(-hl, -hl + t, 1), (-hl + t, hl - t, nz), (hl - t, hl, 1)])
         tpl = grid_template(y, z, lambda u, v: ((np.abs(u) > hw - t) | (np.abs(v) > hl - t)).astype(int))
@@ -259,10 +259,10 @@ def l_bracket(flange_m: float = 0.04, thickness_m: float = 0.003, width_m: float
     t = thickness_m
 
     def mesher(resolution: float = 1.0) -> TetMesh:
-        n = _n(8, resolution)
+        n = _n(12, resolution)
         lines = _lines([(0.0, t, 1), (t, flange_m, n)])
         tpl = grid_template(lines, lines, lambda u, v: np.where((u < t) | (v < t), 0, -1))
-        levels = np.linspace(-0.5 * width_m, 0.5 * width_m, _n(5, resolution) + 1)
+        levels = np.linspace(-0.5 * width_m, 0.5 * width_m, _n(8, resolution) + 1)
 
         def place(p, k):
             return np.column_stack([np.full(len(p), levels[k]), p])

@@ -149,12 +149,14 @@ def min_thickness_m(surface: trimesh.Trimesh, n_samples: int = 2000, seed: int =
     """
     points, face = trimesh.sample.sample_surface_even(surface, n_samples, seed=seed)
     normals = surface.face_normals[face]
-    origins = points - normals * 1e-7 * float(np.ptp(surface.vertices, axis=0).max())
+    # Closer than this a ray re-hits its own face; the offset is added back to the distance.
+    offset = 1e-4 * float(np.ptp(surface.vertices, axis=0).max())
+    origins = points - normals * offset
     hit_face, ray, loc = surface.ray.intersects_id(origins, -normals, multiple_hits=False, return_locations=True)
     opposite = np.einsum("ij,ij->i", surface.face_normals[hit_face], normals[ray]) < -0.5
     if not opposite.any():
         return float("inf")
-    return float(np.linalg.norm(loc[opposite] - origins[ray[opposite]], axis=1).min())
+    return float(np.linalg.norm(loc[opposite] - origins[ray[opposite]], axis=1).min()) + offset
 
 
 def estimate_p2_dof(volume_m3: float, element_size_m: float) -> int:
