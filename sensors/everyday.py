@@ -28,9 +28,11 @@ from typing import Callable
 import numpy as np
 import trimesh
 
-from .layered_meshing import grid_template, layered_mesh, revolved_mesh
+from .layered_meshing import grid_template, layered_mesh, p2_dof_count, revolved_mesh
 from .materials import Material, get_material
 from .meshing import TetMesh, boundary_faces
+from .modal_model import ModalModel
+from .surface_meshing import check_dof, tetrahedralize_tuned
 
 __all__ = ["EverydayObject", "EVERYDAY_OBJECTS", "everyday_object", "can", "glass", "bottle", "mug", "box",
            "spoon", "l_bracket"]
@@ -68,12 +70,15 @@ class EverydayObject:
         """The solid's tet mesh (``resolution`` multiplies element counts per direction)."""
         return self.tet_mesher(resolution=resolution)
 
-    def modal_model(self, **options):
-        """The object's :class:`~sensors.ModalModel` (cached); options as ``from_tet_mesh``."""
-        from .modal_model import ModalModel
+    def modal_model(self, resolution: float = 1.0, max_dof: int | None = None, **options):
+        """The object's :class:`~sensors.ModalModel` (cached); options as ``from_tet_mesh``.
 
-        resolution = options.pop("resolution", 1.0)
-        return ModalModel.from_tet_mesh(self.tet_mesh(resolution), self.material, **options)
+        Refuses (:class:`~sensors.surface_meshing.MeshTooLargeError`) a mesh above ``max_dof``
+        P2 dofs (default :data:`~sensors.surface_meshing.DEFAULT_MAX_DOF`) before assembling.
+        """
+        tm = self.tet_mesh(resolution)
+        check_dof(p2_dof_count(tm), max_dof, f"the {self.name} at resolution {resolution}")
+        return ModalModel.from_tet_mesh(tm, self.material, **options)
 
     @property
     def mass_kg(self) -> float:
@@ -196,8 +201,6 @@ def bottle(body_radius_m: float = 0.032, neck_radius_m: float = 0.013, wall_m: f
 def mug(outer_radius_m: float = 0.038, wall_m: float = 0.0045, height_m: float = 0.095, floor_m: float = 0.007,
         handle_radius_m: float = 0.026, handle_thickness_m: float = 0.011, material="ceramic") -> EverydayObject:
     """A ceramic mug (76 mm across) with a ring handle on the +y side, tet-meshed by pytetwild."""
-    from .surface_meshing import tetrahedralize_tuned
-
     ro, ri = outer_radius_m, outer_radius_m - wall_m
     body = _revolve_x(np.array([[0.0, 0.0], [0.0, ro], [height_m, ro], [height_m, 0.0]]))
     inside_xr = np.array([[floor_m, 0.0], [floor_m, ri], [height_m + 0.01, ri], [height_m + 0.01, 0.0]])
@@ -260,7 +263,7 @@ def l_bracket(flange_m: float = 0.04, thickness_m: float = 0.003, width_m: float
 
     def mesher(resolution: float = 1.0) -> TetMesh:
         n = _n(12, resolution)
-        lines = _lines([(0.0, t, 1), (t, flange_m, n)])
+        lines = _lines([(0.0, t, 2), (t, flange_m, n)])
         tpl = grid_template(lines, lines, lambda u, v: np.where((u < t) | (v < t), 0, -1))
         levels = np.linspace(-0.5 * width_m, 0.5 * width_m, _n(8, resolution) + 1)
 
