@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 
+import gmsh
 import numpy as np
 import scipy.sparse.linalg
 
@@ -66,9 +67,7 @@ def _occ_solid(obj, gmsh):
 def gmsh_p2_mesh(obj, mesh_size_m: float):
     """Curved 10-node tets of the object from gmsh: (corner nodes (n, 3), tets (m, 4), mid-node
     coordinates keyed by sorted corner pair)."""
-    import gmsh
-
-    gmsh.initialize(interruptible=False)
+    gmsh.initialize([], readConfigFiles=False, interruptible=False)  # not sys.argv: gmsh parses it
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add(obj.name)
