@@ -136,7 +136,7 @@ def reference_frequencies_hz(obj, n_modes: int, mesh_size_m: float, material: Ma
     mesh = MeshTet2.from_mesh(MeshTet(nodes.T.copy(), tets.T.copy()))
     doflocs = mesh.doflocs.copy()
     nv = len(nodes)
-    e = mesh.edges
+    e = mesh.edges.astype(np.int64)
     key = np.minimum(e[0], e[1]) * nv + np.maximum(e[0], e[1])
     doflocs[:, nv:] = np.array([mids[k] for k in key.tolist()]).T
     mesh = MeshTet2(doflocs, mesh.t)
