@@ -1,0 +1,105 @@
+"""MuJoCo collision geometry and inertia of a solid given by its closed surface.
+
+Collision: a convex decomposition by CoACD (approximate convex decomposition with a
+collision-aware concavity metric), cached on disk content-addressed like the modal models
+(:mod:`sensors.cache`), as convex pieces ready for MJCF ``<mesh vertex="...">`` assets
+(MuJoCo takes the convex hull of each mesh asset's vertices for collision).
+
+Mass and inertia come from the solid itself (trimesh's exact polyhedral integrals) with the
+material density, not from the pieces, whose union over-covers concave regions.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+
+import coacd
+import numpy as np
+import trimesh
+
+from sensors import cache as cache_mod
+from sensors.materials import get_material
+
+__all__ = ["CollisionGeometry", "convex_decomposition", "collision_geometry", "mass_properties"]
+
+log = logging.getLogger(__name__)
+
+#: CoACD settings: a concavity threshold of 2% of the bounding box keeps a mug's handle and
+#: cavity open with about 10-40 pieces; the seed makes it deterministic.
+COACD_OPTIONS = dict(threshold=0.02, max_convex_hull=64, preprocess_mode="auto", resolution=2000,
+                     mcts_iterations=100, seed=0)
+
+
+@dataclasses.dataclass(frozen=True)
+class CollisionGeometry:
+    """Convex collision pieces plus the solid's rigid-body properties, in the object frame.
+
+    Attributes:
+        pieces: list of (k_i, 3) vertex arrays [m], each the vertices of a convex hull.
+        mass_kg: Mass of the solid.
+        center_of_mass_m: (3,) centre of mass.
+        inertia_kg_m2: (3, 3) inertia tensor about the centre of mass, object axes.
+        build_time_s: Time of the decomposition (0 for a cache hit).
+    """
+
+    pieces: list
+    mass_kg: float
+    center_of_mass_m: np.ndarray
+    inertia_kg_m2: np.ndarray
+    build_time_s: float = 0.0
+
+    def mjcf_mesh_vertices(self) -> list[str]:
+        """Each piece's vertices as the space-separated string of an MJCF ``<mesh vertex=>``."""
+        return [" ".join(f"{v:.9g}" for v in piece.ravel()) for piece in self.pieces]
+
+    def to_dict(self) -> dict:
+        """JSON-friendly form."""
+        return {"pieces": [p.tolist() for p in self.pieces], "mass_kg": self.mass_kg,
+                "center_of_mass_m": self.center_of_mass_m.tolist(), "inertia_kg_m2": self.inertia_kg_m2.tolist()}
+
+
+def mass_properties(surface: trimesh.Trimesh, density_kg_m3: float):
+    """(mass [kg], centre of mass (3,), inertia about it (3, 3)) of the closed solid."""
+    mesh = trimesh.Trimesh(surface.vertices, surface.faces, process=False)
+    mesh.density = float(density_kg_m3)
+    return float(mesh.mass), np.asarray(mesh.center_mass, float), np.asarray(mesh.moment_inertia, float)
+
+
+def convex_decomposition(surface: trimesh.Trimesh, cache: bool = True, cache_dir=None, **options) -> tuple[list, float]:
+    """Convex pieces of a closed surface by CoACD, cached; returns (pieces, build time [s])."""
+    opts = {**COACD_OPTIONS, **options}
+    vertices = np.ascontiguousarray(surface.vertices, dtype=np.float64)
+    faces = np.ascontiguousarray(surface.faces, dtype=np.int64)
+    key = cache_mod.content_key("coacd", coacd.__version__ if hasattr(coacd, "__version__") else "coacd",
+                                vertices, faces, opts)
+    if cache:
+        hit = cache_mod.load_arrays(key, cache_dir)
+        if hit is not None:
+            return np.split(hit["vertices"], hit["offsets"][1:-1]), 0.0
+    start = time.perf_counter()
+    coacd.set_log_level("error")
+    parts = coacd.run_coacd(coacd.Mesh(vertices, faces), **opts)
+    pieces = []
+    for v, f in parts:
+        hull = trimesh.Trimesh(np.asarray(v, float), np.asarray(f), process=True).convex_hull
+        pieces.append(np.asarray(hull.vertices, float))
+    elapsed = time.perf_counter() - start
+    log.info("CoACD: %d pieces in %.1f s", len(pieces), elapsed)
+    if cache:
+        offsets = np.cumsum([0] + [len(p) for p in pieces])
+        cache_mod.save_arrays(key, {"vertices": np.concatenate(pieces), "offsets": offsets}, cache_dir)
+    return pieces, elapsed
+
+
+def collision_geometry(surface: trimesh.Trimesh, material, cache: bool = True, cache_dir=None,
+                       **options) -> CollisionGeometry:
+    """Convex pieces (cached CoACD) and mass properties of a closed surface in a material.
+
+    The surface should already have passed :func:`sensors.surface_meshing.check_surface`.
+    """
+    material = get_material(material)
+    pieces, elapsed = convex_decomposition(surface, cache=cache, cache_dir=cache_dir, **options)
+    mass, com, inertia = mass_properties(surface, material.density_kg_m3)
+    return CollisionGeometry(pieces, mass, com, inertia, elapsed)

@@ -1,0 +1,159 @@
+"""Structured tet meshes of layered solids: revolved containers, extruded frames and plates.
+
+A layered solid is a 2D template triangulation swept through ``n`` layers. Each layer keeps
+only some template triangles (a container's floor keeps the whole disk, its wall only the
+annulus), and every layer places the template points in 3D on its own (a bottle's radius
+changes with height, a spoon's bowl is dished). The sweep and the prism-to-tet split are
+:func:`sensors.meshing._extrude`'s, whose global-number rule keeps the mesh conforming, so
+switching triangles off layer by layer never leaves a hanging face.
+
+Templates here:
+
+* :func:`disk_template` - an O-grid disk of radius 1 (square core, the same grid
+  ``rod_mesh`` uses) plus an annulus from radius 1 to 2 with ``n_wall`` rings: the cavity is the
+  unit disk, the wall the annulus. :func:`revolved_mesh` maps them to radii per height.
+* :func:`grid_template` - a tensor grid of a rectangle with given lines (box walls, L shapes,
+  spoon planforms).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .meshing import TetMesh, _extrude, _grid_triangles, _orient, boundary_faces, rod_mesh
+
+__all__ = ["Template", "disk_template", "grid_template", "layered_mesh", "revolved_mesh", "p2_dof_count"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Template:
+    """A 2D triangulation swept by :func:`layered_mesh`.
+
+    Attributes:
+        points: (p, 2) template coordinates.
+        triangles: (t, 3) point indices.
+        region: (t,) integer label per triangle (e.g. 0 = cavity disk, 1 = wall annulus).
+    """
+
+    points: np.ndarray
+    triangles: np.ndarray
+    region: np.ndarray
+
+
+def disk_template(n_theta: int, n_wall: int) -> Template:
+    """O-grid unit disk (region 0) plus the annulus 1 <= rho <= 2 (region 1).
+
+    ``n_theta`` (a multiple of 8) points around; ``n_wall`` element rings across the annulus.
+    The disk's grid is taken from :func:`sensors.meshing.rod_mesh` (its first cross-section).
+    """
+    if n_theta % 8:
+        raise ValueError(f"n_theta must be a multiple of 8, got {n_theta}")
+    # rod_mesh puts 2 ceil(r / (2 h)) core cells per side and 4 times that many points around.
+    rod = rod_mesh(1.0, 1.0, element_size_m=4.0 / n_theta)
+    x = rod.vertices_m[:, 0]
+    first = np.flatnonzero(np.isclose(x, x.min()))
+    p = len(first)
+    assert np.array_equal(first, np.arange(p))  # _extrude stores layer 0 first
+    points = rod.vertices_m[:p, 1:].copy()
+    faces, _ = boundary_faces(rod.tets)
+    disk_tris = faces[(faces < p).all(axis=1)]
+    rho = np.hypot(points[:, 0], points[:, 1])
+    rim = np.flatnonzero(np.isclose(rho, 1.0))
+    rim = rim[np.argsort(np.mod(np.arctan2(points[rim, 1], points[rim, 0]), 2 * math.pi))]
+    theta = np.arctan2(points[rim, 1], points[rim, 0])
+    assert len(rim) == n_theta
+    rings = [rim]
+    new = []
+    for j in range(1, n_wall + 1):
+        r = 1.0 + j / n_wall
+        start = p + (j - 1) * n_theta
+        new.append(np.stack([r * np.cos(theta), r * np.sin(theta)], 1))
+        rings.append(start + np.arange(n_theta))
+    index = np.stack(rings)
+    index = np.concatenate([index, index[:, :1]], axis=1)
+    wall_tris = _grid_triangles(n_wall, n_theta, index)
+    points = np.concatenate([points] + new)
+    triangles = np.concatenate([disk_tris, wall_tris])
+    region = np.concatenate([np.zeros(len(disk_tris), int), np.ones(len(wall_tris), int)])
+    return Template(points, triangles, region)
+
+
+def grid_template(u_lines: np.ndarray, v_lines: np.ndarray, region_of_cell) -> Template:
+    """Tensor grid over ``u_lines`` x ``v_lines`` (ascending); ``region_of_cell(u_c, v_c)``
+    labels each cell from its centre (a negative label drops the cell)."""
+    u, v = np.asarray(u_lines, float), np.asarray(v_lines, float)
+    uu, vv = np.meshgrid(u, v, indexing="ij")
+    points = np.stack([uu.ravel(), vv.ravel()], 1)
+    index = np.arange(len(points)).reshape(len(u), len(v))
+    tris = _grid_triangles(len(u) - 1, len(v) - 1, index)
+    centre = points[tris].mean(axis=1)
+    region = np.asarray(region_of_cell(centre[:, 0], centre[:, 1]), dtype=int)
+    keep = region >= 0
+    return Template(points, tris[keep], region[keep])
+
+
+def layered_mesh(template: Template, n_layers: int, active, place, kind: str = "mesh",
+                 dimensions_m: dict | None = None, cylinder_radii_m: tuple = ()) -> TetMesh:
+    """Sweep ``template`` through ``n_layers`` layers into a conforming tet mesh.
+
+    Args:
+        active: (n_layers, t) bool, or callable(layer) -> (t,) bool: the template triangles
+            that are solid in each layer.
+        place: callable(points (p, 2), level) -> (p, 3): the 3D position of every template
+            point on level ``0 .. n_layers`` (levels bound the layers).
+        cylinder_radii_m: exact cylinders about x whose P2 mid-edge nodes
+            :func:`sensors.meshing.quadratic_mesh` curves onto them.
+    """
+    n_tri = len(template.triangles)
+    if callable(active):
+        active = np.stack([np.asarray(active(k), bool) for k in range(n_layers)])
+    active = np.asarray(active, bool).reshape(n_layers, n_tri)
+    _, tets = _extrude(template.points, template.triangles, 1.0, n_layers)
+    tets = tets[np.tile(active.ravel(), 3)]
+    coords = np.concatenate([np.asarray(place(template.points, k), float) for k in range(n_layers + 1)])
+    used, inverse = np.unique(tets, return_inverse=True)
+    vertices = coords[used]
+    tets = _orient(vertices, inverse.reshape(-1, 4))
+    return TetMesh(vertices, tets, kind, dict(dimensions_m or {}), tuple(cylinder_radii_m))
+
+
+def revolved_mesh(levels_x_m: np.ndarray, inner_radius_m, outer_radius_m, floor_layers: int,
+                  n_theta: int = 48, n_wall: int = 1, kind: str = "container", dimensions_m: dict | None = None,
+                  cylinder_radii_m: tuple = ()) -> TetMesh:
+    """A container about the x axis: solid floor, then an open wall.
+
+    Args:
+        levels_x_m: (n + 1,) ascending axial positions of the layer boundaries [m].
+        inner_radius_m, outer_radius_m: callables x -> radius [m] of the wall's inner and outer
+            surface (in the floor, the inner radius only places the inner grid ring).
+        floor_layers: the first ``floor_layers`` layers are the solid floor.
+    """
+    levels = np.asarray(levels_x_m, float)
+    tpl = disk_template(n_theta, n_wall)
+    rho_t = np.hypot(tpl.points[:, 0], tpl.points[:, 1])
+    unit = tpl.points / np.where(rho_t > 0, rho_t, 1.0)[:, None]
+    wall = tpl.region == 1
+
+    def place(points, k):
+        x = levels[k]
+        ri, ro = float(inner_radius_m(x)), float(outer_radius_m(x))
+        r = np.where(rho_t <= 1.0 + 1e-12, rho_t * ri, ri + (rho_t - 1.0) * (ro - ri))
+        # Exact radii on the rings (no round-off) so quadratic_mesh recognises the cylinders.
+        out = np.empty((len(points), 3))
+        out[:, 0] = x
+        out[:, 1:] = unit * r[:, None]
+        return out
+
+    return layered_mesh(tpl, len(levels) - 1, lambda k: np.ones_like(wall) if k < floor_layers else wall, place,
+                        kind, dimensions_m, cylinder_radii_m)
+
+
+def p2_dof_count(tet_mesh: TetMesh) -> int:
+    """Degrees of freedom of the P2 model on ``tet_mesh`` (3 per corner and per edge)."""
+    from .meshing import P2_EDGES
+
+    edges = np.unique(np.sort(tet_mesh.tets[:, P2_EDGES].reshape(-1, 2), axis=1), axis=0)
+    return 3 * (len(np.unique(tet_mesh.tets)) + len(edges))
