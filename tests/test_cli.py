@@ -76,5 +76,9 @@ def test_ctrl_c_during_generate_says_how_to_resume(tmp_path):
     time.sleep(1.0)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130, err
+    # The CLI returns 130. CPython then still ends itself by SIGINT (returncode -2) when the
+    # interrupt had passed through any PyRun_* evaluation on its way (its "unhandled
+    # KeyboardInterrupt" flag, set in run_eval_code_obj, is never cleared); where the
+    # interrupt lands depends on load. A shell reports both as exit status 130.
+    assert proc.returncode in (130, -signal.SIGINT), err
     assert "interrupted: rerun the same command to resume" in err.strip().splitlines()[-1]
