@@ -6,8 +6,17 @@ the opposite surface, and keep pairs that a parallel-jaw hand can hold:
 * both contact normals inside the friction cone of the grasp axis (half-angle atan(mu));
 * width between ``min_width_m`` and the hand's opening (:data:`sensors.grasp_task.MAX_OPENING_M`);
 * reachable from above: the grasp axis roughly horizontal (within ``max_tilt_rad`` of the
-  plane normal to ``up``), and nothing of the object above either contact (rays cast along
-  +``up`` from just outside each contact hit nothing).
+  plane normal to ``up``), nothing of the object above either contact (rays cast along
+  +``up`` from just outside each contact hit nothing), room for each finger beside its
+  contact (``finger_clearance_m`` free outward along the axis, on the pad's centre line and
+  both edges: the finger link runs 12-26 mm behind the pad face) and below it for the pad's
+  lower half (``pad_clearance_m``, just outside the contact), and the contacts within
+  ``max_depth_m`` of the object's top (the hand's body stays above the object) and at least
+  ``min_height_m`` above its bottom (the pads stay off the table).
+
+Every surface point the inward ray leaves the solid at is a candidate second contact, not
+only the first: across a hollow can both the wall (a pinch) and the far side (a grasp across
+the whole can) are antipodal pairs.
 
 Quality is the Dex-Net friction-cone margin: how far inside the cone the worse contact is
 (1 = normals exactly along the axis, 0 = on the cone's edge).
@@ -64,6 +73,10 @@ def _offset(surface: trimesh.Trimesh) -> float:
 def sample_antipodal_grasps(surface: trimesh.Trimesh, rng: np.random.Generator, n_grasps: int = 20,
                             friction: float = 0.5, max_width_m: float = MAX_OPENING_M, min_width_m: float = 0.002,
                             up=(0.0, 0.0, 1.0), max_tilt_rad: float = math.radians(20.0),
+                            finger_clearance_m: float = 0.028, finger_half_width_m: float = 0.009,
+                            pad_clearance_m: float = 0.009,
+                            max_depth_m: float | None = None,
+                            min_height_m: float = 0.0,
                             n_samples: int = 2000, max_rounds: int = 10) -> list[AntipodalGrasp]:
     """Up to ``n_grasps`` antipodal grasps, best quality first (see the module docstring).
 
@@ -76,27 +89,46 @@ def sample_antipodal_grasps(surface: trimesh.Trimesh, rng: np.random.Generator, 
     up = np.asarray(up, float) / np.linalg.norm(up)
     cos_cone = math.cos(math.atan(friction))
     eps = _offset(surface)
+    height = np.asarray(surface.vertices) @ up
+    bottom, top = float(height.min()), float(height.max())
     found: list[AntipodalGrasp] = []
     for _ in range(max_rounds):
         seed = int(rng.integers(2**31 - 1))
         points, face = trimesh.sample.sample_surface(surface, n_samples, seed=seed)
         normals = surface.face_normals[face]
         origins = points - eps * normals
-        hit_face, ray, hits = surface.ray.intersects_id(origins, -normals, multiple_hits=False, return_locations=True)
+        hit_face, ray, hits = surface.ray.intersects_id(origins, -normals, multiple_hits=True, return_locations=True)
         p1, n1 = points[ray], normals[ray]  # the surface point itself, not the ray origin
         p2, n2 = hits, surface.face_normals[hit_face]
         vec = p2 - p1
         width = np.linalg.norm(vec, axis=1)
         ok = (width >= min_width_m) & (width <= max_width_m)
         axis = vec / np.maximum(width, 1e-300)[:, None]
-        # Finger 1 pushes along +axis on a surface with normal n1 (outward): -n1 within the cone.
+        # Finger 1 pushes along +axis on a surface with normal n1 (outward): -n1 within the cone;
+        # finger 2 where the ray leaves the solid (n2 along the axis).
         c1 = -np.einsum("ij,ij->i", n1, axis)
         c2 = np.einsum("ij,ij->i", n2, axis)
         ok &= (c1 >= cos_cone) & (c2 >= cos_cone)
         ok &= np.abs(axis @ up) <= math.sin(max_tilt_rad)
+        h1, h2 = p1 @ up, p2 @ up
+        ok &= (np.minimum(h1, h2) >= bottom + min_height_m)
+        if max_depth_m is not None:
+            ok &= np.minimum(h1, h2) >= top - max_depth_m
         idx = np.flatnonzero(ok)
         if len(idx):
             idx = idx[_clear_above(surface, p1[idx], n1[idx], up, eps) & _clear_above(surface, p2[idx], n2[idx], up, eps)]
+        if len(idx) and finger_clearance_m > 0:
+            # Three rays per finger: its centre line and both edges of the 20 mm wide pad.
+            side = np.cross(up, axis[idx])
+            side /= np.maximum(np.linalg.norm(side, axis=1), 1e-12)[:, None]
+            for offset in (0.0, finger_half_width_m, -finger_half_width_m):
+                keep = (_clear_beside(surface, p1[idx] + offset * side, -axis[idx], finger_clearance_m, eps)
+                        & _clear_beside(surface, p2[idx] + offset * side, axis[idx], finger_clearance_m, eps))
+                idx, side = idx[keep], side[keep]
+        if len(idx) and pad_clearance_m > 0:  # the pad's lower half must not land on the object
+            down = np.broadcast_to(-up, (len(idx), 3))
+            idx = idx[_clear_beside(surface, p1[idx] - 2 * eps * axis[idx], down, pad_clearance_m, eps)
+                      & _clear_beside(surface, p2[idx] + 2 * eps * axis[idx], down, pad_clearance_m, eps)]
         margin = (np.minimum(c1, c2) - cos_cone) / (1.0 - cos_cone)
         for i in idx:
             found.append(AntipodalGrasp(0.5 * (p1[i] + p2[i]), axis[i], float(width[i]), float(np.clip(margin[i], 0, 1))))
@@ -104,6 +136,18 @@ def sample_antipodal_grasps(surface: trimesh.Trimesh, rng: np.random.Generator, 
             break
     found.sort(key=lambda g: -g.quality)
     return found[:n_grasps]
+
+
+def _clear_beside(surface, points, outward, distance_m, eps) -> np.ndarray:
+    """True where the object leaves ``distance_m`` free outward of the contact (a finger fits)."""
+    origins = points + 2 * eps * outward
+    hit_face, ray, hits = surface.ray.intersects_id(origins, outward, multiple_hits=False, return_locations=True)
+    clear = np.ones(len(points), bool)
+    if len(ray) == 0:
+        return clear
+    hits = np.asarray(hits, float).reshape(-1, 3)
+    clear[ray[np.linalg.norm(hits - origins[ray], axis=1) < distance_m]] = False
+    return clear
 
 
 def _clear_above(surface, points, normals, up, eps) -> np.ndarray:

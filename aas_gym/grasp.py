@@ -21,6 +21,13 @@ from aas_gym.contacts import ContactStream
 DEFAULT_GRIP_FORCE_N = 40.0  # the paper's grasp force
 MAX_GRIP_FORCE_N = 140.0     # Franka hand: 70 N continuous, 140 N peak
 MAX_OPENING_M = 0.08
+#: Servo target of "close and squeeze": 30 mm below closed, so the servo (kp 5000 N/m)
+#: saturates at its force limit on any object down to a 0 mm wall for grip forces up to
+#: 140 N (a target of 0 would press a 3 mm wall with only 15 N).
+SQUEEZE_TARGET_M = -0.03
+#: Lowest height of the pads' centre above the table (pads are 16 mm tall): grasps of flat
+#: objects close the pads' lower part on them.
+PAD_CLEARANCE_M = 0.009
 TCP_JOINTS = ("hand_x", "hand_y", "hand_z", "hand_yaw")
 
 
@@ -112,7 +119,8 @@ class Hand:
         if tcp is not None:
             data.ctrl[self.tcp_actuators] = np.clip(np.asarray(tcp, float), self.tcp_low, self.tcp_high)
         if opening_m is not None:
-            data.ctrl[self.gripper_actuator] = float(np.clip(opening_m, 0.0, MAX_OPENING_M))
+            opening_m = float(np.clip(opening_m, 0.0, MAX_OPENING_M))
+            data.ctrl[self.gripper_actuator] = SQUEEZE_TARGET_M if opening_m == 0.0 else opening_m
 
     def teleport(self, data: mujoco.MjData, tcp, opening_m: float) -> None:
         """Put the hand at ``tcp`` with the fingers at ``opening_m``, at rest, targets set there."""
@@ -127,14 +135,26 @@ class Hand:
 
 
 def grasp_pose(model: mujoco.MjModel, data: mujoco.MjData, body: str, position_m: float = 0.0,
-               height_offset_m: float = 0.0) -> tuple[np.ndarray, float]:
+               height_offset_m: float = 0.0, grasp=None) -> tuple[np.ndarray, float]:
     """TCP (x, y, z, yaw) of a planar antipodal grasp of ``body`` at ``position_m`` along its
     main axis (body x), fingers closing across the axis in the horizontal plane; and the
-    object's extent along the closing direction [m]."""
+    object's extent along the closing direction [m].
+
+    With ``grasp`` (an ``aas_gym.mesh_objects.ObjectGrasp`` in the body frame), the fingers
+    close along its axis (turned into the horizontal plane) around its centre, and the width
+    is the distance between its contacts; the pads' centre stays at least
+    :data:`PAD_CLEARANCE_M` above the table."""
     bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body)
     if bid < 0:
         raise ValueError(f"model has no body named {body!r}")
     rot = data.xmat[bid].reshape(3, 3)
+    if grasp is not None:
+        centre = data.xpos[bid] + rot @ grasp.centre_m
+        closing = rot @ grasp.axis
+        yaw = math.atan2(-closing[0], closing[1])
+        yaw = (yaw + math.pi / 2) % math.pi - math.pi / 2  # fingers swapped: the same grasp
+        z = max(float(centre[2]), PAD_CLEARANCE_M) + height_offset_m
+        return np.array([centre[0], centre[1], z, yaw]), float(grasp.width_m)
     axis = rot[:, 0]
     if math.hypot(axis[0], axis[1]) < 1e-6:
         raise ValueError(f"{body!r} stands upright: no planar grasp across its main axis")
@@ -171,8 +191,10 @@ def _body_half_extents(model: mujoco.MjModel, bid: int) -> np.ndarray:
 def planar_grasp(model: mujoco.MjModel, data: mujoco.MjData, body: str, position_m: float = 0.0,
                  grip_force_n: float = DEFAULT_GRIP_FORCE_N, height_offset_m: float = 0.0,
                  lift_m: float = 0.0, clearance_m: float = 0.012, max_time_s: float = 1.0,
-                 hand: Hand | None = None, stream: ContactStream | None = None) -> GraspResult:
-    """Grasp ``body`` across its main axis at ``position_m`` (object frame x) and let it settle.
+                 hand: Hand | None = None, stream: ContactStream | None = None, grasp=None) -> GraspResult:
+    """Grasp ``body`` across its main axis at ``position_m`` (object frame x) and let it settle;
+    or, with ``grasp`` (an ``aas_gym.mesh_objects.ObjectGrasp``, any object), at that grasp,
+    whose ``position_m`` along the object's grasp path is reported.
 
     The hand is placed open (object extent + 2 ``clearance_m``) around the grasp point, closes
     with ``grip_force_n`` and, if ``lift_m`` > 0, lifts; simulation runs until fingers and
@@ -181,7 +203,9 @@ def planar_grasp(model: mujoco.MjModel, data: mujoco.MjData, body: str, position
     hand = hand or Hand(model)
     hand.set_grip_force(grip_force_n)
     mujoco.mj_forward(model, data)  # poses of a fresh or edited state
-    tcp, width = grasp_pose(model, data, body, position_m, height_offset_m)
+    tcp, width = grasp_pose(model, data, body, position_m, height_offset_m, grasp)
+    if grasp is not None:
+        position_m = grasp.position_m
     if width + 2 * clearance_m > MAX_OPENING_M:
         if width >= MAX_OPENING_M:
             raise ValueError(f"{body!r} is {width * 1e3:.1f} mm wide across the grasp: more than the "

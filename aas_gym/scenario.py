@@ -24,11 +24,9 @@ from dataclasses import asdict, dataclass
 import mujoco
 import numpy as np
 
-from aas_gym.scene import ObjectSpec, euler_to_quat
+from aas_gym.scene import END_MARGIN_M, ObjectSpec, euler_to_quat
 
 SCENE_KINDS = ("single", "multi")
-# Keep the fingertip pads (20 mm wide) on the object and away from its ends.
-END_MARGIN_M = 0.02
 # Pads stay this far from a crossing object's contact line.
 CROSSING_CLEARANCE_M = 0.025
 
@@ -85,9 +83,12 @@ class DomainRandomization:
 
 def default_distractors(pool: Sequence[ObjectSpec]) -> list[ObjectSpec]:
     """The objects that may lean on a target: the bars of ``pool`` (a leaning tube or rod
-    rolls away before it settles), or the whole pool if it has no bar."""
+    rolls away before it settles), else its prisms, else the paper's bars."""
+    from aas_gym.scene import DEFAULT_OBJECT_NAMES, get_object
+
     bars = [o for o in pool if o.shape == "bar"]
-    return bars or list(pool)
+    return bars or [o for o in pool if o.is_prism] or [get_object(n) for n in DEFAULT_OBJECT_NAMES
+                                                         if n.endswith("_bar")]
 
 
 def choose_objects(rng: np.random.Generator, target: ObjectSpec, pool: Sequence[ObjectSpec], kind: str,
@@ -112,6 +113,8 @@ class Layout:
     target_xy_m: tuple[float, float]
     target_yaw_rad: float
     crossings_m: tuple[float, ...]
+    #: Where the others rest on a surface (non-prism) target, as points in its frame [m].
+    contacts_m: tuple = ()
 
 
 def place_objects(model: mujoco.MjModel, data: mujoco.MjData, objects: Sequence[ObjectSpec],
@@ -124,6 +127,8 @@ def place_objects(model: mujoco.MjModel, data: mujoco.MjData, objects: Sequence[
     target = objects[0]
     xy = rng.uniform(-r.placement_m, r.placement_m, 2) if r.placement_m > 0 else np.zeros(2)
     yaw = float(rng.uniform(-r.yaw_rad, r.yaw_rad)) if r.yaw_rad > 0 else 0.0
+    if not target.is_prism:
+        return _place_on_surface_target(data, objects, free_joints, rng, xy, yaw)
     _set_free_pose(data, free_joints[0], [xy[0], xy[1], target.half_extents_m[2]], euler_to_quat(yaw))
     axis = np.array([math.cos(yaw), math.sin(yaw), 0.0])
     across = np.array([-axis[1], axis[0], 0.0])
@@ -136,17 +141,49 @@ def place_objects(model: mujoco.MjModel, data: mujoco.MjData, objects: Sequence[
         u = end * rng.uniform(0.072, 0.088) * target.length_m / 0.2
         angle = rng.uniform(math.radians(60), math.radians(120)) * (1 if rng.random() < 0.5 else -1)
         direction = math.cos(angle) * axis + math.sin(angle) * across
-        dyaw = math.atan2(direction[1], direction[0])
-        # Centre beyond the target: bottom face on the target's top, far end on the table.
-        side = rng.uniform(0.03, 0.06) * obj.length_m / 0.2
-        half_len, half_h = obj.length_m / 2, obj.half_extents_m[2]
-        pitch = math.atan2(top, half_len + side)
-        bottom = top * half_len / (half_len + side)
-        centre = np.array([xy[0], xy[1], 0.0]) + axis * u + direction * (side + half_h * math.sin(pitch))
-        centre[2] = bottom + half_h * math.cos(pitch) + 0.0003
-        _set_free_pose(data, free_joints[i], centre, euler_to_quat(dyaw, pitch))
+        _lean(data, free_joints[i], obj, rng, np.array([xy[0], xy[1]]) + axis[:2] * u, direction, top)
         crossings.append(float(u))
     return Layout((float(xy[0]), float(xy[1])), yaw, tuple(crossings))
+
+
+def _lean(data, joint, obj: ObjectSpec, rng: np.random.Generator, contact_xy, direction, top: float) -> None:
+    """Pose a bar leaning on an edge at height ``top`` above ``contact_xy``, running down
+    along the horizontal unit ``direction`` to the table: its analytic rest pose."""
+    dyaw = math.atan2(direction[1], direction[0])
+    # Centre beyond the edge: bottom face on the edge, far end on the table.
+    side = rng.uniform(0.03, 0.06) * obj.length_m / 0.2
+    half_len, half_h = obj.length_m / 2, obj.half_extents_m[2]
+    pitch = math.atan2(top, half_len + side)
+    bottom = top * half_len / (half_len + side)
+    centre = np.array([contact_xy[0], contact_xy[1], 0.0]) + direction * (side + half_h * math.sin(pitch))
+    centre[2] = bottom + half_h * math.cos(pitch) + 0.0003
+    _set_free_pose(data, joint, centre, euler_to_quat(dyaw, pitch))
+
+
+def _place_on_surface_target(data, objects, free_joints, rng, xy, yaw) -> Layout:
+    """A surface target resting upright, turned by ``yaw``; each other object leans on its
+    top edge from a random side (two from opposite sides)."""
+    from aas_gym.mesh_objects import rest_height_m, rest_rotation, yaw_rest_quat
+
+    solid = objects[0].solid()
+    height = rest_height_m(solid)
+    _set_free_pose(data, free_joints[0], [xy[0], xy[1], height], yaw_rest_quat(solid, yaw))
+    c, s = math.cos(yaw), math.sin(yaw)
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ rest_rotation(solid)
+    origin = np.array([xy[0], xy[1], height])
+    world = np.asarray(solid.surface.vertices) @ rot.T + origin
+    top = float(world[:, 2].max())
+    rim = world[world[:, 2] >= top - 0.003]
+    phi = float(rng.uniform(0, 2 * math.pi))
+    contacts = []
+    for i, obj in enumerate(objects[1:], start=1):
+        angle = phi + math.pi * (i - 1)
+        d = np.array([math.cos(angle), math.sin(angle), 0.0])
+        reach = float(((rim[:, :2] - origin[:2]) @ d[:2]).max())
+        edge = origin[:2] + reach * d[:2]
+        _lean(data, free_joints[i], obj, rng, edge, d, top)
+        contacts.append(rot.T @ (np.array([edge[0], edge[1], top]) - origin))
+    return Layout((float(xy[0]), float(xy[1])), yaw, (), tuple(contacts))
 
 
 def place_beside(data: mujoco.MjData, objects: Sequence[ObjectSpec], free_joints: Sequence[tuple[int, int]],
@@ -179,11 +216,42 @@ def settle(model: mujoco.MjModel, data: mujoco.MjData, duration_s: float = 0.4) 
 
 def grasp_position(rng: np.random.Generator, target: ObjectSpec, layout: Layout) -> float:
     """A grasp position along the target's axis [m]: uniform over the part where both pads
-    fit, between the crossing objects and clear of them."""
+    fit, between the crossing objects and clear of them. For a surface target, the position
+    along its grasp path of the grasp nearest a uniform draw over the path, among the grasps
+    clear of the others' contacts (``target_grasp`` gives that grasp)."""
+    if not target.is_prism:
+        lo, hi = _grasps(target).span_m
+        return target_grasp(target, float(rng.uniform(lo, hi)), layout).position_m
     half = target.length_m / 2 - END_MARGIN_M
     lo = max([x for x in layout.crossings_m if x < 0], default=-half - 1.0) + CROSSING_CLEARANCE_M
     hi = min([x for x in layout.crossings_m if x > 0], default=half + 1.0) - CROSSING_CLEARANCE_M
     return float(rng.uniform(max(lo, -half), min(hi, half)))
+
+
+def _grasps(target: ObjectSpec):
+    from aas_gym.mesh_objects import grasp_set
+
+    return grasp_set(target.shape, target.material, target.mesh_id, target.name)
+
+
+def target_grasp(target: ObjectSpec, position_m: float, layout: Layout | None = None, shift_m: float = 0.0):
+    """The grasp of a surface target nearest ``position_m`` along its grasp path (clear of
+    ``layout``'s contacts by :data:`CROSSING_CLEARANCE_M`), its centre moved ``shift_m`` along
+    the path (the re-grasp error); None for a prism (grasped across its axis at the position)."""
+    if target.is_prism:
+        return None
+    grasps = _grasps(target)
+    avoid = layout.contacts_m if layout is not None else ()
+    g = grasps.nearest(position_m, avoid, CROSSING_CLEARANCE_M)
+    if shift_m:
+        g = type(g)(g.centre_m + shift_m * grasps.path_direction, g.axis, g.width_m, g.position_m + shift_m)
+    return g
+
+
+def position_along_path(target: ObjectSpec, point_m) -> float:
+    """Position [m] of an object-frame point along a surface target's grasp path."""
+    grasps = _grasps(target)
+    return float((np.asarray(point_m, float) - grasps.path_start_m) @ grasps.path_direction)
 
 
 def _set_free_pose(data: mujoco.MjData, joint: tuple[int, int], pos, quat) -> None:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,7 +25,15 @@ import numpy as np
 
 from aas_gym.assets import HAND_XML, OBJECTS_DIR, SCENES_DIR
 
+#: Prisms along x, centred at the origin (the paper's objects).
 SHAPES = ("bar", "tube", "rod")
+#: Shapes given by a closed surface: the shipped everyday set and ``"mesh"`` (a user's).
+EVERYDAY_SHAPES = ("mug", "bottle", "can", "glass", "box", "spoon", "l_bracket")
+MESH_SHAPE = "mesh"
+ALL_SHAPES = SHAPES + EVERYDAY_SHAPES + (MESH_SHAPE,)
+#: Each everyday object in what it is made of (``get_object("mug")`` = ``"ceramic_mug"``).
+EVERYDAY_MATERIALS = {"mug": "ceramic", "bottle": "glass", "can": "steel", "glass": "glass", "box": "abs",
+                      "spoon": "wood", "l_bracket": "aluminium"}
 #: Prefix of the custom text elements that describe sensed objects.
 OBJECT_TEXT_PREFIX = "aas_object:"
 #: The paper's seven objects (200 mm long; bars 25 x 25 mm, tubes 25 mm OD / 19 mm ID).
@@ -45,12 +54,16 @@ _MATERIAL_RGBA = {
     "wood": (0.66, 0.47, 0.27, 1.0),
     "abs": (0.90, 0.88, 0.80, 1.0),
     "pla": (0.95, 0.50, 0.15, 1.0),
+    "glass": (0.70, 0.85, 0.90, 0.6),
+    "ceramic": (0.93, 0.92, 0.88, 1.0),
 }
 # Objects: stiff contacts like the fingertips so the grasp does not sink; moderate friction.
 _OBJECT_SOLREF = (0.004, 1.0)
 _OBJECT_SOLIMP = (0.95, 0.99, 0.001, 0.5, 2.0)
 _OBJECT_FRICTION = (0.5, 0.005, 0.0001)
 TABLE_HALF_SIZE_M = (0.45, 0.45, 0.02)
+#: Fingertip pads (20 mm wide) stay this far from a prism's ends.
+END_MARGIN_M = 0.02
 
 
 def _material(name: str):
@@ -74,9 +87,14 @@ def known_material_names() -> list[str]:
 class ObjectSpec:
     """Shape, dimensions and material of one sensed object.
 
-    ``bar``: ``length_m`` x ``width_m`` (y) x ``height_m`` (z). ``tube``: ``length_m``,
-    ``outer_radius_m``, ``inner_radius_m``. ``rod``: ``length_m``, ``outer_radius_m``.
-    Main axis along x, centred at the origin. Use the ``bar``/``tube``/``rod`` constructors.
+    Prisms (main axis along x, centred at the origin): ``bar``: ``length_m`` x ``width_m``
+    (y) x ``height_m`` (z). ``tube``: ``length_m``, ``outer_radius_m``, ``inner_radius_m``.
+    ``rod``: ``length_m``, ``outer_radius_m``. Use the ``bar``/``tube``/``rod`` constructors.
+
+    Surface objects (in the frame of ``sensors.everyday``; their dimension fields are unused):
+    an everyday shape (``mug``, ``bottle``, ``can``, ``glass``, ``box``, ``spoon``,
+    ``l_bracket``) in any material, or ``mesh``: a user's surface stored under ``mesh_id``
+    and labelled ``<material>_<name>`` (``ObjectSpec.from_mesh``).
     """
 
     shape: str
@@ -86,10 +104,16 @@ class ObjectSpec:
     height_m: float = 0.025
     outer_radius_m: float = 0.0125
     inner_radius_m: float = 0.0095
+    mesh_id: str = ""
+    name: str = ""
 
     def __post_init__(self) -> None:
-        if self.shape not in SHAPES:
-            raise ValueError(f"unknown shape {self.shape!r}; known shapes: {list(SHAPES)}")
+        if self.shape not in ALL_SHAPES:
+            raise ValueError(f"unknown shape {self.shape!r}; known shapes: {list(ALL_SHAPES)}")
+        if (self.shape == MESH_SHAPE) != bool(self.mesh_id):
+            raise ValueError("a mesh object needs mesh_id= (use ObjectSpec.from_mesh), and only a mesh object has one")
+        if self.shape == MESH_SHAPE and not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_-]*", self.name or ""):
+            raise ValueError(f"a mesh object needs a name of letters, digits, '_' and '-', got {self.name!r}")
         # Canonical name (aliases such as "aluminum" resolve); clear error for unknown names.
         object.__setattr__(self, "material", _material(str(self.material)).name)
         dims = [self.length_m, self.width_m, self.height_m, self.outer_radius_m]
@@ -113,14 +137,69 @@ class ObjectSpec:
         """A solid round rod."""
         return cls("rod", material, length_m=length_m, outer_radius_m=radius_m)
 
+    @classmethod
+    def from_mesh(cls, mesh, material: str, name: str | None = None, scale: float = 1.0) -> "ObjectSpec":
+        """A user's object from a closed surface (``trimesh.Trimesh`` or a mesh file) in metres
+        (``scale=1e-3`` for millimetres), made of ``material``; labelled ``<material>_<name>``
+        (``name`` defaults to the file's stem).
+
+        The surface is checked first (watertight, outward, not degenerate or self-intersecting,
+        2 mm .. 0.5 m, walls at least 0.5 mm): each fault raises a ``sensors.MeshError``
+        subclass that says what to do, and nothing is written. It rests on the table as
+        modelled (+z up) and is grasped where the hand reaches it from above.
+        """
+        from aas_gym import mesh_objects
+        from sensors.surface_meshing import check_surface
+
+        if isinstance(mesh, (str, Path)):
+            name = name or Path(mesh).stem
+            mesh = mesh_objects.load_mesh_file(mesh)
+        name = re.sub(r"[^A-Za-z0-9_-]+", "_", name or "mesh").strip("_") or "mesh"
+        if name in ALL_SHAPES:
+            raise ValueError(f"name {name!r} is a built-in shape: choose another name for your mesh")
+        material = _material(material).name
+        surface = check_surface(mesh, scale=scale)
+        mesh_id = mesh_objects.store_surface(surface, persist=False)
+        spec = cls(MESH_SHAPE, material, mesh_id=mesh_id, name=name)
+        mesh_objects.grasp_set(spec.shape, spec.material, mesh_id, name)  # no grasp: MeshError, nothing written
+        mesh_objects.store_surface(surface)
+        return spec
+
+    @property
+    def is_prism(self) -> bool:
+        """A bar, tube or rod (grasped across its main axis; leaned on in multi-object scenes)."""
+        return self.shape in SHAPES
+
+    def solid(self):
+        """The ``sensors.everyday.EverydayObject`` of a surface object (None for a prism)."""
+        if self.is_prism:
+            return None
+        from aas_gym.mesh_objects import solid_of
+
+        return solid_of(self.shape, self.material, self.mesh_id, self.name)
+
+    @property
+    def grasp_span_m(self) -> tuple[float, float]:
+        """Grasp positions [m] the hand can take: along the main axis from the centre for a
+        prism (pads 20 mm from the ends), along the grasp path from its start otherwise."""
+        if self.is_prism:
+            half = self.length_m / 2 - END_MARGIN_M
+            return -half, half
+        from aas_gym.mesh_objects import grasp_set
+
+        return grasp_set(self.shape, self.material, self.mesh_id, self.name).span_m
+
     @property
     def label(self) -> str:
         """Class label used by datasets and the recognition env, e.g. ``aluminium_tube``."""
-        return f"{self.material}_{self.shape}"
+        return f"{self.material}_{self.name if self.shape == MESH_SHAPE else self.shape}"
 
     @property
     def half_extents_m(self) -> np.ndarray:
-        """Half sizes of the bounding box in the object frame (x = main axis)."""
+        """Half sizes of the bounding box in the object frame (x = main axis; for a surface
+        object, half the extents of its surface, whose origin need not be the centre)."""
+        if not self.is_prism:
+            return np.ptp(np.asarray(self.solid().surface.vertices), axis=0) / 2
         if self.shape == "bar":
             return np.array([self.length_m, self.width_m, self.height_m]) / 2
         return np.array([self.length_m / 2, self.outer_radius_m, self.outer_radius_m])
@@ -138,6 +217,8 @@ class ObjectSpec:
 
     @property
     def mass_kg(self) -> float:
+        if not self.is_prism:
+            return self.solid().mass_kg
         return self.density_kg_m3 * self.cross_section_area_m2 * self.length_m
 
     @property
@@ -155,7 +236,11 @@ class ObjectSpec:
         """``key=value`` description stored in the model's custom text (see ``from_text``)."""
         keys = {"bar": ("length_m", "width_m", "height_m"),
                 "tube": ("length_m", "outer_radius_m", "inner_radius_m"),
-                "rod": ("length_m", "outer_radius_m")}[self.shape]
+                "rod": ("length_m", "outer_radius_m"),
+                MESH_SHAPE: ("mesh_id", "name")}.get(self.shape, ())
+        if self.shape == MESH_SHAPE:
+            return " ".join([f"shape={self.shape}", f"material={self.material}"]
+                            + [f"{k}={getattr(self, k)}" for k in keys])
         return " ".join([f"shape={self.shape}", f"material={self.material}"]
                         + [f"{k}={getattr(self, k)!r}" for k in keys])
 
@@ -174,7 +259,7 @@ class ObjectSpec:
         unknown = set(fields) - allowed
         if unknown:
             raise ValueError(f"unknown object description keys {sorted(unknown)} in {text!r}")
-        kwargs = {k: (v if k in ("shape", "material") else float(v)) for k, v in fields.items()}
+        kwargs = {k: (v if k in ("shape", "material", "mesh_id", "name") else float(v)) for k, v in fields.items()}
         return cls(**kwargs)
 
     def modal_model(self, **options):
@@ -182,6 +267,8 @@ class ObjectSpec:
         ``options`` go to ``ModalModel.bar/tube/rod`` (e.g. ``max_frequency_hz``)."""
         from sensors.modal_model import ModalModel
 
+        if not self.is_prism:
+            return self.solid().modal_model(**options)
         material = _material(self.material)
         if self.shape == "bar":
             return ModalModel.bar(self.length_m, self.width_m, self.height_m, material, **options)
@@ -191,24 +278,52 @@ class ObjectSpec:
 
 
 def get_object(name: str | ObjectSpec) -> ObjectSpec:
-    """Paper-sized object from a ``<material>_<shape>`` name (e.g. ``"wood_bar"``).
+    """An object from its name.
 
-    Any material of ``sensors.MATERIALS`` combines with ``bar``, ``tube`` or ``rod``.
+    * ``<material>_<shape>`` with a prism shape ``bar``, ``tube``, ``rod`` (paper-sized) or an
+      everyday shape (``steel_mug``); any material of ``sensors.MATERIALS``;
+    * an everyday shape alone, in its own material (``"mug"`` = ``"ceramic_mug"``);
+    * ``<mesh file>:<material>[:<scale>]``, a user's mesh (``"parts/bracket.stl:aluminium:0.001"``
+      for a file in millimetres), as ``ObjectSpec.from_mesh``.
     """
     if isinstance(name, ObjectSpec):
         return name
-    if not isinstance(name, str) or "_" not in name:
-        raise ValueError(f"object name must look like '<material>_<shape>', got {name!r}; "
-                         f"defaults: {list(DEFAULT_OBJECT_NAMES)}")
-    material, _, shape = name.lower().rpartition("_")
-    if shape not in SHAPES:
-        raise ValueError(f"unknown shape {shape!r} in object name {name!r}; known shapes: {list(SHAPES)}")
+    if not isinstance(name, str):
+        raise ValueError(f"object name must be a string like 'wood_bar', got {name!r}")
+    path, _, rest = name.partition(":")
+    if path.lower().endswith(_mesh_suffixes()):
+        material, _, scale = rest.partition(":")
+        if not material:
+            raise ValueError(f"a mesh object needs its material: '{path}:<material>[:<scale>]', "
+                             f"known materials: {known_material_names()}")
+        try:
+            scale_value = float(scale) if scale else 1.0
+        except ValueError:
+            raise ValueError(f"bad scale {scale!r} in {name!r}: a number such as 0.001") from None
+        return ObjectSpec.from_mesh(path, material, scale=scale_value)
+    lowered = name.lower()
+    if lowered in EVERYDAY_SHAPES:
+        return ObjectSpec(lowered, EVERYDAY_MATERIALS[lowered])
+    shape = next((s for s in ALL_SHAPES if s != MESH_SHAPE and lowered.endswith("_" + s)), None)
+    if shape is None:
+        raise ValueError(f"object name must look like '<material>_<shape>' (shapes: "
+                         f"{', '.join(s for s in ALL_SHAPES if s != MESH_SHAPE)}), an everyday object name or "
+                         f"'<mesh file>:<material>', got {name!r}; defaults: {list(DEFAULT_OBJECT_NAMES)}")
+    material = lowered[:-len(shape) - 1]
     try:
         _material(material)
     except ValueError:
         raise ValueError(f"unknown material {material!r} in object name {name!r}; "
                          f"known materials: {known_material_names()}") from None
+    if shape in EVERYDAY_SHAPES:
+        return ObjectSpec(shape, material)
     return {"bar": ObjectSpec.bar, "tube": ObjectSpec.tube, "rod": ObjectSpec.rod}[shape](material)
+
+
+def _mesh_suffixes() -> tuple[str, ...]:
+    from aas_gym.mesh_objects import MESH_SUFFIXES
+
+    return MESH_SUFFIXES
 
 
 def default_objects() -> list[ObjectSpec]:
@@ -280,7 +395,22 @@ def _hollow_tube_mesh(length_m: float, ro: float, ri: float, n: int) -> tuple[np
 def add_object(spec: mujoco.MjSpec, obj: ObjectSpec, body_name: str,
                placement: Placement = Placement(), free: bool = True) -> mujoco.MjsBody:
     """Add ``obj`` as a body named ``body_name`` (free joint by default) and register its
-    description (custom text ``aas_object:<body_name>``)."""
+    description (custom text ``aas_object:<body_name>``). A surface object rests on the
+    table as ``aas_gym.mesh_objects.rest_rotation`` says, turned by the placement's yaw."""
+    rgba = _MATERIAL_RGBA.get(obj.material, (0.6, 0.6, 0.7, 1.0))
+    common = dict(friction=_OBJECT_FRICTION, solref=_OBJECT_SOLREF, solimp=_OBJECT_SOLIMP, rgba=rgba)
+    if not obj.is_prism:
+        from aas_gym import mesh_objects
+
+        solid = obj.solid()
+        z = mesh_objects.rest_height_m(solid) if placement.z_m is None else placement.z_m
+        body = spec.worldbody.add_body(name=body_name, pos=[placement.x_m, placement.y_m, z],
+                                       quat=mesh_objects.yaw_rest_quat(solid, placement.yaw_rad))
+        if free:
+            body.add_freejoint(name=f"{body_name}_free")
+        mesh_objects.add_solid_geoms(spec, body, body_name, solid, common)
+        spec.add_text(name=OBJECT_TEXT_PREFIX + body_name, data=obj.to_text())
+        return body
     half = obj.half_extents_m
     z = half[2] if placement.z_m is None else placement.z_m
     body = spec.worldbody.add_body(name=body_name, pos=[placement.x_m, placement.y_m, z],
@@ -291,8 +421,6 @@ def add_object(spec: mujoco.MjSpec, obj: ObjectSpec, body_name: str,
     body.inertia = obj.diag_inertia_kg_m2
     body.ipos = [0, 0, 0]
     body.explicitinertial = True
-    rgba = _MATERIAL_RGBA.get(obj.material, (0.6, 0.6, 0.7, 1.0))
-    common = dict(friction=_OBJECT_FRICTION, solref=_OBJECT_SOLREF, solimp=_OBJECT_SOLIMP, rgba=rgba)
     if obj.shape == "bar":
         body.add_geom(name=f"{body_name}_geom", type=mujoco.mjtGeom.mjGEOM_BOX, size=half, mass=0, **common)
     else:

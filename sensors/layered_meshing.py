@@ -52,7 +52,9 @@ def disk_template(n_theta: int, n_wall: int) -> Template:
     if n_theta % 8:
         raise ValueError(f"n_theta must be a multiple of 8, got {n_theta}")
     # rod_mesh puts 2 ceil(r / (2 h)) core cells per side and 4 times that many points around.
-    rod = rod_mesh(1.0, 1.0, element_size_m=4.0 / n_theta)
+    # Only its first cross-section is used: a rod one element long is enough (a unit template,
+    # so the size guard does not apply).
+    rod = rod_mesh(4.0 / n_theta, 1.0, element_size_m=4.0 / n_theta, max_dof=None)
     x = rod.vertices_m[:, 0]
     first = np.flatnonzero(np.isclose(x, x.min()))
     p = len(first)

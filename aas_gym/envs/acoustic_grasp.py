@@ -9,6 +9,8 @@ import numpy as np
 from gymnasium import spaces
 
 from aas_gym.envs.base import _OBJECT, _TCP, AasEnv
+from aas_gym.grasp import SQUEEZE_TARGET_M
+from aas_gym.scenario import position_along_path
 from sensors.grasp_task import HOME_TCP, MAX_DELTA, MAX_OPENING_M, check_action
 
 
@@ -73,7 +75,7 @@ class AcousticGraspEnv(AasEnv):
             v = target[i] + max(-1.0, min(1.0, a[i])) * MAX_DELTA[i]
             target[i] = min(max(v, low[i]), high[i])
         ctrl[sc.tcp_ctrl] = target
-        ctrl[sc.gripper] = MAX_OPENING_M if a[4] > 0 else 0.0
+        ctrl[sc.gripper] = MAX_OPENING_M if a[4] > 0 else SQUEEZE_TARGET_M
         self._simulate()
         grasped = self._is_grasped()
         mode = self.sense_mode
@@ -95,7 +97,9 @@ class AcousticGraspEnv(AasEnv):
             info["recording_grasped"] = bool(rec.metadata.get("grasped", False))
             # Where along the object's main axis the TCP is (the grasp position when grasped).
             rot = sc.data.xmat[sc.target_body].reshape(3, 3)
-            info["grasp_position_m"] = float((rot.T @ (sc.site_xpos[sc.tcp_site] - sc.xpos[sc.target_body]))[0])
+            local = rot.T @ (sc.site_xpos[sc.tcp_site] - sc.xpos[sc.target_body])
+            info["grasp_position_m"] = float(local[0]) if sc.objects[0].is_prism else \
+                float(position_along_path(sc.objects[0], local))
             if grasped and info["recording_grasped"] and mode == "action":
                 bonus = 10.0
                 terminated = True

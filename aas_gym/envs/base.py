@@ -21,7 +21,8 @@ from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
 from aas_gym.scene import (DEFAULT_OBJECT_NAMES, ObjectSpec, build_scene, get_object,
                            touch_sensor_name)
-from aas_gym.scenario import DomainRandomization, choose_objects, default_distractors, place_objects, settle
+from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, place_objects, settle,
+                              target_grasp)
 from aas_gym.sim_sensor import SensorVariation, SimAcousticSensor
 from aas_gym.sim_stream import SimAcousticStream
 from sensors import LeakRecording, load_leak
@@ -327,9 +328,10 @@ class AasEnv(gym.Env):
         r = self.randomization
         noise = float(self.np_random.normal(0.0, r.position_noise_m)) if r.position_noise_m > 0 else 0.0
         release(self.model, self.data, self.hand, retreat_m=0.0, duration_s=0.06)
+        grasp = target_grasp(self._scene.objects[0], position_m, self._layout, shift_m=noise)
         result = planar_grasp(self.model, self.data, self._scene.bodies[0], position_m + noise, grip_force_n,
-                              hand=self.hand, stream=self._scene.stream)
-        return {"grasp_position_m": position_m + noise, "grasp_success": result.success,
+                              hand=self.hand, stream=self._scene.stream, grasp=grasp)
+        return {"grasp_position_m": result.grasp_position_m, "grasp_success": result.success,
                 "grip_force_n": grip_force_n}
 
     # --- observation parts ------------------------------------------------------------------

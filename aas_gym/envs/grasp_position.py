@@ -17,6 +17,9 @@ class GraspPositionEnv(AasEnv):
     Each episode grasps the object at one of ``n_positions`` points ``spacing_m`` apart on the
     +x half of its main axis (paper: 13 positions 5 mm apart, 0-60 mm from the centre), drawn
     from ``np_random`` (or ``options={"position_index": k}``), and records the excitation.
+    Any other object (everyday shapes, user meshes) is grasped at the antipodal grasp nearest
+    each point, the points measured along its grasp path from its first grasp
+    (``aas_gym.mesh_objects``); ``grasp_position_m`` is then that grasp's position.
 
     Observation (Dict): proprioception (``tcp``, ``tcp_velocity``, ``gripper``), ``acoustic``
     (140-d), ``waveform`` (with ``acoustic.waveform``).
@@ -39,10 +42,12 @@ class GraspPositionEnv(AasEnv):
         if action_format not in ACTION_FORMATS:
             raise ValueError(f"action_format must be one of {ACTION_FORMATS}, got {action_format!r}")
         self.positions_m = np.arange(n_positions) * float(spacing_m)
-        half = min(o.length_m for o in self.objects) / 2
-        if self.positions_m[-1] > half - 0.02:
-            raise ValueError(f"grasp positions up to {self.positions_m[-1]:.3f} m do not fit on a "
-                             f"{2 * half:.3f} m object (fingertip needs 20 mm)")
+        for obj in self.objects:
+            lo, hi = obj.grasp_span_m
+            if self.positions_m[-1] > hi - max(lo, 0.0):
+                raise ValueError(f"grasp positions up to {self.positions_m[-1] * 1e3:.0f} mm do not fit on the "
+                                 f"{obj.label}, grasped over {(hi - max(lo, 0.0)) * 1e3:.0f} mm from its first position: "
+                                 "use fewer n_positions or a smaller spacing_m")
         self.action_format = action_format
         top = float(self.positions_m[-1])
         self.action_space = (spaces.Box(-1.0, 1.0, (1,), np.float32) if action_format == "normalized"
@@ -61,7 +66,10 @@ class GraspPositionEnv(AasEnv):
         k = int(options.get("position_index", self.np_random.integers(len(self.positions_m))))
         if not 0 <= k < len(self.positions_m):
             raise ValueError(f"position_index must be in [0, {len(self.positions_m)}), got {k}")
-        grasp = self._grasp(float(self.positions_m[k]), self._episode_grip_force())
+        # Prisms from their centre (the paper's +x half); other objects from their grasp path's start.
+        start = 0.0 if self._scene.objects[0].is_prism else self._scene.objects[0].grasp_span_m[0]
+        grasp = self._grasp(start + float(self.positions_m[k]), self._episode_grip_force())
+        grasp["grasp_position_m"] -= start
         acoustic, rec = self._sense()
         self._true_position = grasp["grasp_position_m"]
         obs = self._proprio()

@@ -19,7 +19,8 @@ class ObjectRecognitionEnv(AasEnv):
 
     Action, ``action_format="box"`` (default; any Stable-Baselines3 algorithm trains it):
     Box(4) in [-1, 1] = ``command`` (> 0 answer, else probe), ``position`` (grasp point along
-    the main axis as a fraction of ``max_position_m``), ``excitation`` and ``label`` (the
+    a prism's main axis as a fraction of ``max_position_m``; for another object, -1 .. 1 spans
+    its grasp path), ``excitation`` and ``label`` (the
     interval [-1, 1] cut into equal bins: 3 excitations impulse / linear / exponential, then
     one bin per label). ``action_format="dict"``: Dict ``command`` Discrete(2), ``position``
     Box(1), ``excitation`` Discrete(3), ``label`` Discrete(len(labels)).
@@ -105,7 +106,13 @@ class ObjectRecognitionEnv(AasEnv):
             info = {"label": self.labels[self._label_index], "label_index": self._label_index,
                     "guess": guess, "is_success": correct}
             return self._obs(), 1.0 if correct else 0.0, True, False, info
-        grasp = self._grasp(fraction * self.max_position_m, self._grip)
+        target = self._scene.objects[0]
+        if target.is_prism:
+            position = fraction * self.max_position_m
+        else:  # the whole grasp path of a surface object
+            lo, hi = target.grasp_span_m
+            position = lo + (fraction + 1.0) / 2.0 * (hi - lo)
+        grasp = self._grasp(position, self._grip)
         self._acoustic, rec = self._sense(self.excitations[e])
         self._probe = np.zeros_like(self._probe)
         self._probe[0], self._probe[1 + e] = fraction, 1.0

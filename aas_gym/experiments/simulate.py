@@ -18,7 +18,7 @@ import numpy as np
 
 from aas_gym.experiments.config import DatasetConfig, Task
 from aas_gym.grasp import Hand, planar_grasp
-from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, grasp_position,
+from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, grasp_position, target_grasp,
                               place_objects, settle)
 from aas_gym.scene import build_scene, get_object
 from aas_gym.sim_sensor import SimAcousticSensor
@@ -31,10 +31,11 @@ DATASET_PLACEMENT = DomainRandomization.off()
 
 
 @lru_cache(maxsize=16)
-def compiled_scene(object_names: tuple[str, ...]) -> mujoco.MjModel:
-    """The compiled scene of these objects, per process (``compiled_scene.cache_info()`` and
-    ``cache_clear()`` show and end its lifetime); poses are set per task."""
-    return build_scene(list(object_names))
+def compiled_scene(objects: tuple) -> mujoco.MjModel:
+    """The compiled scene of these objects (``ObjectSpec`` or names), per process
+    (``compiled_scene.cache_info()`` and ``cache_clear()`` show and end its lifetime); poses
+    are set per task."""
+    return build_scene(list(objects))
 
 
 def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
@@ -43,7 +44,7 @@ def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
     spec = get_object(task.object_name)
     kind = "multi" if task.scene == "multi" else "single"
     objects = choose_objects(rng, spec, default_distractors([get_object(o) for o in config.objects]), kind)
-    model = compiled_scene(tuple(o.label for o in objects))
+    model = compiled_scene(tuple(objects))
     data = mujoco.MjData(model)
     hand = Hand(model)
     hand.set_grip_force(config.grip_force_n)
@@ -62,7 +63,8 @@ def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
     jitter_m = float(rng.uniform(-config.grasp_jitter_m, config.grasp_jitter_m))
     height_offset_m = float(rng.uniform(-0.002, 0.002))
     grasp = planar_grasp(model, data, body, position_m + jitter_m, grip_force_n=config.grip_force_n,
-                         height_offset_m=height_offset_m, hand=hand)
+                         height_offset_m=height_offset_m, hand=hand,
+                         grasp=target_grasp(spec, position_m, layout, shift_m=jitter_m))
     if not grasp.success:
         raise RuntimeError(f"task {task.task_id}: the scripted grasp did not hold the object ({grasp})")
     rows = []
