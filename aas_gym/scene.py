@@ -289,7 +289,7 @@ def get_object(name: str | ObjectSpec) -> ObjectSpec:
     if isinstance(name, ObjectSpec):
         return name
     if not isinstance(name, str):
-        raise ValueError(f"object name must be a string like 'wood_bar', got {name!r}")
+        raise ValueError(f"object name must look like '<material>_<shape>' (a string such as 'wood_bar'), got {name!r}")
     path, _, rest = name.partition(":")
     if path.lower().endswith(_mesh_suffixes()):
         material, _, scale = rest.partition(":")
@@ -305,6 +305,9 @@ def get_object(name: str | ObjectSpec) -> ObjectSpec:
     if lowered in EVERYDAY_SHAPES:
         return ObjectSpec(lowered, EVERYDAY_MATERIALS[lowered])
     shape = next((s for s in ALL_SHAPES if s != MESH_SHAPE and lowered.endswith("_" + s)), None)
+    if shape is None and "_" in lowered:
+        raise ValueError(f"unknown shape {lowered.rpartition('_')[2]!r} in object name {name!r}; known shapes: "
+                         f"{', '.join(s for s in ALL_SHAPES if s != MESH_SHAPE)}, or '<mesh file>:<material>'")
     if shape is None:
         raise ValueError(f"object name must look like '<material>_<shape>' (shapes: "
                          f"{', '.join(s for s in ALL_SHAPES if s != MESH_SHAPE)}), an everyday object name or "
