@@ -60,7 +60,7 @@ def _on_log_features(model):
 @dataclass
 class RecognitionResult:
     excitation: str
-    protocol: str  # "single" (5-fold CV) or "transfer" (single -> multi)
+    protocol: str  # "single" (5-fold CV), "transfer" (single -> multi) or "geometry" (held-out shapes)
     classifier: str
     accuracy: float
     labels: list[str]
@@ -90,6 +90,34 @@ def recognition(features: np.ndarray, labels: np.ndarray, *, excitation: str, se
             pred = clone(model).fit(features, labels).predict(test_features)
             truth, protocol = test_labels, "transfer"
         out.append(RecognitionResult(excitation, protocol, clf_name, 100.0 * accuracy_score(truth, pred),
+                                     names, confusion_matrix(truth, pred, labels=names)))
+    return out
+
+
+def held_out_geometry(features: np.ndarray, materials: np.ndarray, shapes: np.ndarray, *, excitation: str,
+                      seed: int = 0) -> list[RecognitionResult]:
+    """Material recognition on shapes never seen in training: each shape whose material also
+    comes in another shape is held out in turn, the classifier trained on every other shape
+    and tested on it; accuracy and confusion (over materials) of the pooled predictions.
+    ``seed`` is unused (the split is deterministic); kept for the protocols' common call."""
+    del seed
+    shapes = np.asarray(shapes)
+    materials = np.asarray(materials)
+    testable = [s for s in sorted(set(shapes))
+                if len(set(shapes[materials == materials[shapes == s][0]])) > 1]
+    if not testable:
+        raise ValueError("held-out geometry needs a material that comes in at least two shapes")
+    names = sorted(set(materials))
+    out = []
+    for clf_name in CLASSIFIERS:
+        truth, pred = [], []
+        for shape in testable:
+            test = shapes == shape
+            model = clone(make_classifier(clf_name)).fit(features[~test], materials[~test])
+            truth.append(materials[test])
+            pred.append(model.predict(features[test]))
+        truth, pred = np.concatenate(truth), np.concatenate(pred)
+        out.append(RecognitionResult(excitation, "geometry", clf_name, 100.0 * accuracy_score(truth, pred),
                                      names, confusion_matrix(truth, pred, labels=names)))
     return out
 

@@ -18,6 +18,7 @@ from aas_gym.experiments.protocols import (
     PositionResult,
     RecognitionResult,
     grasp_position,
+    held_out_geometry,
     recognition,
 )
 
@@ -45,6 +46,10 @@ def protocol_jobs(df, seed: int = 0) -> list:
             if len(multi):
                 jobs.append(delayed(recognition)(X, y, excitation=exc, seed=seed, test_features=np.stack(multi.features),
                                                  test_labels=multi["object"].to_numpy()))
+            shapes_of = single.groupby("material")["object"].nunique()
+            if (shapes_of > 1).any():  # some material comes in several shapes: held-out geometry
+                jobs.append(delayed(held_out_geometry)(X, single["material"].to_numpy(), single["object"].to_numpy(),
+                                                       excitation=exc, seed=seed))
         sweep = df[(df.scene == "position") & (df.excitation == exc)]
         for obj in sorted(sweep["object"].unique()):
             rows = sweep[sweep["object"] == obj]
@@ -76,17 +81,23 @@ def _position_job(*args, **kwargs) -> list[PositionResult]:
     return [grasp_position(*args, **kwargs)]
 
 
+#: Protocol keys and their names in tables and figures.
+PROTOCOL_NAMES = {"single": "single -> single (5-fold)", "transfer": "single -> multiple",
+                  "geometry": "material, held-out shape"}
+
+
 def recognition_table(results: list[RecognitionResult]) -> str:
     """Table II layout: simulated accuracy next to the paper's, per excitation and protocol."""
     lines = ["| excitation | protocol | " + " | ".join(f"{c} sim / paper" for c in CLASSIFIERS) + " |",
              "|---|---|" + "---|" * len(CLASSIFIERS)]
     by_key = {(r.excitation, r.protocol, r.classifier): r.accuracy for r in results}
     for exc in ("impulse", "linear", "exponential"):
-        for protocol, label in (("single", "single -> single (5-fold)"), ("transfer", "single -> multiple")):
+        for protocol, label in PROTOCOL_NAMES.items():
             if (exc, protocol, "KNN") not in by_key:
                 continue
-            paper = PAPER_RECOGNITION[exc][protocol]
-            cells = [f"{by_key[(exc, protocol, c)]:.1f} / {p:.1f}" for c, p in zip(CLASSIFIERS, paper)]
+            paper = PAPER_RECOGNITION[exc].get(protocol, [float("nan")] * len(CLASSIFIERS))
+            cells = [f"{by_key[(exc, protocol, c)]:.1f} / " + ("-" if p != p else f"{p:.1f}")
+                     for c, p in zip(CLASSIFIERS, paper)]
             lines.append(f"| {exc} | {label} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -104,11 +115,12 @@ def position_table(results: list[PositionResult]) -> str:
 def plot_confusions(results: list[RecognitionResult], path: Path) -> Path:
     plt = _plt()
     picked = [r for r in results if r.classifier == "MLP"]
-    fig, axes = plt.subplots(2, 3, figsize=(15, 9.5), constrained_layout=True, squeeze=False)
+    rows = [p for p in PROTOCOL_NAMES if any(r.protocol == p for r in picked)]
+    fig, axes = plt.subplots(len(rows), 3, figsize=(15, 4.75 * len(rows)), constrained_layout=True, squeeze=False)
     for ax in axes.ravel():
         ax.axis("off")
     for r in picked:
-        row = 0 if r.protocol == "single" else 1
+        row = rows.index(r.protocol)
         col = ["impulse", "linear", "exponential"].index(r.excitation)
         ax = axes[row, col]
         ax.axis("on")
@@ -121,7 +133,7 @@ def plot_confusions(results: list[RecognitionResult], path: Path) -> Path:
                 if r.confusion[i, j]:
                     ax.text(j, i, r.confusion[i, j], ha="center", va="center", fontsize=7,
                             color="white" if cm[i, j] > 0.5 else "black")
-        name = "single -> single" if r.protocol == "single" else "single -> multiple"
+        name = PROTOCOL_NAMES[r.protocol].replace(" (5-fold)", "")
         ax.set_title(f"MLP, {r.excitation}, {name}: {r.accuracy:.1f}%", fontsize=9)
         ax.set(xlabel="predicted", ylabel="true")
     atomic_savefig(fig, path, dpi=100)
