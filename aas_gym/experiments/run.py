@@ -63,7 +63,8 @@ def _notes(df, rec: list[RecognitionResult], pos) -> str:
         # Bar vs tube of one material: how often are they confused?
         for r in single.values():
             pairs = [(i, j) for i, a in enumerate(r.labels) for j, b in enumerate(r.labels)
-                     if a.split("_")[0] == b.split("_")[0] and a != b]
+                     if a.split("_")[0] == b.split("_")[0] and a != b
+                     and {a.rpartition("_")[2], b.rpartition("_")[2]} == {"bar", "tube"}]
             if pairs and r is best:
                 confused = sum(r.confusion[i, j] for i, j in pairs)
                 total = sum(r.confusion[i].sum() for i in {i for i, _ in pairs})
@@ -93,6 +94,14 @@ def _notes(df, rec: list[RecognitionResult], pos) -> str:
                          f"On the real rig the other objects also vibrate and radiate, and the grasp shifts when "
                          f"they touch: effects this model leaves out, and a likely reason why the paper loses "
                          f"accuracy in multi-object scenes and the simulation does not.")
+    geometry = [r for r in rec if r.protocol == "geometry"]
+    if geometry:
+        best = max(geometry, key=lambda r: r.accuracy)
+        chance = 100.0 / len(best.labels)
+        lines.append(f"- Material on a shape never trained on: at best {best.accuracy:.1f}% ({best.classifier}, "
+                     f"{best.excitation}; chance {chance:.0f}%). The 140-d features are mode frequencies and "
+                     f"amplitudes, which shape sets as much as material: a classifier that has seen one shape of a "
+                     f"material has not learnt the material's damping or sound speed apart from that shape.")
     if pos:
         best = min(pos, key=lambda r: r.rmse_mm)
         worst = max(pos, key=lambda r: r.rmse_mm)

@@ -28,6 +28,8 @@ from sensors.grasp_task import HOME_TCP, MAX_OPENING_M
 # Datasets vary the grasp (jitter, position, contacts), not the table pose: the target lies at
 # the origin, axis along x, as in the paper's recordings.
 DATASET_PLACEMENT = DomainRandomization.off()
+#: Scene draws tried per task on a surface target before the task fails.
+GRASP_ATTEMPTS = 4
 
 
 @lru_cache(maxsize=16)
@@ -54,19 +56,29 @@ def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
     for name in sensor.bodies:  # the scene's object bodies, in the order of ``objects``
         jnt = model.body_jntadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)]
         joints.append((int(model.jnt_qposadr[jnt]), int(model.jnt_dofadr[jnt])))
-    layout = place_objects(model, data, objects, joints, rng, DATASET_PLACEMENT)
-    settle(model, data)
     body = sensor.bodies[0]
-    position_m = float(task.position_m) if task.position_m is not None else grasp_position(rng, spec, layout)
-    # Re-grasping is never exact: the pads land a little off the commanded point along the axis
-    # and in height, as on the robot (the label stays the commanded position).
-    jitter_m = float(rng.uniform(-config.grasp_jitter_m, config.grasp_jitter_m))
-    height_offset_m = float(rng.uniform(-0.002, 0.002))
-    grasp = planar_grasp(model, data, body, position_m + jitter_m, grip_force_n=config.grip_force_n,
-                         height_offset_m=height_offset_m, hand=hand,
-                         grasp=target_grasp(spec, position_m, layout, shift_m=jitter_m))
+    # A surface target may offer a grasp that a leaning object blocks once the scene has
+    # settled: such a draw is placed and grasped again (prisms never needed it: one attempt).
+    attempts = 1 if spec.is_prism or task.position_m is not None else GRASP_ATTEMPTS
+    for attempt in range(attempts):
+        if attempt:
+            mujoco.mj_resetData(model, data)
+            hand.teleport(data, HOME_TCP, MAX_OPENING_M)
+        layout = place_objects(model, data, objects, joints, rng, DATASET_PLACEMENT)
+        settle(model, data)
+        position_m = float(task.position_m) if task.position_m is not None else grasp_position(rng, spec, layout)
+        # Re-grasping is never exact: the pads land a little off the commanded point along the
+        # axis and in height, as on the robot (the label stays the commanded position).
+        jitter_m = float(rng.uniform(-config.grasp_jitter_m, config.grasp_jitter_m))
+        height_offset_m = float(rng.uniform(-0.002, 0.002))
+        grasp = planar_grasp(model, data, body, position_m + jitter_m, grip_force_n=config.grip_force_n,
+                             height_offset_m=height_offset_m, hand=hand,
+                             grasp=target_grasp(spec, position_m, layout, shift_m=jitter_m))
+        if grasp.success:
+            break
     if not grasp.success:
-        raise RuntimeError(f"task {task.task_id}: the scripted grasp did not hold the object ({grasp})")
+        raise RuntimeError(f"task {task.task_id}: the scripted grasp did not hold the object in {attempts} "
+                           f"attempts ({grasp})")
     rows = []
     for name in config.excitations:
         obs = sensor.sense(Excitation.by_name(name), config.duration_s)
