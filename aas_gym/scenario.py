@@ -27,6 +27,8 @@ import numpy as np
 from aas_gym.scene import END_MARGIN_M, ObjectSpec, euler_to_quat
 
 SCENE_KINDS = ("single", "multi")
+#: A surface target's top edge must reach this far from its centre for a bar to lean on it.
+MIN_LEAN_REACH_M = 0.025
 # Pads stay this far from a crossing object's contact line.
 CROSSING_CLEARANCE_M = 0.025
 
@@ -162,7 +164,9 @@ def _lean(data, joint, obj: ObjectSpec, rng: np.random.Generator, contact_xy, di
 
 def _place_on_surface_target(data, objects, free_joints, rng, xy, yaw) -> Layout:
     """A surface target resting upright, turned by ``yaw``; each other object leans on its
-    top edge from a random side (two from opposite sides)."""
+    top edge from a random side (two from opposite sides). A top narrower than
+    :data:`MIN_LEAN_REACH_M` from the centre (a bottle's neck) leaves no room for the fingers
+    beside a bar lying on it: there the bar lies on the table, its end against the base."""
     from aas_gym.mesh_objects import rest_height_m, rest_rotation, yaw_rest_quat
 
     solid = objects[0].solid()
@@ -180,9 +184,16 @@ def _place_on_surface_target(data, objects, free_joints, rng, xy, yaw) -> Layout
         angle = phi + math.pi * (i - 1)
         d = np.array([math.cos(angle), math.sin(angle), 0.0])
         reach = float(((rim[:, :2] - origin[:2]) @ d[:2]).max())
-        edge = origin[:2] + reach * d[:2]
-        _lean(data, free_joints[i], obj, rng, edge, d, top)
-        contacts.append(rot.T @ (np.array([edge[0], edge[1], top]) - origin))
+        if reach >= MIN_LEAN_REACH_M:
+            edge = origin[:2] + reach * d[:2]
+            _lean(data, free_joints[i], obj, rng, edge, d, top)
+            contacts.append(rot.T @ (np.array([edge[0], edge[1], top]) - origin))
+            continue
+        base = world[world[:, 2] <= world[:, 2].min() + obj.half_extents_m[2] * 2]
+        edge = origin[:2] + float(((base[:, :2] - origin[:2]) @ d[:2]).max()) * d[:2]
+        centre = np.array([edge[0], edge[1], obj.half_extents_m[2]]) + d * (obj.length_m / 2 + 0.0005)
+        _set_free_pose(data, free_joints[i], centre, euler_to_quat(float(angle)))
+        contacts.append(rot.T @ (np.array([edge[0], edge[1], obj.half_extents_m[2]]) - origin))
     return Layout((float(xy[0]), float(xy[1])), yaw, (), tuple(contacts))
 
 
@@ -234,15 +245,17 @@ def _grasps(target: ObjectSpec):
     return grasp_set(target.shape, target.material, target.mesh_id, target.name)
 
 
-def target_grasp(target: ObjectSpec, position_m: float, layout: Layout | None = None, shift_m: float = 0.0):
+def target_grasp(target: ObjectSpec, position_m: float, layout: Layout | None = None, shift_m: float = 0.0,
+                 min_width_m: float = 0.0):
     """The grasp of a surface target nearest ``position_m`` along its grasp path (clear of
-    ``layout``'s contacts by :data:`CROSSING_CLEARANCE_M`), its centre moved ``shift_m`` along
-    the path (the re-grasp error); None for a prism (grasped across its axis at the position)."""
+    ``layout``'s contacts by :data:`CROSSING_CLEARANCE_M`, at least ``min_width_m`` wide), its
+    centre moved ``shift_m`` along the path (the re-grasp error); None for a prism (grasped
+    across its axis at the position)."""
     if target.is_prism:
         return None
     grasps = _grasps(target)
     avoid = layout.contacts_m if layout is not None else ()
-    g = grasps.nearest(position_m, avoid, CROSSING_CLEARANCE_M)
+    g = grasps.nearest(position_m, avoid, CROSSING_CLEARANCE_M, min_width_m=min_width_m)
     if shift_m:
         g = type(g)(g.centre_m + shift_m * grasps.path_direction, g.axis, g.width_m, g.position_m + shift_m)
     return g
