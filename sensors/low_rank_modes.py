@@ -21,8 +21,9 @@ Any failure returns ``None`` and the caller takes the dense path.
 """
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from .lazy_jit import jitted
 
 # Relative Aberth step below which a root counts as converged.
 _STEP_TOL = 1e-9
@@ -35,7 +36,7 @@ _TRACE_TOL = 1e-9
 _MAX_CONDITION = 1e8
 
 
-@numba.njit(cache=True, error_model="numpy")  # a zero gap gives inf, caught below
+# compiled by numba on first use (sensors.lazy_jit), error_model="numpy": a zero gap gives inf, caught below
 def _sweep_terms(L, idx, lam, lp, lm, sp, sm, S1, S2):
     """For each active root L[a]: S1[a, i] = sum over the two poles of mode i of s / (L - pole),
     S2 the same with (L - pole)^2, and return sum_i 1/(L - pole) and the Aberth repulsion
@@ -120,6 +121,7 @@ def _coupled_modes(w, d, Q, lp, lm, det):
     lam = lp + sp * np.einsum("ki,ki->i", Q, Q)   # first-order perturbation
     eye = np.eye(k)
     active = np.ones(r, bool)
+    sweep_terms = jitted(globals(), "_sweep_terms", cache=True, error_model="numpy")
     for _ in range(_MAX_SWEEPS):
         idx = np.flatnonzero(active)
         if idx.size == 0:
@@ -127,7 +129,7 @@ def _coupled_modes(w, d, Q, lp, lm, det):
         L = lam[idx]
         S1 = np.empty((idx.size, r), complex)
         S2 = np.empty((idx.size, r), complex)
-        pole_sum, repulsion = _sweep_terms(L, idx, lam, lp, lm, sp, sm, S1, S2)
+        pole_sum, repulsion = sweep_terms(L, idx, lam, lp, lm, sp, sm, S1, S2)
         M = eye - (S1.real @ QQ + 1j * (S1.imag @ QQ)).reshape(-1, k, k)
         dM = (S2.real @ QQ + 1j * (S2.imag @ QQ)).reshape(-1, k, k)
         try:
