@@ -607,9 +607,14 @@ def _relevant_modes(kept, C, b, o, keep_unobservable, excited):
     Ck = C[np.ix_(kept, kept)]
     off = np.abs(Ck - np.diag(np.diag(Ck)))
     scale = np.abs(Ck).max()
-    from scipy.sparse.csgraph import connected_components  # ~0.1 s to import: first grasp only
+    link = off > _NEGLIGIBLE * scale
+    np.fill_diagonal(link, True)
+    if link.all(axis=1).any():  # a mode coupled to every other (any grasp's contacts): one group
+        ncomp, lab = 1, np.zeros(len(kept), int)
+    else:
+        from scipy.sparse.csgraph import connected_components  # ~0.1 s to import: first use only
 
-    ncomp, lab = connected_components(off > _NEGLIGIBLE * scale, directed=False)
+        ncomp, lab = connected_components(link, directed=False)
     bk, ok = np.abs(b[kept]), np.abs(o[kept])
     reach = np.zeros(ncomp, bool)
     seen = np.zeros(ncomp, bool)

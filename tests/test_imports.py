@@ -31,22 +31,27 @@ def test_import_loads_no_heavy_module(module):
 
 
 def test_deferred_numba_kernels_match_their_python_source():
-    """The kernels numba compiles on first use give the numbers of their plain-Python source."""
+    """The kernels numba compiles on first use give the numbers of their plain-Python source
+    (and the low-rank trace kernel those of LAPACK's solve)."""
     code = """
 import sys
 import numpy as np
-from sensors import fingertip as ft, low_rank_modes as lrm
+from sensors import fingertip as ft, low_rank_kernels as kernels
 from sensors.lazy_jit import jitted
 assert "numba" not in sys.modules
 rng = np.random.default_rng(0)
-r, na = 7, 3
-lam = -0.1 + 1j * np.arange(1.0, r + 1)
-args = (lam[:na] + 0.3, np.arange(na), lam, lam + 0.01j, np.conj(lam) - 0.01j,
-        rng.standard_normal(r) + 0j, rng.standard_normal(r) + 0j)
-S = [np.empty((na, r), complex) for _ in range(4)]
-fast = jitted(vars(lrm), "_sweep_terms", cache=True, error_model="numpy")(*args, S[0], S[1])
-slow = lrm._sweep_terms(*args, S[2], S[3])
-assert all(np.allclose(a, b, rtol=1e-12) for a, b in zip(fast + tuple(S[:2]), slow + tuple(S[2:])))
+k, n = 6, 5
+iu, ju = np.triu_indices(k)
+R = rng.standard_normal((4, n, iu.size))
+fast, slow = np.empty(n, complex), np.empty(n, complex)
+jitted(vars(kernels), "newton_traces", callees=("recip", "_unpack", "_eliminate"), error_model="numpy")(
+    R, iu, ju, k, fast)
+kernels.newton_traces(R, iu, ju, k, slow)
+M, dM = np.zeros((2, n, k, k), complex)
+M[:, iu, ju] = M[:, ju, iu] = -(R[0] + 1j * R[1])
+dM[:, iu, ju] = dM[:, ju, iu] = R[2] + 1j * R[3]
+exact = np.einsum("aii->a", np.linalg.solve(M + np.eye(k), dM))
+assert np.allclose(fast, slow, rtol=1e-12) and np.allclose(fast, exact, rtol=1e-10)
 p = ft.FingertipModel(grip_force_n=1.0)._params()
 fe = np.sin(np.arange(300) * 0.3) * 5.0
 out, min_f = ft._simulate_one_sided(p, fe, 44100.0, 2)
