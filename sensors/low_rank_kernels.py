@@ -191,11 +191,10 @@ def vectors(rows, lam, RP, RM, lp, lm, w, wdet, rdet, qy, VT, Wl, cond):
             Wl[a, i] *= rdot
 
 
-def residuals(rows, lam, w, d, VT, GV, res):
-    """res[a] = ||A v - lambda v|| / (|lambda| + max d) for the unit rows v = VT[a], a = rows[t],
+def residuals(rows, lam, w, d, dmax, VT, GV, res):
+    """res[a] = ||A v - lambda v|| / (|lambda| + dmax) for the unit rows v = VT[a], a = rows[t],
     with A = [[0, Omega], [-Omega, -diag(d) - G]] applied in O(r) per entry (GV[t] = G v_low)."""
     r = w.size
-    dmax = np.max(np.abs(d))
     for t in range(rows.size):
         a = rows[t]
         x = lam[a]

@@ -149,7 +149,7 @@ def _coupled_modes(w, d, Q, lp, lm, det):
         vectors(idx, lam, RP, RM, lp, lm, w, w / det, 1.0 / det, y.real @ Q + 1j * (y.imag @ Q), VT, Wl, cond)
         low = VT[idx, r:]
         qv = low.real @ Q.T + 1j * (low.imag @ Q.T)                  # (roots, k)
-        residuals(idx, lam, w, d, VT, qv.real @ Q + 1j * (qv.imag @ Q), res)
+        residuals(idx, lam, w, d, np.abs(d).max(), VT, qv.real @ Q + 1j * (qv.imag @ Q), res)
         # Converged: the step at rounding level, or the residual's first-order bound on the
         # root's error (condition number x residual) far below it.
         done = (np.abs(step) <= _STEP_TOL * np.abs(L)) | (cond[idx] * res[idx] <= _CERTIFIED)
