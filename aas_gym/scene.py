@@ -24,6 +24,7 @@ import mujoco
 import numpy as np
 
 from aas_gym.assets import HAND_XML, OBJECTS_DIR, SCENES_DIR
+from aas_gym.object_names import DEFAULT_OBJECT_NAMES  # noqa: F401  (re-exported)
 
 #: Prisms along x, centred at the origin (the paper's objects).
 SHAPES = ("bar", "tube", "rod")
@@ -36,16 +37,6 @@ EVERYDAY_MATERIALS = {"mug": "ceramic", "bottle": "glass", "can": "steel", "glas
                       "spoon": "wood", "l_bracket": "aluminium"}
 #: Prefix of the custom text elements that describe sensed objects.
 OBJECT_TEXT_PREFIX = "aas_object:"
-#: The paper's seven objects (200 mm long; bars 25 x 25 mm, tubes 25 mm OD / 19 mm ID).
-DEFAULT_OBJECT_NAMES = (
-    "aluminium_bar",
-    "aluminium_tube",
-    "pla_bar",
-    "pla_tube",
-    "abs_bar",
-    "steel_bar",
-    "wood_bar",
-)
 _PRISM_FACETS = 24  # collision prism of tubes and rods (multiple of 4: facets face +-y, +-z)
 _VISUAL_SEGMENTS = 32
 _MATERIAL_RGBA = {

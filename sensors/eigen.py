@@ -18,9 +18,6 @@ import logging
 import math
 
 import numpy as np
-import scipy.linalg
-import scipy.sparse
-import scipy.sparse.linalg
 
 __all__ = ["EigenSolveError", "rigid_body_modes", "solve_modes", "mode_residuals"]
 
@@ -80,6 +77,8 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
     ARPACK's one-at-a-time Lanczos. The basis grows until the Ritz pairs of every mode up to
     the band limit (plus the cluster at the cut and one mode beyond) have converged.
     """
+    import scipy.linalg  # deferred as in solve_modes
+
     n = K.shape[0]
     rng = np.random.default_rng(12345)  # deterministic start -> reproducible mode bases
     max_basis = min(n - 6, cap + 4 * block, 3000, max(4 * block, int(1.2e8 / n)))  # <= ~1 GB per array
@@ -159,6 +158,11 @@ def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_r
         EigenSolveError: spurious zero-energy modes, failed convergence, or residuals above
             ``residual_tol``.
     """
+    # scipy.linalg and scipy.sparse.linalg cost ~0.4 s to import: only a model build needs them
+    import scipy.linalg
+    import scipy.sparse
+    import scipy.sparse.linalg
+
     if not (math.isfinite(max_frequency_hz) and max_frequency_hz > 0):
         raise ValueError(f"max_frequency_hz must be a positive number, got {max_frequency_hz!r}")
     K = scipy.sparse.csr_matrix(K)

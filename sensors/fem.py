@@ -14,7 +14,6 @@ degree 4).
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse
 
 from .materials import Material
 from .meshing import P2_EDGES, MeshError
@@ -117,6 +116,8 @@ def assemble(nodes_m: np.ndarray, tets: np.ndarray, material: Material, element:
         material: Isotropic material (E, nu, density).
         chunk: Elements per vectorized batch (bounds the temporary memory).
     """
+    import scipy.sparse  # ~0.1 s to import: only a model build needs it
+
     element = element.lower()
     n_el = {"p1": 4, "p2": 10}.get(element)
     if n_el is None:

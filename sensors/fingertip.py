@@ -53,9 +53,8 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from .lazy_jit import jitted
 from .synthesis import lti_system
-
-import numba
 
 
 @dataclass(frozen=True)
@@ -171,7 +170,7 @@ class FingertipModel:
         return out
 
 
-@numba.njit(cache=True)
+# compiled by numba on first use (sensors.lazy_jit)
 def _rhs(x, fe, p, out):
     ma, ka, ca, mf, mm, kh, ch, kc, cc, mo, ke, ce, fg = p
     da, va, df, vf, do, vo, dm, vm = x
@@ -194,7 +193,7 @@ def _rhs(x, fe, p, out):
     return f1, f2
 
 
-@numba.njit(cache=True)
+# compiled by numba on first use (sensors.lazy_jit), with _rhs
 def _simulate(p, fe, sample_rate_hz, substeps):
     n = fe.shape[0]
     out = np.zeros(n)
@@ -238,5 +237,6 @@ def _simulate(p, fe, sample_rate_hz, substeps):
 
 def _simulate_one_sided(p, fe, sample_rate_hz, substeps):
     """Compiled RK4 of the one-sided model: (dynamic actuator contact force, min total force)."""
-    out, min_f = _simulate(np.ascontiguousarray(p), np.ascontiguousarray(fe), sample_rate_hz, substeps)
+    simulate = jitted(globals(), "_simulate", callees=("_rhs",), cache=True)
+    out, min_f = simulate(np.ascontiguousarray(p), np.ascontiguousarray(fe), sample_rate_hz, substeps)
     return out, min_f

@@ -11,21 +11,40 @@ matrix (closed-form 2 x 2 blocks) and a rank-k update, so by the matrix determin
     det(lambda I - A) = prod_i (lambda - lambda0_i) * det(I_k - V'^T (lambda I - Lambda0)^-1 U'),
 
 a k x k determinant per evaluation (U', V' are U, V in the eigenbasis of A0). The roots are
-found all at once by the Aberth-Ehrlich iteration (cubic convergence, started from first-order
-perturbation theory; its mutual repulsion keeps close modes apart), and each eigenvector
-follows from the k x k null vector.  Cost O(r^2 k^2) per sweep instead of O(r^3).
+found all at once by the Aberth-Ehrlich iteration (cubic convergence; its mutual repulsion
+keeps close modes apart), and each eigenvector follows from the k x k null vector.  Cost
+O(r^2 k^2) per sweep instead of O(r^3).
+
+The iteration starts from quasi-degenerate perturbation theory (:mod:`sensors.perturbation`):
+second order for isolated modes and the eigenvalues of a small effective matrix for each
+cluster of nearly repeated modes (a tube's pairs, which first-order starts put 1e-4 off, so
+that they needed six sweeps). After each sweep every root's eigenvector is computed (one step
+of inverse iteration on the k x k matrix) with its residual and condition number; a root is
+converged when its step was at rounding level or when condition number x residual, a
+first-order bound on its error, is below 1e-13. From these starts one sweep converges all but
+a fifth of the roots. The k x k eliminations, the pole sums and the vectors are loops compiled
+by numba (:mod:`sensors.low_rank_kernels`): LAPACK's per-call cost dominates at k ~ 12.
 
 The result is checked, never trusted: every eigenpair's residual, the eigenvalues' sum
-against trace(A) (a missed or doubled root changes it) and the eigenvector condition numbers.
+against trace(A) (a missed or doubled root changes it), that no two roots coincide, and the
+eigenvector condition numbers.
 Any failure returns ``None`` and the caller takes the dense path.
 """
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from . import low_rank_kernels
+from .lazy_jit import jitted
+from .perturbation import start_roots
 
 # Relative Aberth step below which a root counts as converged.
 _STEP_TOL = 1e-9
+# A root is also converged once condition number x relative residual (a first-order bound on
+# its relative error) is below this; the roots of a sweep from good starts usually are.
+_CERTIFIED = 1e-13
+# Two roots closer than this (relative) count as one eigenvalue found twice: dense path.
+_DISTINCT = 1e-12
 _MAX_SWEEPS = 60
 # Accept only if every relative residual and the trace check are below these.
 _RESIDUAL_TOL = 1e-10
@@ -33,34 +52,6 @@ _TRACE_TOL = 1e-9
 # Eigenvalue condition (1 / |cos| between left and right vectors) above this -> dense path,
 # as the dense path's own threshold on cond(V).
 _MAX_CONDITION = 1e8
-
-
-@numba.njit(cache=True, error_model="numpy")  # a zero gap gives inf, caught below
-def _sweep_terms(L, idx, lam, lp, lm, sp, sm, S1, S2):
-    """For each active root L[a]: S1[a, i] = sum over the two poles of mode i of s / (L - pole),
-    S2 the same with (L - pole)^2, and return sum_i 1/(L - pole) and the Aberth repulsion
-    sum over every other current root (and its conjugate)."""
-    na, r = S1.shape
-    pole_sum = np.empty(na, np.complex128)
-    repulsion = np.empty(na, np.complex128)
-    for a in range(na):
-        x = L[a]
-        acc = 0j
-        for i in range(r):
-            rp = 1.0 / (x - lp[i])
-            rm = 1.0 / (x - lm[i])
-            acc += rp + rm
-            S1[a, i] = rp * sp[i] + rm * sm[i]
-            S2[a, i] = rp * rp * sp[i] + rm * rm * sm[i]
-        pole_sum[a] = acc
-        rep = 0j
-        me = idx[a]
-        for j in range(r):
-            if j != me:
-                rep += 1.0 / (x - lam[j])
-            rep += 1.0 / (x - np.conj(lam[j]))
-        repulsion[a] = rep
-    return pole_sum, repulsion
 
 
 def low_rank_modes(w: np.ndarray, d: np.ndarray, Q: np.ndarray):
@@ -87,7 +78,9 @@ def low_rank_modes(w: np.ndarray, d: np.ndarray, Q: np.ndarray):
     # Modes the contacts do not touch are decoupled from all others (their row of Q^T Q is
     # zero): their closed-form 2 x 2 eigenpairs are exact. The rest go to the root finder.
     qn = np.einsum("ki,ki->i", Q, Q)
-    coupled = qn > 1e-28 * max(float(qn.max(initial=0.0)), 1e-300)
+    c = np.flatnonzero(qn > 1e-28 * max(float(qn.max(initial=0.0)), 1e-300))
+    if c.size == r:  # the usual grasp: every mode touched
+        return _coupled_modes(w, d, Q, lp, lm, det)
     lam = lp.copy()
     V = np.zeros((2 * r, r), complex)
     W = np.zeros((r, 2 * r), complex)
@@ -96,7 +89,6 @@ def low_rank_modes(w: np.ndarray, d: np.ndarray, Q: np.ndarray):
     scale = np.sqrt(w**2 + np.abs(lp) ** 2)
     V[ii, ii], V[r + ii, ii] = w / scale, lp / scale
     W[ii, ii], W[ii, r + ii] = lm / det * scale, -w / det * scale
-    c = np.flatnonzero(coupled)
     if c.size:
         out = _coupled_modes(w[c], d[c], Q[:, c], lp[c], lm[c], det[c])
         if out is None:
@@ -110,71 +102,75 @@ def low_rank_modes(w: np.ndarray, d: np.ndarray, Q: np.ndarray):
     return lam, V, W
 
 
+def _kernel(name: str):
+    # error_model="numpy": a zero gap gives inf or nan, which the checks below catch
+    return jitted(vars(low_rank_kernels), name, callees=("recip", "_unpack", "_eliminate"), cache=True,
+                  error_model="numpy")
+
+
 def _coupled_modes(w, d, Q, lp, lm, det):
     """The root finder and eigenvectors for modes that all touch the contacts."""
     r = w.size
     k = Q.shape[0]
-    # In A0's eigenbasis the update's row for pole (i, +-) is s_+- q_i q_i^T (q_i = Q[:, i]).
+    # In A0's eigenbasis the update's row for pole (i, +-) is s_+- q_i q_i^T (q_i = Q[:, i]);
+    # the k x k matrices are symmetric: products over the k (k + 1) / 2 packed entries.
     sp, sm = lp * w / det, -lm * w / det
-    QQ = (Q.T[:, :, None] * Q.T[:, None, :]).reshape(r, k * k)
-    lam = lp + sp * np.einsum("ki,ki->i", Q, Q)   # first-order perturbation
-    eye = np.eye(k)
-    active = np.ones(r, bool)
+    iu, ju = np.triu_indices(k)
+    QQ = Q.T[:, iu] * Q.T[:, ju]                                    # (r, k (k+1) / 2)
+    lam = start_roots(lp, lm, w, det, Q)
+    VT = np.empty((r, 2 * r), complex)
+    Wl = np.empty((r, 2 * r), complex)
+    cond = np.empty(r)
+    res = np.empty(r)
+    sweep_terms, pole_terms, vectors = _kernel("sweep_terms"), _kernel("pole_terms"), _kernel("vectors")
+    newton_traces, null_vectors, residuals = _kernel("newton_traces"), _kernel("null_vectors"), _kernel("residuals")
+    idx = np.arange(r)
     for _ in range(_MAX_SWEEPS):
-        idx = np.flatnonzero(active)
-        if idx.size == 0:
-            break
+        n = idx.size
+        # Aberth sweep over the roots not yet converged: M(L) and dM/dL, Newton, repulsion
         L = lam[idx]
-        S1 = np.empty((idx.size, r), complex)
-        S2 = np.empty((idx.size, r), complex)
-        pole_sum, repulsion = _sweep_terms(L, idx, lam, lp, lm, sp, sm, S1, S2)
-        M = eye - (S1.real @ QQ + 1j * (S1.imag @ QQ)).reshape(-1, k, k)
-        dM = (S2.real @ QQ + 1j * (S2.imag @ QQ)).reshape(-1, k, k)
-        try:
-            tr = np.einsum("aii->a", np.linalg.solve(M, dM))
-        except np.linalg.LinAlgError:
-            return None
+        S = np.empty((4, n, r))
+        pole_sum, repulsion = sweep_terms(L, idx, lam, lp, lm, sp, sm, S)
+        R = (S.reshape(4 * n, r) @ QQ).reshape(4, n, -1)
+        tr = np.empty(n, complex)
+        newton_traces(R, iu, ju, k, tr)
         newton = 1.0 / (pole_sum + tr)
         step = newton / (1.0 - newton * repulsion)
         if not np.all(np.isfinite(step)):
             return None
         lam[idx] = L - step
-        active[idx] = np.abs(step) > _STEP_TOL * np.abs(L)
+        # eigenvectors at the new roots from the null vector y of M(lambda)
+        S = np.empty((2, n, r))
+        RP, RM = np.empty((n, r), complex), np.empty((n, r), complex)
+        pole_terms(lam[idx], lp, lm, sp, sm, S, RP, RM)
+        R = (S.reshape(2 * n, r) @ QQ).reshape(2, n, -1)
+        y = np.empty((n, k), complex)
+        null_vectors(R, iu, ju, k, y)
+        vectors(idx, lam, RP, RM, lp, lm, w, w / det, 1.0 / det, y.real @ Q + 1j * (y.imag @ Q), VT, Wl, cond)
+        low = VT[idx, r:]
+        qv = low.real @ Q.T + 1j * (low.imag @ Q.T)                  # (roots, k)
+        residuals(idx, lam, w, d, np.abs(d).max(), VT, qv.real @ Q + 1j * (qv.imag @ Q), res)
+        # Converged: the step at rounding level, or the residual's first-order bound on the
+        # root's error (condition number x residual) far below it.
+        done = (np.abs(step) <= _STEP_TOL * np.abs(L)) | (cond[idx] * res[idx] <= _CERTIFIED)
+        idx = idx[~done]
+        if idx.size == 0:
+            break
     else:
         return None
-    # Eigenvectors from the null vector y of M(lambda) (complex symmetric: left = right),
-    # by one step of inverse iteration (M is singular to rounding at a converged root).
-    Rp = 1.0 / (lam[:, None] - lp[None, :])
-    Rm = 1.0 / (lam[:, None] - lm[None, :])
-    S1 = Rp * sp + Rm * sm
-    M = eye - (S1.real @ QQ + 1j * (S1.imag @ QQ)).reshape(-1, k, k)
-    probe = np.broadcast_to(np.linspace(1.0, 2.0, k)[None, :, None], (r, k, 1))
-    try:
-        y = np.linalg.solve(M, probe)[:, :, 0]
-    except np.linalg.LinAlgError:
-        y = np.linalg.svd(M)[2][:, -1, :].conj()
-    y /= np.linalg.norm(y, axis=1, keepdims=True)
-    qy = y @ Q                                           # (r_eig, r_mode): q_i^T y
-    # right vector in A0's basis: z_(i,+-) = R_+- u_(i,+-)^T y, u_(i,+) = (w/det) q_i, u_(i,-) = -(w/det) q_i
-    zp = Rp * (w / det) * qy
-    zm = -Rm * (w / det) * qy
-    # left vector: t_(i,+-) = R_+- v_(i,+-)^T y, v_(i,+-) = l_+- q_i
-    tp = Rp * lp * qy
-    tm = Rm * lm * qy
-    # back to the scaled state: X0 column (i,+-) = [w_i e_i; l_+- e_i]; X0^-1 rows (1/det)[[lm, -w], [-lp, w]]
-    V = np.concatenate([w * (zp + zm), lp * zp + lm * zm], axis=1).T          # (2r, r)
-    Wl = np.concatenate([(tp * lm - tm * lp) / det, (-tp + tm) * w / det], axis=1)  # (r, 2r)
-    V /= np.linalg.norm(V, axis=0)
-    dots = np.einsum("jn,nj->j", Wl, V)
-    cond = np.linalg.norm(Wl, axis=1) / np.abs(dots)
-    if not np.all(np.isfinite(cond)) or cond.max() > _MAX_CONDITION:
+    if not (cond.max() <= _MAX_CONDITION and res.max() <= _RESIDUAL_TOL):
         return None
-    Wl = Wl / dots[:, None]
-    # residual of every pair, with A applied in O(r k) per vector
-    qv = Q @ V[r:]                                                   # (k, r_eig)
-    AV = np.concatenate([w[:, None] * V[r:], -w[:, None] * V[:r] - d[:, None] * V[r:] - Q.T @ qv])
-    res = np.linalg.norm(AV - V * lam, axis=0) / (np.abs(lam) + np.abs(d).max())
+    # a missed or doubled root changes the trace; two roots on one eigenvalue are never apart
     trace = -(d.sum() + np.sum(Q * Q))
-    if res.max() > _RESIDUAL_TOL or abs(2 * lam.real.sum() - trace) > _TRACE_TOL * abs(trace):
+    if abs(2 * lam.real.sum() - trace) > _TRACE_TOL * abs(trace) or not _apart(lam):
         return None
-    return lam, V, Wl
+    return lam, VT.T, Wl
+
+
+def _apart(lam: np.ndarray) -> bool:
+    """Whether no two roots coincide (relative distance above rounding)."""
+    if lam.size < 2:
+        return True
+    order = np.argsort(lam.imag)
+    gaps = np.abs(np.diff(lam[order]))
+    return bool(np.all(gaps > _DISTINCT * np.abs(lam[order][1:])))

@@ -26,8 +26,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse
-import scipy.sparse.csgraph
 
 __all__ = [
     "MeshError",
@@ -134,6 +132,8 @@ def check_tet_quality(vertices: np.ndarray, tets: np.ndarray, min_quality: float
             f"tetrahedral mesh has {n_inv} inverted and {n_flat} zero-volume tets out of {len(tets)} "
             f"(worst quality {quality.min():.3g})"
         )
+    import scipy.sparse.csgraph  # ~0.2 s to import: only a model build needs it
+
     n = len(vertices)
     t = tets[:, :4]
     rows = np.repeat(t[:, 0], 3)

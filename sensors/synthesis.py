@@ -61,9 +61,6 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
-import scipy.linalg as sla
-from scipy.sparse.csgraph import connected_components
-from threadpoolctl import ThreadpoolController
 
 from .contact import Contact
 from .damping import check_on_surface, modal_damping_matrix, modal_damping_parts
@@ -322,7 +319,7 @@ class _DensePart:
         aug[:n, :n] = A
         aug[:n, n] = B
         aug[n, n + 1] = 1.0
-        E = sla.expm(aug * T)
+        E = _sla().expm(aug * T)
         self.Phi = E[:n, :n]
         F1, F2 = E[:n, n], E[:n, n + 1]
         if hold == "foh":
@@ -347,7 +344,7 @@ class _DensePart:
 
     def _power(self, k: int) -> np.ndarray:
         if k not in self._phiB:
-            self._phiB[k] = sla.expm(self.A * (self.T * k))
+            self._phiB[k] = _sla().expm(self.A * (self.T * k))
         return self._phiB[k]
 
     def power_sums(self, vs: np.ndarray, n: int) -> np.ndarray:
@@ -610,7 +607,14 @@ def _relevant_modes(kept, C, b, o, keep_unobservable, excited):
     Ck = C[np.ix_(kept, kept)]
     off = np.abs(Ck - np.diag(np.diag(Ck)))
     scale = np.abs(Ck).max()
-    ncomp, lab = connected_components(off > _NEGLIGIBLE * scale, directed=False)
+    link = off > _NEGLIGIBLE * scale
+    np.fill_diagonal(link, True)
+    if link.all(axis=1).any():  # a mode coupled to every other (any grasp's contacts): one group
+        ncomp, lab = 1, np.zeros(len(kept), int)
+    else:
+        from scipy.sparse.csgraph import connected_components  # ~0.1 s to import: first use only
+
+        ncomp, lab = connected_components(link, directed=False)
     bk, ok = np.abs(b[kept]), np.abs(o[kept])
     reach = np.zeros(ncomp, bool)
     seen = np.zeros(ncomp, bool)
@@ -654,7 +658,7 @@ def _build_parts(su: _Setup, method: str, output: str, T: float, hold: str):
         return _diagonal_parts(su, output, T, hold)
     A, B, Cout, D = _state_matrices(su, output)
     if su.Q is not None and r >= LOW_RANK_MIN_MODES and su.Q.shape[0] <= LOW_RANK_MAX_RATIO * r:
-        with _BLAS.limit(limits=1, user_api="blas"):
+        with _one_blas_thread():
             modes = low_rank_modes(su.w, su.d, su.Q)
         if modes is not None:
             lam, V, W = modes
@@ -665,11 +669,27 @@ def _build_parts(su: _Setup, method: str, output: str, T: float, hold: str):
 
 # Multi-threaded BLAS makes the small dense eigenproblems here several times slower on a
 # busy two-core machine (0.15 s vs 0.03 s for 204 x 204): they run on one thread.
-_BLAS = ThreadpoolController()
+_BLAS = None
+
+
+def _one_blas_thread():
+    global _BLAS
+    if _BLAS is None:
+        from threadpoolctl import ThreadpoolController  # deferred with scipy.linalg (below)
+
+        _sla()  # the controller sees only the BLAS libraries loaded when it is made: scipy's too
+        _BLAS = ThreadpoolController()
+    return _BLAS.limit(limits=1, user_api="blas")
+
+
+def _sla():
+    import scipy.linalg  # ~0.2 s to import (-X importtime): first system built only
+
+    return scipy.linalg
 
 
 def _lti_parts(A, B, Cout, D, T, hold, passive=False):
-    with _BLAS.limit(limits=1, user_api="blas"):
+    with _one_blas_thread():
         return _lti_parts_one_thread(A, B, Cout, D, T, hold, passive)
 
 
@@ -680,6 +700,7 @@ def _lti_parts_one_thread(A, B, Cout, D, T, hold, passive=False):
     ``passive``: the system cannot gain energy (C_m >= 0), so a positive real part of an
     eigenvalue can only be rounding (undamped modes: +-1e-16 |lambda|); it is set to 0 so that
     60 s of free ringing cannot grow."""
+    sla = _sla()
     idx = np.arange(A.shape[0])
     lam, V = sla.eig(A, check_finite=False, overwrite_a=False)
     if passive:
@@ -706,8 +727,8 @@ class _LazyInverseRows:
     def get(self):
         if self._rows is None:
             n = self.lu.shape[0]
-            with _BLAS.limit(limits=1, user_api="blas"):   # as _lti_parts: small, one thread
-                self._rows = sla.lu_solve((self.lu, self.piv), np.eye(n), check_finite=False)[self.keep]
+            with _one_blas_thread():   # as _lti_parts: small, one thread
+                self._rows = _sla().lu_solve((self.lu, self.piv), np.eye(n), check_finite=False)[self.keep]
         return self._rows
 
 

@@ -9,6 +9,12 @@ import sys
 import pytest
 
 HEAVY = ("sklearn", "scipy.signal", "scipy.optimize", "matplotlib", "pyaudio", "torch", "ray")
+# What each import leaves to first use (benchmarks/imports.py measures the time it saves).
+DEFERRED = {
+    "sensors": ("numba", "llvmlite", "scipy.linalg", "scipy.sparse", "threadpoolctl", "tqdm", "mujoco", "gymnasium"),
+    "aas_gym": ("numba", "scipy", "mujoco", "sensors"),
+    "real": ("numba", "scipy", "mujoco", "sensors"),
+}
 
 
 def _loaded(code: str) -> set[str]:
@@ -21,12 +27,44 @@ def _loaded(code: str) -> set[str]:
 def test_import_loads_no_heavy_module(module):
     loaded = _loaded(f"import {module}")
     assert not [m for m in HEAVY if m in loaded]
+    assert not [m for m in DEFERRED[module] if m in loaded]
+
+
+def test_deferred_numba_kernels_match_their_python_source():
+    """The kernels numba compiles on first use give the numbers of their plain-Python source
+    (and the low-rank trace kernel those of LAPACK's solve)."""
+    code = """
+import sys
+import numpy as np
+from sensors import fingertip as ft, low_rank_kernels as kernels
+from sensors.lazy_jit import jitted
+assert "numba" not in sys.modules
+rng = np.random.default_rng(0)
+k, n = 6, 5
+iu, ju = np.triu_indices(k)
+R = rng.standard_normal((4, n, iu.size))
+fast, slow = np.empty(n, complex), np.empty(n, complex)
+jitted(vars(kernels), "newton_traces", callees=("recip", "_unpack", "_eliminate"), error_model="numpy")(
+    R, iu, ju, k, fast)
+kernels.newton_traces(R, iu, ju, k, slow)
+M, dM = np.zeros((2, n, k, k), complex)
+M[:, iu, ju] = M[:, ju, iu] = -(R[0] + 1j * R[1])
+dM[:, iu, ju] = dM[:, ju, iu] = R[2] + 1j * R[3]
+exact = np.einsum("aii->a", np.linalg.solve(M + np.eye(k), dM))
+assert np.allclose(fast, slow, rtol=1e-12) and np.allclose(fast, exact, rtol=1e-10)
+p = ft.FingertipModel(grip_force_n=1.0)._params()
+fe = np.sin(np.arange(300) * 0.3) * 5.0
+out, min_f = ft._simulate_one_sided(p, fe, 44100.0, 2)
+ref, ref_min = ft._simulate(p, fe, 44100.0, 2)
+assert np.allclose(out, ref, rtol=1e-12, atol=1e-12) and np.isclose(min_f, ref_min) and min_f < 1.0
+"""
+    assert "numba" in _loaded(code)
 
 
 def test_aas_help_loads_neither_the_sensor_stack_nor_mujoco():
     loaded = _loaded("import contextlib, io\nfrom aas_gym.cli import build_parser\n"
                      "with contextlib.redirect_stdout(io.StringIO()):\n    build_parser().format_help()")
-    assert "sensors.synthesis" not in loaded and "pyaudio" not in loaded
+    assert "sensors.synthesis" not in loaded and "pyaudio" not in loaded and "mujoco" not in loaded
     assert not [m for m in HEAVY if m in loaded]
 
 

@@ -94,6 +94,17 @@ def test_uncoupled_and_exactly_repeated_modes():
     _check_against_dense(w, np.full(5, 3.0), np.zeros((2, 5)))
 
 
+def test_exactly_repeated_modes_without_mutual_coupling():
+    """Two modes at exactly the same frequency that the contacts touch but do not couple to
+    each other (orthogonal columns of Q), while both couple to the rest: the start has no
+    finite second-order term between them; the result is right or left to the dense path."""
+    w = 2 * np.pi * np.array([1000.0, 2000.0, 2000.0, 3000.0, 4000.0])
+    Q = np.array([[0.5, 1.0, 0.0, 0.3, 2.0], [0.2, 0.0, 1.0, -0.4, 0.1], [1.0, 0.1, 0.0, 0.2, 0.3]])
+    assert Q[:, 1] @ Q[:, 2] == 0.0
+    if low_rank_modes(w, np.full(5, 3.0), Q) is not None:
+        _check_against_dense(w, np.full(5, 3.0), Q)
+
+
 def test_synthesis_response_equals_the_dense_path():
     """ModalSystem.build takes the low-rank path for a grasp; passing the same C_m as a
     matrix forces LAPACK's dense eig: the microphone responses agree to rounding."""

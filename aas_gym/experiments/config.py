@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from aas_gym.scene import DEFAULT_OBJECT_NAMES, get_object
+from aas_gym.object_names import DEFAULT_OBJECT_NAMES
 
 EXCITATIONS = ("impulse", "linear", "exponential")
 SCENES = ("single", "multi", "position")
@@ -75,6 +75,8 @@ class DatasetConfig:
             raise ValueError(f"unknown scenes {sorted(unknown)}; known: {SCENES}")
         if not self.objects:
             raise ValueError("objects is empty")
+        from aas_gym.scene import get_object  # imports MuJoCo (~0.1 s): `aas --help` does not pay
+
         for name in self.objects:
             get_object(name)  # a misspelt object fails here, before anything is written
         for name in ("single_grasps", "multi_grasps", "positions", "position_repeats", "shard_size"):
