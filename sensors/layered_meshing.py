@@ -52,7 +52,10 @@ def disk_template(n_theta: int, n_wall: int) -> Template:
     if n_theta % 8:
         raise ValueError(f"n_theta must be a multiple of 8, got {n_theta}")
     # rod_mesh puts 2 ceil(r / (2 h)) core cells per side and 4 times that many points around.
-    rod = rod_mesh(1.0, 1.0, element_size_m=4.0 / n_theta)
+    # Only its first cross-section is used: a rod one element long keeps it small (a 1 m rod at
+    # n_theta = 96 would trip rod_mesh's size guard).
+    h = 4.0 / n_theta
+    rod = rod_mesh(h, 1.0, element_size_m=h, max_dof=None)
     x = rod.vertices_m[:, 0]
     first = np.flatnonzero(np.isclose(x, x.min()))
     p = len(first)
