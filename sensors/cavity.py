@@ -22,11 +22,16 @@ import math
 import numpy as np
 import scipy.optimize
 
-from .container_mesh import disc_section
-from .fem import QUADRATURE, shape_gradients_ref
+from .fem import QUADRATURE, shape_functions, shape_gradients_ref
+from .layered_meshing import disk_template
 from .meshing import MeshError, TetMesh, _extrude, quadratic_mesh, tetrahedralize_surface, validate_surface
 
-__all__ = ["LiquidMesh", "AxisymmetricCavity", "SurfaceCavity", "cup_cavity", "p2_volume_m3", "unit"]
+__all__ = ["LiquidMesh", "AxisymmetricCavity", "SurfaceCavity", "LiquidSpillError", "cavity_of", "p2_volume_m3",
+           "unit"]
+
+
+class LiquidSpillError(ValueError):
+    """The liquid asked for does not fit below the rim at this tilt (it would spill)."""
 
 
 def unit(v) -> np.ndarray:
@@ -40,10 +45,23 @@ def unit(v) -> np.ndarray:
 
 def p2_volume_m3(nodes_m: np.ndarray, tets: np.ndarray) -> float:
     """Volume of a (curved) P2 tet mesh by the degree-5 rule (exact for its geometry)."""
+    return p2_mass_properties(nodes_m, tets, 1.0)[0]
+
+
+def p2_mass_properties(nodes_m: np.ndarray, tets: np.ndarray, density_kg_m3: float):
+    """(mass [kg], centre of mass (3,) [m], inertia tensor about the centre of mass (3, 3)
+    [kg m^2]) of a uniform P2 tet mesh, by the degree-5 rule."""
     xi, w = QUADRATURE["deg5"]
     dN = shape_gradients_ref(xi, "p2")
-    J = np.einsum("mai,qak->mqik", nodes_m[tets], dN)
-    return float((np.linalg.det(J) * w).sum())
+    N = shape_functions(np.concatenate([1.0 - xi.sum(axis=1, keepdims=True), xi], axis=1), "p2")
+    X = nodes_m[tets]
+    dm = density_kg_m3 * np.linalg.det(np.einsum("mai,qak->mqik", X, dN)) * w  # (m, q)
+    x = np.einsum("qa,mai->mqi", N, X)
+    mass = float(dm.sum())
+    centre = np.einsum("mq,mqi->i", dm, x) / mass
+    r = x - centre
+    second = np.einsum("mq,mqi,mqj->ij", dm, r, r)
+    return mass, centre, np.trace(second) * np.eye(3) - second
 
 
 @dataclasses.dataclass
@@ -117,10 +135,59 @@ class AxisymmetricCavity:
         """Depth from the bottom to the rim."""
         return float(self.axial_m[-1] - self.axial_m[0])
 
+    @classmethod
+    def from_profile(cls, profile_xr, axis=(1.0, 0.0, 0.0)) -> "AxisymmetricCavity":
+        """The cavity of an inner profile: rows (x, r) [m] from the floor to the rim, x measured
+        along ``axis`` from the object origin (the ``inner_profile_m`` of
+        :class:`~sensors.everyday.EverydayObject`). Rows on the axis (r = 0, closing the
+        profile at the floor or the rim) are dropped."""
+        prof = np.asarray(profile_xr, dtype=np.float64)
+        if prof.ndim != 2 or prof.shape[1] != 2:
+            raise ValueError(f"profile_xr must have shape (k, 2), got {prof.shape}")
+        prof = prof[prof[:, 1] > 0]
+        x0 = float(prof[0, 0])
+        return cls(prof[:, 0] - x0, prof[:, 1], origin_m=x0 * unit(axis), axis=axis)
+
     @property
     def upright_up(self) -> np.ndarray:
         """The ``up`` direction of the container standing upright (its axis)."""
         return self.axis.copy()
+
+    def _local(self, points_m):
+        p = np.atleast_2d(np.asarray(points_m, dtype=np.float64)) - self.origin_m
+        s = p @ self.axis
+        r = np.linalg.norm(p - s[:, None] * self.axis, axis=-1)
+        return s, r
+
+    def wall_distance_m(self, points_m) -> np.ndarray:
+        """Distance [m] from each point to the wetted boundary (the side wall up to the rim and
+        the floor), (n,); the opening is not part of it."""
+        s, r = self._local(points_m)
+        sc = np.clip(s, self.axial_m[0], self.axial_m[-1])
+        # Piecewise-linear profile: the radial offset at the clamped axial position bounds the
+        # distance to the side wall closely for the gentle profiles of containers.
+        wall = np.hypot(r - self.radius(sc), s - sc)
+        floor = np.hypot(s - self.axial_m[0], np.maximum(r - self.radius_m[0], 0.0))
+        return np.minimum(wall, floor)
+
+    @property
+    def size_m(self) -> float:
+        """A length scale of the cavity: its bounding box diagonal [m]."""
+        return float(math.hypot(self.depth_m, 2.0 * self.radius_m.max()))
+
+    def rim_points_m(self, n: int = 256) -> np.ndarray:
+        """(n, 3) points on the rim circle."""
+        t = 2 * math.pi * np.arange(n) / n
+        return (self.origin_m + self.axial_m[-1] * self.axis
+                + self.radius_m[-1] * (np.cos(t)[:, None] * self._e1 + np.sin(t)[:, None] * self._e2))
+
+    def max_volume_m3(self, up) -> float:
+        """The most liquid the cavity holds with its free surface normal to ``up`` (up to the
+        lowest point of the rim; more spills)."""
+        up = unit(up)
+        if float(up @ self.axis) <= 1e-6:
+            return 0.0
+        return self._volume_for_offset(up, float((self.rim_points_m() @ up).min()))
 
     def volume_below_m3(self, fill_height_m: float) -> float:
         """Upright volume up to ``fill_height_m`` above the bottom."""
@@ -157,20 +224,22 @@ class AxisymmetricCavity:
         corners = np.array([self.origin_m + s * self.axis + sgn * r * e for s, r in zip(self.axial_m, self.radius_m)
                             for e in (self._e1, self._e2) for sgn in (-1, 1)])
         lo, hi = float((corners @ up).min()), float((corners @ up).max())
-        return scipy.optimize.brentq(lambda d: self._volume_for_offset(up, d) - volume_m3, lo, hi, xtol=1e-12 * (hi - lo))
+        return scipy.optimize.brentq(lambda d: self._volume_for_offset(up, d) - volume_m3, lo, hi,
+                                     xtol=1e-12 * (hi - lo))
 
     def liquid_mesh(self, volume_m3: float, up, n_theta: int = 16, element_size_m: float | None = None) -> LiquidMesh:
         """Structured P2 mesh of ``volume_m3`` of liquid with its free surface normal to ``up``.
 
         Args:
-            n_theta: Elements around (multiple of 4).
+            n_theta: Elements around (a multiple of 8).
             element_size_m: Axial element size; default the size around the wall.
         """
         up = unit(up)
         d = self.surface_offset_m(volume_m3, up)
         r_max = float(self.radius_m.max())
         h = element_size_m or 2 * math.pi * r_max / n_theta
-        pts, tris, _ = disc_section(1.0, n_theta)
+        template = disk_template(n_theta, 0)  # the O-grid unit disk of the container meshes
+        pts, tris = template.points, template.triangles
         # Surface heights on the rim decide validity and the number of layers.
         rim = np.linspace(0, 2 * math.pi, 4 * n_theta, endpoint=False)
         s_rim = self._surface_axial(np.cos(rim), np.sin(rim), up, d)
@@ -178,7 +247,8 @@ class AxisymmetricCavity:
             raise MeshError("the free surface reaches the bottom at this tilt and volume (the bottom is partly dry); "
                             "use a SurfaceCavity for this case")
         if s_rim.max() > self.axial_m[-1] + 1e-9 * self.depth_m:
-            raise MeshError("the liquid would spill over the rim at this tilt and volume")
+            raise LiquidSpillError(f"{volume_m3 * 1e6:.4g} ml would spill over the rim at this tilt (it holds "
+                                   f"{self.max_volume_m3(up) * 1e6:.4g} ml)")
         nz = max(2, int(math.ceil((s_rim.max() - self.axial_m[0]) / h - 1e-9)))
         v, t = _extrude(pts, tris, 1.0, nz)
         nodes, tets = quadratic_mesh(TetMesh(v, t, "liquid", {}, (1.0,)))
@@ -217,7 +287,24 @@ class SurfaceCavity:
 
     @property
     def volume_m3(self) -> float:
+        """Volume of the whole cavity."""
         return float(self.mesh.volume)
+
+    @property
+    def size_m(self) -> float:
+        """A length scale of the cavity: its bounding box diagonal [m]."""
+        return float(np.linalg.norm(np.ptp(self.mesh.vertices, axis=0)))
+
+    def wall_distance_m(self, points_m) -> np.ndarray:
+        """Distance [m] from each point to the cavity's closed surface (opening included), (n,)."""
+        import trimesh  # only this cavity kind needs trimesh's proximity queries
+
+        p = np.atleast_2d(np.asarray(points_m, dtype=np.float64))
+        return np.asarray(trimesh.proximity.closest_point(self.mesh, p)[1], dtype=np.float64)
+
+    def max_volume_m3(self, up) -> float:
+        """The whole cavity (a closed surface has no known opening: spilling is not modelled)."""
+        return self.volume_m3
 
     def _sliced(self, up, d):
         import trimesh  # only this cavity kind needs trimesh's slicing
@@ -250,8 +337,15 @@ class SurfaceCavity:
         return LiquidMesh(nodes, tets, free, float(volume_m3), up, float(d))
 
 
-def cup_cavity(height_m: float, outer_radius_m: float, wall_thickness_m: float, bottom_thickness_m: float) -> AxisymmetricCavity:
-    """The cavity of :func:`sensors.container_mesh.cup_mesh` (axis x, bottom at x = t_b)."""
-    inner = outer_radius_m - wall_thickness_m
-    return AxisymmetricCavity(axial_m=[0.0, height_m - bottom_thickness_m], radius_m=[inner, inner],
-                              origin_m=(bottom_thickness_m, 0.0, 0.0), axis=(1.0, 0.0, 0.0))
+def cavity_of(obj) -> "AxisymmetricCavity | SurfaceCavity":
+    """The cavity of a container: an :class:`~sensors.everyday.EverydayObject` (its inner profile
+    when it is revolved, else its closed cavity surface), or a cavity itself."""
+    if isinstance(obj, (AxisymmetricCavity, SurfaceCavity)):
+        return obj
+    profile = getattr(obj, "inner_profile_m", None)
+    if profile is not None:
+        return AxisymmetricCavity.from_profile(profile, axis=getattr(obj, "main_axis", (1.0, 0.0, 0.0)))
+    surface = getattr(obj, "cavity", None)
+    if surface is not None:
+        return SurfaceCavity(surface)
+    raise TypeError(f"{getattr(obj, 'name', type(obj).__name__)!r} is not a container (it has no cavity)")
