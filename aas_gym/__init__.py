@@ -29,6 +29,7 @@ _ENVS = {
     "aas_gym/GraspPosition-v0": ("aas_gym.envs.grasp_position:GraspPositionEnv", 1),
     "aas_gym/ObjectRecognition-v0": ("aas_gym.envs.object_recognition:ObjectRecognitionEnv", 10),
     "aas_gym/ContactFormation-v0": ("aas_gym.envs.contact_formation:ContactFormationEnv", 200),
+    "aas_gym/FillLevel-v0": ("aas_gym.envs.fill_level:FillLevelEnv", 1),
 }
 for _id, (_entry, _steps) in _ENVS.items():
     if _id not in _gym.registry:

@@ -168,16 +168,19 @@ class GraspSet:
     def span_m(self) -> tuple[float, float]:
         return float(self.positions_m.min()), float(self.positions_m.max())
 
-    def nearest(self, position_m: float, avoid_m=(), clearance_m: float = 0.0) -> ObjectGrasp:
-        """The grasp whose position is closest to ``position_m``, among those whose contacts
-        stay ``clearance_m`` from every point of ``avoid_m`` (object frame)."""
-        ok = np.ones(len(self.grasps), bool)
+    def nearest(self, position_m: float, avoid_m=(), clearance_m: float = 0.0,
+                min_width_m: float = 0.0) -> ObjectGrasp:
+        """The grasp whose position is closest to ``position_m``, among those at least
+        ``min_width_m`` wide whose contacts stay ``clearance_m`` from every point of
+        ``avoid_m`` (object frame)."""
+        ok = np.array([g.width_m >= min_width_m for g in self.grasps], bool)
         for point in avoid_m:
             for g_i, g in enumerate(self.grasps):
                 if ok[g_i] and min(np.linalg.norm(c - point) for c in g.contacts_m) < clearance_m:
                     ok[g_i] = False
         if not ok.any():
-            raise ValueError("no grasp of this object stays clear of the other objects' contacts")
+            raise ValueError(f"no grasp of this object is {min_width_m * 1e3:.0f} mm wide or more and stays clear of "
+                             "the other objects' contacts")
         idx = np.flatnonzero(ok)
         i = int(idx[np.argmin(np.abs(self.positions_m[idx] - position_m))])
         g = self.grasps[i]

@@ -219,6 +219,13 @@ class SimAcousticSensor:
             self._modal[body] = self.models.get(spec, **self.modal_options)
         return self._modal[body]
 
+    def set_modal_model(self, body: str, model) -> None:
+        """Hear ``body`` through ``model`` (any ``sensors.ModalBasis`` in the body's frame)
+        from now on, e.g. the wet modes of a filled container (``aas_gym/FillLevel-v0``)."""
+        if body not in self._specs:
+            raise KeyError(f"{body!r} is not an object of this sensor; known: {self.bodies}")
+        self._modal[body] = model
+
     def contacts(self) -> dict[str, ObjectContacts]:
         """The contact datastream of the sensed objects in the current state."""
         return self.stream.read(self.data)

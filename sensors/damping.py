@@ -75,7 +75,7 @@ def contact_damping_matrix(model, contacts: Sequence[Contact]) -> np.ndarray:
 def modal_damping_parts(model, contacts: Sequence[Contact] = (), *,
                         max_surface_distance_m: float = MAX_SURFACE_DISTANCE_M) -> tuple[np.ndarray, np.ndarray]:
     """``(d, Q)`` with C_m = diag(d) + Q^T Q: the Rayleigh part d = alpha + beta w^2 [1/s]
-    and the contact part's factor Q = sqrt(gamma) F (``contact_damping_factor``), shape
+    (plus the model's ``added_damping_per_s`` if it has one) and the contact part's factor Q = sqrt(gamma) F (``contact_damping_factor``), shape
     (3 P, r). Validates the contacts as :func:`modal_damping_matrix` does."""
     contacts = list(contacts)
     for c in contacts:
@@ -84,6 +84,9 @@ def modal_damping_parts(model, contacts: Sequence[Contact] = (), *,
     w = np.asarray(model.angular_frequencies_rad_s, dtype=float)
     mat = model.material
     d = float(mat.alpha) + float(mat.beta) * w ** 2
+    extra = getattr(model, "added_damping_per_s", None)  # e.g. a liquid's boundary layer
+    if extra is not None:
+        d = d + np.asarray(extra, dtype=float)
     if not contacts:
         return d, np.zeros((0, w.size))
     check_on_surface(model, np.array([c.position_m for c in contacts]), "contact", max_surface_distance_m)

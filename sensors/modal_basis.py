@@ -28,7 +28,11 @@ class ModalBasis(Protocol):
 
     Optional members the code uses when present: ``surface_distance_m(points_m)`` (contacts
     off the surface are refused), ``mass_kg`` (the fingertip drive model), ``n_modes``,
-    ``decay_rates_per_s`` (Rayleigh decay rates [1/s]).
+    ``decay_rates_per_s`` (decay rates without contacts [1/s]), ``added_damping_per_s`` ((r,)
+    modal damping [1/s] added to the diagonal alpha + beta w^2, e.g. a liquid's), and
+    ``material_scales_modes = False`` with a ``with_material`` method for models whose modes
+    a plain material rescaling does not give (a filled container: the liquid's added mass
+    does not scale with the wall's density).
     """
 
     frequencies_hz: np.ndarray
@@ -61,6 +65,9 @@ class MaterialView:
     def __init__(self, base: ModalBasis, material: Material) -> None:
         if isinstance(base, MaterialView):  # a view of a view is a view of the base
             base = base.base
+        if getattr(base, "material_scales_modes", True) is False:
+            raise TypeError(f"a {type(base).__name__} does not rescale exactly with its material: "
+                            "use sensors.with_material(model, material)")
         self.base = base
         self.material = get_material(material)
         self.frequency_scale, self.shape_scale = material_scaling(base.material, self.material)
@@ -110,9 +117,12 @@ class MaterialView:
 
 def with_material(model: ModalBasis, material) -> ModalBasis:
     """``model`` in ``material``: exact without a new solve when the Poisson ratio is kept
-    (:class:`MaterialView`); otherwise the model's own ``with_material`` rebuilds it (bars,
+    (:class:`MaterialView`, or the model's own ``with_material`` when it declares
+    ``material_scales_modes = False``); otherwise the model's own ``with_material`` rebuilds it (bars,
     tubes and rods) or ``ValueError``."""
     material = get_material(material)
+    if getattr(model, "material_scales_modes", True) is False:
+        return model.with_material(material)
     try:
         material_scaling(model.material, material)
     except ValueError:

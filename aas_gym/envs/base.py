@@ -142,6 +142,8 @@ class AasEnv(gym.Env):
     # 20 Hz control (timestep 2 ms x frame_skip 25), like Gymnasium's Ant and HalfCheetah.
     metadata = {"render_modes": ["human", "rgb_array", "depth_array"], "render_fps": 20}
     MAX_CACHED_SCENES = 8
+    #: Narrowest grasp a surface target may be held by (0: wall pinches allowed).
+    _min_grasp_width_m = 0.0
     #: Distractors only at the target's -x end (tasks that grasp on the +x half).
     _far_end_only = False
 
@@ -328,7 +330,8 @@ class AasEnv(gym.Env):
         r = self.randomization
         noise = float(self.np_random.normal(0.0, r.position_noise_m)) if r.position_noise_m > 0 else 0.0
         release(self.model, self.data, self.hand, retreat_m=0.0, duration_s=0.06)
-        grasp = target_grasp(self._scene.objects[0], position_m, self._layout, shift_m=noise)
+        grasp = target_grasp(self._scene.objects[0], position_m, self._layout, shift_m=noise,
+                             min_width_m=self._min_grasp_width_m)
         result = planar_grasp(self.model, self.data, self._scene.bodies[0], position_m + noise, grip_force_n,
                               hand=self.hand, stream=self._scene.stream, grasp=grasp)
         return {"grasp_position_m": result.grasp_position_m, "grasp_success": result.success,

@@ -1,0 +1,168 @@
+"""``aas_gym/FillLevel-v0``: how full is the container, and with what?"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+from gymnasium import spaces
+
+from aas_gym.envs.base import AasEnv
+from sensors.grasp_task import check_action
+
+TASKS = ("fill", "liquid")
+#: The everyday containers a liquid can fill (``sensors.fluid``).
+CONTAINERS = ("mug", "glass", "can", "bottle")
+
+
+class FillLevelEnv(AasEnv):
+    """A container holding a liquid is grasped and sensed; estimate its fill or its liquid.
+
+    Each episode draws a container from ``objects`` (everyday containers: ``mug``,
+    ``glass``, ``can``, ``bottle``, in any material), a fill fraction uniform in
+    ``fill_range`` (task ``"fill"``; ``fill_fraction`` for task ``"liquid"``) and a liquid from
+    ``liquids`` (``"water"``, ``"oil"``, ``"honey"``, ``"ethanol"`` or a density in kg/m^3).
+    The container stands upright; the liquid's free surface is level. Its modes are the wet
+    modes of ``sensors.fluid.filled`` (potential-flow added mass on the dry modes), and
+    MuJoCo carries the liquid's mass at its centre of mass, so the grasp holds it. The hand
+    grasps across the container (not pinching the wall: a finger in the liquid is not
+    modelled) and records the excitation.
+
+    Observation (Dict): proprioception, ``acoustic`` (140-d), ``waveform`` (optional).
+    Action: Box(1) in [-1, 1]. Task ``"fill"``: the fill fraction estimate, -1 .. 1 mapped
+    onto 0 .. 1; reward minus the absolute error. Task ``"liquid"``: the interval cut into
+    ``len(liquids)`` equal bins, one per liquid; reward 1 if right, else 0. One step.
+    ``info``: ``fill_fraction``, ``liquid``, ``liquid_index``, ``liquid_mass_kg``, label,
+    grasp, contacts.
+    """
+
+    _step_is_probe = True
+    #: Grasp across the container, never a pinch of its wall.
+    _min_grasp_width_m = 0.02
+
+    def __init__(self, objects=("mug",), *, task: str = "fill", liquids=("water",),
+                 fill_range: tuple[float, float] = (0.0, 0.9), fill_fraction: float = 0.6, **kwargs) -> None:
+        super().__init__(objects, **kwargs)
+        if task not in TASKS:
+            raise ValueError(f"task must be one of {TASKS}, got {task!r}")
+        for obj in self.objects:
+            if obj.shape not in CONTAINERS:
+                raise ValueError(f"{obj.label} holds no liquid: FillLevel-v0 takes the containers {list(CONTAINERS)}")
+        lo, hi = (float(v) for v in fill_range)
+        if not 0.0 <= lo <= hi <= 1.0:
+            raise ValueError(f"fill_range must satisfy 0 <= low <= high <= 1, got {fill_range}")
+        if not 0.0 <= fill_fraction <= 1.0:
+            raise ValueError(f"fill_fraction must be in [0, 1], got {fill_fraction}")
+        from sensors.liquids import get_liquid
+
+        self.liquids = tuple(liquids)
+        if not self.liquids:
+            raise ValueError("liquids is empty")
+        for liquid in self.liquids:
+            get_liquid(liquid)  # an unknown name fails here, not at reset
+        if task == "liquid" and len(self.liquids) < 2:
+            raise ValueError("task 'liquid' needs at least two liquids to tell apart")
+        self.task, self.fill_range, self.fill_fraction = task, (lo, hi), float(fill_fraction)
+        self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+        self.observation_space = spaces.Dict({**self._proprio_spaces(), **self._acoustic_spaces()})
+        self._truth = {}
+        self._dry_inertia: dict = {}
+
+    def reset(self, *, seed=None, options=None):
+        """As every env (``options``: ``fill_fraction``, ``liquid_index``, ``object``)."""
+        self._options = dict(options or {})
+        return super().reset(seed=seed, options=options)
+
+    def _place_objects(self, settle_s: float = 0.4) -> None:
+        """Fill the container first, so the scene settles with this episode's liquid."""
+        rng, options = self.np_random, getattr(self, "_options", {})
+        lo, hi = self.fill_range
+        fill = float(rng.uniform(lo, hi)) if self.task == "fill" else self.fill_fraction
+        k = int(rng.integers(len(self.liquids))) if self.task == "liquid" else 0
+        fill = float(options.get("fill_fraction", fill))
+        k = int(options.get("liquid_index", k))
+        if not 0 <= k < len(self.liquids):
+            raise ValueError(f"liquid_index must be in [0, {len(self.liquids)}), got {k}")
+        self._wet = self._fill(fill, self.liquids[k])
+        self._truth = {"fill_fraction": fill, "liquid": str(self.liquids[k]), "liquid_index": k,
+                       "liquid_mass_kg": float(self._wet.liquid.mass_kg)}
+        super()._place_objects(settle_s)
+
+    def _reset_episode(self, options: dict):
+        grasp = self._grasp(self._grasp_position(), self._episode_grip_force())
+        acoustic, rec = self._sense()
+        obs = self._proprio()
+        obs.update(acoustic)
+        info = self._ground_truth(contacts=True)
+        info.update(grasp, **self._truth, recording_grasped=bool(rec.metadata.get("grasped", False)))
+        return obs, info
+
+    def _grasp_position(self) -> float:
+        """A position along the container's grasp path, taken by a grasp across it."""
+        from aas_gym.scenario import grasp_position
+
+        return grasp_position(self.np_random, self._scene.objects[0], self._layout)
+
+    def _fill(self, fill_fraction: float, liquid):
+        """Put the liquid in: the sensor hears the wet modes, MuJoCo carries its mass."""
+        from sensors.fluid import filled
+
+        sc = self._scene
+        target, body = sc.objects[0], sc.bodies[0]
+        wet = filled(target.solid(), fill_fraction, liquid=liquid)
+        sc.sensor.set_modal_model(body, wet)
+        self._set_liquid_mass(sc.body_ids[0], wet.liquid)
+        return wet
+
+    def _set_liquid_mass(self, bid: int, liquid) -> None:
+        """Body mass, centre of mass and inertia of container + liquid (restored from the dry
+        values each episode); then MuJoCo's derived constants."""
+        m = self.model
+        key = (id(m), bid)
+        if key not in self._dry_inertia:
+            self._dry_inertia[key] = (float(m.body_mass[bid]), m.body_ipos[bid].copy(), m.body_inertia[bid].copy(),
+                                      m.body_iquat[bid].copy())
+        mass0, com0, diag0, quat0 = self._dry_inertia[key]
+        rot0 = np.zeros(9)
+        mujoco.mju_quat2Mat(rot0, quat0)
+        rot0 = rot0.reshape(3, 3)
+        inertia0 = rot0 @ np.diag(diag0) @ rot0.T
+        m1, com1 = float(liquid.mass_kg), np.asarray(liquid.centre_of_mass_m, float)
+        total = mass0 + m1
+        com = (mass0 * com0 + m1 * com1) / total
+
+        def shifted(inertia, mass, c):  # parallel-axis theorem to the common centre of mass
+            d = c - com
+            return inertia + mass * (d @ d * np.eye(3) - np.outer(d, d))
+
+        inertia = shifted(inertia0, mass0, com0) + shifted(np.asarray(liquid.inertia_kg_m2, float), m1, com1)
+        values, vectors = np.linalg.eigh(inertia)
+        if np.linalg.det(vectors) < 0:
+            vectors[:, 0] *= -1
+        quat = np.zeros(4)
+        mujoco.mju_mat2Quat(quat, vectors.ravel())
+        m.body_mass[bid], m.body_ipos[bid], m.body_inertia[bid], m.body_iquat[bid] = total, com, values, quat
+        d = self.data
+        state = (d.qpos.copy(), d.qvel.copy(), d.ctrl.copy(), d.act.copy(), d.time)
+        mujoco.mj_setConst(m, d)  # masses the solver's scaling derives from; it uses d as scratch
+        d.qpos[:], d.qvel[:], d.ctrl[:], d.act[:], d.time = state
+        mujoco.mj_forward(m, d)
+
+    def estimate_from_action(self, action):
+        """The fill fraction (task ``"fill"``) or liquid index (task ``"liquid"``) an action stands for."""
+        a = float(np.clip(check_action(action, (1,))[0], -1.0, 1.0))
+        if self.task == "fill":
+            return (a + 1.0) / 2.0
+        return min(len(self.liquids) - 1, int((a + 1.0) / 2.0 * len(self.liquids)))
+
+    def step(self, action):
+        estimate = self.estimate_from_action(action)
+        obs = self._proprio()
+        obs.update(self._empty_acoustic())
+        info = dict(self._truth, estimate=estimate)
+        if self.task == "fill":
+            error = abs(estimate - self._truth["fill_fraction"])
+            info["abs_error"] = error
+            return obs, -error, True, False, info
+        correct = estimate == self._truth["liquid_index"]
+        info["is_success"] = correct
+        return obs, 1.0 if correct else 0.0, True, False, info
