@@ -95,7 +95,8 @@ def _jacobians(coords: np.ndarray, dN: np.ndarray):
 
 
 def _block_pattern(tets: np.ndarray, n_nodes: int):
-    """Node-pair sparsity pattern: (indptr, indices, slot) with slot (m, n_el, n_el) -> block."""
+    """Node-pair sparsity pattern: (indptr, indices, slot, n_blocks, mirror) with slot
+    (m, n_el, n_el) -> block and mirror[b] the block of the transposed node pair."""
     m, n_el = tets.shape
     rows = np.repeat(tets, n_el, axis=1).ravel()
     cols = np.tile(tets, (1, n_el)).ravel()
@@ -103,7 +104,8 @@ def _block_pattern(tets: np.ndarray, n_nodes: int):
     uniq, slot = np.unique(key, return_inverse=True)
     r, c = np.divmod(uniq, n_nodes)
     indptr = np.searchsorted(r, np.arange(n_nodes + 1))
-    return indptr, c, slot.reshape(m, n_el, n_el), len(uniq)
+    mirror = np.searchsorted(uniq, c * n_nodes + r)  # the pattern is symmetric
+    return indptr, c, slot.reshape(m, n_el, n_el), len(uniq), mirror
 
 
 def assemble(nodes_m: np.ndarray, tets: np.ndarray, material: Material, element: str = "p2",
@@ -133,7 +135,7 @@ def assemble(nodes_m: np.ndarray, tets: np.ndarray, material: Material, element:
     dNm = shape_gradients_ref(xm, element)
     Nm = shape_functions(_bary(xm), element)  # (q, n)
     NN = np.einsum("qa,qb->qab", Nm, Nm).reshape(len(wm), -1)
-    indptr, indices, slot, nnzb = _block_pattern(tets, n_nodes)
+    indptr, indices, slot, nnzb, mirror = _block_pattern(tets, n_nodes)
     k_blocks = np.zeros((nnzb, 9))
     m_blocks = np.zeros(nnzb)
     curved = np.zeros(len(tets), dtype=bool)
@@ -149,8 +151,8 @@ def assemble(nodes_m: np.ndarray, tets: np.ndarray, material: Material, element:
     for flag, rule in ((False, k_rule), (True, "deg5")):
         idx = np.flatnonzero(curved == flag)
         for start in range(0, len(idx), chunk):
-            batches.append((idx[start:start + chunk], rule))
-    for sel, rule in batches:
+            batches.append((idx[start:start + chunk], rule, flag))
+    for sel, rule, is_curved in batches:
         xk, wk = QUADRATURE[rule]
         dNk = shape_gradients_ref(xk, element)
         t = tets[sel]
@@ -170,17 +172,26 @@ def assemble(nodes_m: np.ndarray, tets: np.ndarray, material: Material, element:
         s = slot[sel].ravel()
         for c in range(9):
             k_blocks[:, c] += np.bincount(s, weights=Ke[:, c], minlength=nnzb)
-        # The mass needs only det J (the same as the stiffness's when the rules coincide).
-        detm = det if rule == m_rule else _jacobian(X, dNm)[1]
+        # The mass needs only det J: the stiffness's when the rules coincide, and constant over
+        # a straight element (its first point's).
+        if rule == m_rule:
+            detm = det
+        elif not is_curved:
+            detm = np.broadcast_to(det[:, :1], (ne, len(wm)))
+        else:
+            detm = _jacobian(X, dNm)[1]
         Me = rho * ((detm * wm) @ NN)  # (ne, n_el * n_el)
         m_blocks += np.bincount(s, weights=Me.ravel(), minlength=nnzb)
-    K = scipy.sparse.bsr_matrix((k_blocks.reshape(-1, 3, 3), indices, indptr), shape=(3 * n_nodes, 3 * n_nodes))
-    M = scipy.sparse.bsr_matrix((m_blocks[:, None, None] * np.eye(3), indices, indptr),
-                                shape=(3 * n_nodes, 3 * n_nodes))
-    K, M = K.tocsr(), M.tocsr()
-    # Symmetrize exactly (round-off in the element sums breaks it at 1e-16 relative).
-    K = ((K + K.T) * 0.5).tocsr()
-    M = ((M + M.T) * 0.5).tocsr()
+    # Symmetrize exactly (round-off in the element sums breaks it at 1e-16 relative): entry
+    # (a, b) of block (i, j) is mirrored by entry (b, a) of block (j, i).
+    kb = k_blocks.reshape(-1, 3, 3)
+    kb = (kb + kb[mirror].transpose(0, 2, 1)) * 0.5
+    mb = (m_blocks + m_blocks[mirror]) * 0.5
+    shape = (3 * n_nodes, 3 * n_nodes)
+    K = scipy.sparse.bsr_matrix((kb, indices, indptr), shape=shape).tocsr()
+    M = scipy.sparse.bsr_matrix((mb[:, None, None] * np.eye(3), indices, indptr), shape=shape).tocsr()
+    K.eliminate_zeros()
+    M.eliminate_zeros()
     K.sort_indices()
     M.sort_indices()
     return K, M
