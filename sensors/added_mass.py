@@ -131,17 +131,19 @@ def liquid_loading(nodes_m: np.ndarray, tets10: np.ndarray, free_surface: np.nda
     F = B @ g  # (n, k) Neumann load of each vector
     H = laplace_stiffness(nodes_m, tets10)
     free = np.flatnonzero(~free_surface)
-    solve = scipy.sparse.linalg.factorized(H[free][:, free].tocsc())
+    lu = scipy.sparse.linalg.splu(H[free][:, free].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                  options={"SymmetricMode": True})  # H is SPD: no pivoting, symmetric ordering
     phi = np.zeros_like(F)
-    phi[free] = solve(F[free])
+    phi[free] = lu.solve(np.ascontiguousarray(F[free]))
     Ma = density_kg_m3 * (phi.T @ F)
     Ma = 0.5 * (Ma + Ma.T)
-    grad = np.einsum("pai,pak->pik", q["gradients"], phi[q["nodes"]])  # (P, 3, k)
+    grad = np.matmul(q["gradients"].transpose(0, 2, 1), phi[q["nodes"]])  # (P, 3, k)
     dS = np.linalg.norm(q["normal_area_m2"], axis=1)
     n = q["normal_area_m2"] / dS[:, None]
     rel = U - grad
     rel_t = rel - n[:, :, None] * np.einsum("pi,pik->pk", n, rel)[:, None, :]
-    S = np.einsum("pik,pil,p->kl", rel_t, rel_t, dS)
+    W = (np.sqrt(dS)[:, None, None] * rel_t).reshape(-1, rel_t.shape[2])
+    S = W.T @ W
     return Ma, 0.5 * (S + S.T)
 
 

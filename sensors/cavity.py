@@ -187,7 +187,8 @@ class AxisymmetricCavity:
         up = unit(up)
         if float(up @ self.axis) <= 1e-6:
             return 0.0
-        return self._volume_for_offset(up, float((self.rim_points_m() @ up).min()))
+        volume = self._volume_for_offset(up, float((self.rim_points_m() @ up).min()))
+        return self.volume_m3 if volume >= self.volume_m3 * (1 - 1e-9) else volume
 
     def volume_below_m3(self, fill_height_m: float) -> float:
         """Upright volume up to ``fill_height_m`` above the bottom."""
@@ -224,6 +225,8 @@ class AxisymmetricCavity:
         corners = np.array([self.origin_m + s * self.axis + sgn * r * e for s, r in zip(self.axial_m, self.radius_m)
                             for e in (self._e1, self._e2) for sgn in (-1, 1)])
         lo, hi = float((corners @ up).min()), float((corners @ up).max())
+        if volume_m3 >= self._volume_for_offset(up, hi):  # full to the top (round-off of the two volumes)
+            return hi
         return scipy.optimize.brentq(lambda d: self._volume_for_offset(up, d) - volume_m3, lo, hi,
                                      xtol=1e-12 * (hi - lo))
 

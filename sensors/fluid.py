@@ -269,7 +269,8 @@ class Container:
         rot = -cross @ self._rot  # (a x r) for rotation vectors a = columns of J^-1/2
         tet, bary = self.dry.locator.locate(p)
         N = shape_functions(bary, self.dry.element)
-        elastic = np.einsum("pa,paxr->pxr", N, self._nodal[self.dry.elements[tet]])
+        nodal = self._nodal[self.dry.elements[tet]]  # (n, n_el, 3, k)
+        elastic = np.matmul(N[:, None, :], nodal.reshape(len(p), N.shape[1], -1)).reshape(len(p), 3, -1)
         return np.concatenate([trans, rot, elastic], axis=2)
 
     # ---------------------------------------------------------------- how much liquid
