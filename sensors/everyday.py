@@ -237,11 +237,13 @@ def box(length_m: float = 0.08, width_m: float = 0.06, height_m: float = 0.045, 
     hw, hl, t = 0.5 * width_m, 0.5 * length_m, wall_m
 
     def mesher(resolution: float = 1.0) -> TetMesh:
-        ny, nz = _n(8, resolution), _n(10, resolution)
+        # 16 x 20 across the walls' planes and 12 up: half of that left the thin walls' plate
+        # modes up to 4.9 % stiff against the gmsh + scikit-fem reference (0.8 % now).
+        ny, nz = _n(16, resolution), _n(20, resolution)
         y = _lines([(-hw, -hw + t, 1), (-hw + t, hw - t, ny), (hw - t, hw, 1)])
         z = _lines([(-hl, -hl + t, 1), (-hl + t, hl - t, nz), (hl - t, hl, 1)])
         tpl = grid_template(y, z, lambda u, v: ((np.abs(u) > hw - t) | (np.abs(v) > hl - t)).astype(int))
-        levels = _levels([(0.0, t, 1), (t, height_m, _n(6, resolution))])
+        levels = _levels([(0.0, t, 1), (t, height_m, _n(12, resolution))])
 
         def place(p, k):
             return np.column_stack([np.full(len(p), levels[k]), p])
