@@ -188,18 +188,34 @@ def tetrahedralize_tuned(surface: trimesh.Trimesh, element_size_m: float, kind: 
     size, so a wall about one element thick keeps its thickness within a few percent at worst
     (and far closer on average: fTetWild snaps to the input).
     """
+    envelope = 0.02 * element_size_m if envelope_m is None else envelope_m
+
+    def settings_and_key(verts, faces):
+        diag = float(np.linalg.norm(np.ptp(verts, axis=0)))
+        settings = dict(edge_length_abs=float(element_size_m), epsilon=envelope / diag, stop_energy=20.0,
+                        num_opt_iter=20, coarsen=False)
+        return settings, cache_mod.content_key("tetwild-tuned", verts, faces, settings)
+
+    if cache and isinstance(surface, trimesh.Trimesh):
+        # Keyed by the surface as given: a hit was checked when it was built, and the check
+        # (self-intersections, wall thickness: seconds on a mug) is not paid again on a load.
+        _, given_key = settings_and_key(np.asarray(surface.vertices, dtype=np.float64),
+                                        np.asarray(surface.faces, dtype=np.int32))
+        hit = cache_mod.load_arrays(given_key, cache_dir)
+        if hit is not None:
+            return TetMesh(hit["vertices"], hit["tets"], kind, dict(dimensions_m or {}))
+    else:
+        given_key = None
     surface = check_surface(surface)
     check_dof(estimate_p2_dof(float(surface.volume), element_size_m), max_dof, f"the {kind} tet mesh")
     verts = np.asarray(surface.vertices, dtype=np.float64)
     faces = np.asarray(surface.faces, dtype=np.int32)
-    diag = float(np.linalg.norm(np.ptp(verts, axis=0)))
-    envelope = 0.02 * element_size_m if envelope_m is None else envelope_m
-    settings = dict(edge_length_abs=float(element_size_m), epsilon=envelope / diag, stop_energy=20.0,
-                    num_opt_iter=20, coarsen=False)
-    key = cache_mod.content_key("tetwild-tuned", verts, faces, settings)
+    settings, key = settings_and_key(verts, faces)
     if cache:
         hit = cache_mod.load_arrays(key, cache_dir)
         if hit is not None:
+            if given_key is not None and given_key != key:
+                cache_mod.save_arrays(given_key, hit, cache_dir)
             return TetMesh(hit["vertices"], hit["tets"], kind, dict(dimensions_m or {}))
     import pytetwild  # imports pyvista (about 1 s): only when a mesh is really built
 
@@ -211,7 +227,8 @@ def tetrahedralize_tuned(surface: trimesh.Trimesh, element_size_m: float, kind: 
     tt = _orient(tv, tt.reshape(-1, 4))
     check_tet_quality(tv, tt)
     if cache:
-        cache_mod.save_arrays(key, {"vertices": tv, "tets": tt}, cache_dir)
+        for k in {key, given_key} - {None}:
+            cache_mod.save_arrays(k, {"vertices": tv, "tets": tt}, cache_dir)
     return TetMesh(tv, tt, kind, dict(dimensions_m or {}))
 
 

@@ -10,7 +10,7 @@ from everyday_reference import reference_frequencies_hz
 from sensors.everyday import EVERYDAY_OBJECTS, everyday_object
 from sensors.grasp_task import MAX_OPENING_M
 from sensors.layered_meshing import p2_dof_count
-from sensors.meshing import check_tet_quality
+from sensors.meshing import check_tet_quality, quadratic_mesh
 from sensors.surface_meshing import DEFAULT_MAX_DOF
 
 CONTAINERS = ("mug", "bottle", "can", "glass", "box")
@@ -47,7 +47,9 @@ def test_tet_mesh_is_valid_and_fills_the_surface(objects, name):
     # Revolved surfaces are finer than the mesh (faceting): within 1%; grids are exact.
     assert tm.volume_m3() == pytest.approx(obj.surface.volume, rel=1e-2)
     assert tm.digest() == obj.tet_mesh().digest(), "structured meshing is deterministic"
-    assert p2_dof_count(tm) < DEFAULT_MAX_DOF
+    dof = p2_dof_count(tm)
+    assert dof == 3 * len(quadratic_mesh(tm)[0]), "the dof count must equal the P2 mesh's nodes"
+    assert dof < DEFAULT_MAX_DOF
 
 
 @pytest.mark.parametrize("name", CONTAINERS)

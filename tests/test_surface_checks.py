@@ -91,3 +91,21 @@ def test_dof_guard_refuses_before_meshing_and_a_keyword_raises_it(tmp_path):
 
 def test_thickness_probe_measures_a_plate():
     assert min_thickness_m(box((0.04, 0.03, 0.002))) == pytest.approx(0.002, rel=0.02)
+
+
+def test_a_cached_tet_mesh_loads_without_re_checking_the_surface(tmp_path, monkeypatch):
+    """A hit was checked when it was built: loading it skips the check (seconds on a mug)."""
+    import sensors.surface_meshing as sm
+
+    built = tetrahedralize_tuned(box(), element_size_m=0.01, cache_dir=tmp_path, progress=False)
+
+    def no_check(*args, **kwargs):
+        raise AssertionError("a cache hit must not re-check the surface")
+
+    monkeypatch.setattr(sm, "check_surface", no_check)
+    loaded = tetrahedralize_tuned(box(), element_size_m=0.01, cache_dir=tmp_path, progress=False)
+    np.testing.assert_array_equal(loaded.tets, built.tets)
+    np.testing.assert_array_equal(loaded.vertices_m, built.vertices_m)
+    # Another surface is a miss, and a miss is checked.
+    with pytest.raises(AssertionError, match="re-check"):
+        tetrahedralize_tuned(box((0.05, 0.03, 0.02)), element_size_m=0.01, cache_dir=tmp_path, progress=False)
