@@ -11,8 +11,12 @@ Physics (potential flow, the classic added-mass model of liquid-filled shells; L
 
 * The liquid's velocity is grad(phi) with Laplace's equation in the liquid volume,
   phi = 0 (p = -rho dphi/dt = 0) on the free surface, and d(phi)/dn = u . n on the wetted
-  wall (normal velocity continuity). Gravity waves (sloshing, < 10 Hz) and compressibility
-  (the liquid's own acoustic modes, > 15 kHz in a cup) are ignored.
+  wall (normal velocity continuity). Gravity waves (sloshing, < 10 Hz) are ignored, and so is
+  compressibility. That is exact for the ovalling modes, which change no volume, but not for
+  the axisymmetric (breathing) ones: a water column h deep over a rigid floor under a free
+  surface rings at c / 4h, 4.2 kHz in a full mug, inside the band; the volume-changing wall
+  modes near it couple to it, which this model misses (the issue's model is incompressible;
+  a compressible liquid adds its acoustic modes to the coupled problem).
 * With the wall motion expanded on a basis, u = sum_i qdot_i u_i, each vector's potential
   phi_i solves that problem with Neumann data n . u_i, and the liquid's kinetic energy is
   1/2 qdot^T M_a qdot with M_a[i, j] = rho integral_wet phi_i (n . u_j) dS.
