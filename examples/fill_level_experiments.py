@@ -48,6 +48,8 @@ def main(argv=None) -> Path:
     t0 = time.perf_counter()
     lines = ["# FillLevel-v0: how full, and with what", "",
              f"`python examples/fill_level_experiments.py --episodes {args.episodes}` ({args.excitation} sweep).", "",
+             "The modes against fill level (0 to 100 % in 10 % steps, each container): "
+             "`python examples/fill_level_sweep.py`,", "", "![modes against fill level](../images/fill_level_sweep.png)", "",
              "## Fill fraction from sound (water, 0-90 %; KNN k = 3, 3-fold CV)", "",
              "| container | episodes | RMSE [% of full] | RMSE of always guessing the mean [%] |", "|---|---|---|---|"]
     for name in CONTAINERS:

@@ -1,0 +1,115 @@
+"""Filled containers: what a new fill level or tilt costs against the container's cold FEM build.
+
+For each everyday container (mug, glass, can, bottle), in one run and in CPU seconds of this
+process (``time.process_time``):
+
+* cold FEM build: P2 assembly + eigensolve of the dry modes to the default band (22.05 kHz),
+  from the cached tet mesh (the mug's pytetwild meshing is reported on its own);
+* container: the per-container static correction (assembly, one factorization, one static
+  solve per pressure pattern), cold, and its load from the disk cache;
+* per fill: each new fill level 10 %, 20 %, ..., 100 % of water (upright), and each new tilt
+  (50 % full, free surface tilted by 5 to 25 degrees): liquid mesh, Laplace solve, wet modes;
+* the ratio of the slowest new fill or tilt to the cold FEM build (the target is <= 1/10).
+
+Writes docs/benchmarks/fluid.md. Run: python benchmarks/fluid.py [mug glass can bottle]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import numpy as np  # noqa: E402
+
+from sensors.atomic import atomic_write_text  # noqa: E402
+from sensors.everyday import everyday_object  # noqa: E402
+from sensors.fluid import Container  # noqa: E402
+from sensors.modal_model import ModalModel  # noqa: E402
+
+CONTAINERS = ("mug", "glass", "can", "bottle")
+FILLS = tuple(np.round(np.arange(1, 11) / 10, 2))
+TILTS_DEG = (5, 10, 15, 20, 25)
+
+
+def cpu(fn, *args, **kwargs):
+    t0 = time.process_time()
+    out = fn(*args, **kwargs)
+    return out, time.process_time() - t0
+
+
+def tilted(angle_deg: float) -> np.ndarray:
+    a = math.radians(angle_deg)
+    return np.array([math.cos(a), math.sin(a), 0.0])  # the containers' up axis is +x
+
+
+def run(name: str, cache_dir: str) -> dict:
+    obj = everyday_object(name)
+    tm, t_mesh = cpu(obj.tet_mesh)  # the mug's pytetwild mesh is disk-cached separately
+    dry, t_fem = cpu(ModalModel.from_tet_mesh, tm, obj.material, cache_dir=cache_dir, progress=False)
+    container, t_prep = cpu(Container.of, obj, dry=dry, cache_dir=cache_dir)
+    _, t_load = cpu(Container.of, obj, dry=dry, cache_dir=cache_dir)
+    fills = []
+    for f in FILLS:
+        wet, t = cpu(container.fill, "water", fill_fraction=float(f))
+        fills.append(t)
+    full = wet
+    tilts = [cpu(container.fill, "water", fill_fraction=0.5, surface_normal=tilted(a))[1] for a in TILTS_DEG]
+    worst = max(fills + tilts)
+    return dict(name=name, material=obj.material.name, dof=dry.metadata["n_dof"], n_dry=dry.n_modes,
+                n_corr=container.n_correction, mesh_s=t_mesh, fem_s=t_fem, prep_s=t_prep, load_s=t_load,
+                fill_median_s=float(np.median(fills)), fill_max_s=max(fills), tilt_max_s=max(tilts),
+                ratio=worst / t_fem, f1_dry=float(dry.frequencies_hz[0]), f1_full=float(full.frequencies_hz[0]),
+                n_full=full.n_modes, liquid_kg=full.liquid.mass_kg)
+
+
+def table(rows) -> str:
+    head = ("| container | material | dof | dry modes + correction | tet mesh s | cold FEM s | container s (cached) "
+            "| new fill s (median / max) | new tilt s (max) | slowest / cold FEM | f1 dry -> full Hz | "
+            "water full kg |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+    body = "".join(
+        f"| {r['name']} | {r['material']} | {r['dof']:,} | {r['n_dry']} + {r['n_corr']} | {r['mesh_s']:.1f} | "
+        f"{r['fem_s']:.1f} | {r['prep_s']:.1f} ({r['load_s']:.2f}) | {r['fill_median_s']:.2f} / {r['fill_max_s']:.2f} "
+        f"| {r['tilt_max_s']:.2f} | 1/{1 / r['ratio']:.0f} | {r['f1_dry']:.0f} -> {r['f1_full']:.0f} | "
+        f"{r['liquid_kg']:.3f} |\n" for r in rows)
+    return head + body
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("containers", nargs="*", default=list(CONTAINERS))
+    parser.add_argument("--out", default=str(ROOT / "docs" / "benchmarks" / "fluid.md"))
+    args = parser.parse_args(argv)
+    cache_dir = tempfile.mkdtemp(prefix="aas-fluid-")  # a fresh modal cache: every FEM build is cold
+    rows = []
+    for name in args.containers:
+        row = run(name, cache_dir)
+        print(table([row]).splitlines()[-1], flush=True)
+        rows.append(row)
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    text = (
+        "# Filled containers: cost of a new fill level or tilt\n\n"
+        "Written by `python benchmarks/fluid.py` (CPU seconds of the process, one run; fresh modal cache).\n\n"
+        f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
+        f"1-minute load average at the end of the run {load:.1f}.\n\n"
+        "Cold FEM = P2 assembly + eigensolve of the dry modes to 22.05 kHz (the tet mesh, cached, is timed on "
+        "its own). Container = the static correction of the dry basis (a factorization of the wall's "
+        "stiffness and one static solve per wall pressure pattern), once per container; in brackets its "
+        "load from the disk cache. New fill: 10 %, 20 %, ..., 100 % of water, upright; new tilt: 50 % full, "
+        f"free surface tilted by {', '.join(map(str, TILTS_DEG))} degrees. Slowest / cold FEM: the slowest new "
+        "fill or tilt over the cold FEM build (target: at most 1/10). f1: the lowest elastic mode, dry and "
+        "full of water.\n\n" + table(rows))
+    atomic_write_text(Path(args.out), text)
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
