@@ -18,8 +18,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
-import platform
 import sys
 import tempfile
 import time
@@ -27,10 +25,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import numpy as np  # noqa: E402
+from _pages import rows_to_page  # noqa: E402
 
-from sensors.atomic import atomic_write_text  # noqa: E402
 from sensors.everyday import everyday_object  # noqa: E402
 from sensors.fluid import Container  # noqa: E402
 from sensors.modal_model import ModalModel  # noqa: E402
@@ -89,26 +88,17 @@ def main(argv=None):
     parser.add_argument("--out", default=str(ROOT / "docs" / "benchmarks" / "fluid.md"))
     args = parser.parse_args(argv)
     cache_dir = tempfile.mkdtemp(prefix="aas-fluid-")  # a fresh modal cache: every FEM build is cold
-    rows = []
-    for name in args.containers:
-        row = run(name, cache_dir)
-        print(table([row]).splitlines()[-1], flush=True)
-        rows.append(row)
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    text = (
-        "# Filled containers: cost of a new fill level or tilt\n\n"
-        "Written by `python benchmarks/fluid.py` (CPU seconds of the process, one run; fresh modal cache).\n\n"
-        f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
-        f"1-minute load average at the end of the run {load:.1f}.\n\n"
+    rows_to_page(
+        args.containers, lambda name: run(name, cache_dir), table, args.out,
+        "Filled containers: cost of a new fill level or tilt",
+        "`python benchmarks/fluid.py` (CPU seconds of the process, one run; fresh modal cache)",
         "Cold FEM = P2 assembly + eigensolve of the dry modes to 22.05 kHz (the tet mesh, cached, is timed on "
         "its own). Container = the static correction of the dry basis (a factorization of the wall's "
         "stiffness and one static solve per wall pressure pattern), once per container; in brackets its "
         "load from the disk cache. New fill: 10 %, 20 %, ..., 100 % of water, upright; new tilt: 50 % full, "
         f"free surface tilted by {', '.join(map(str, TILTS_DEG))} degrees. Slowest / cold FEM: the slowest new "
         "fill or tilt over the cold FEM build (target: at most 1/10). f1: the lowest elastic mode, dry and "
-        "full of water.\n\n" + table(rows))
-    atomic_write_text(Path(args.out), text)
-    print(f"wrote {args.out}")
+        "full of water.")
 
 
 if __name__ == "__main__":

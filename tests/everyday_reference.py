@@ -64,9 +64,11 @@ def _occ_solid(obj, gmsh):
     return out
 
 
-def gmsh_p2_mesh(obj, mesh_size_m: float):
+def gmsh_p2_mesh(obj, mesh_size_m: float, high_order_optimize: int = 1):
     """Curved 10-node tets of the object from gmsh: (corner nodes (n, 3), tets (m, 4), mid-node
-    coordinates keyed by sorted corner pair)."""
+    coordinates keyed by sorted corner pair). ``high_order_optimize`` is gmsh's
+    Mesh.HighOrderOptimize (0 none, 1 optimization, 2 elastic + optimization, 4 fast curving); gmsh aborts the
+    process when it fails, so callers that try several settings run it in a child process."""
     gmsh.initialize([], readConfigFiles=False, interruptible=False)  # not sys.argv: gmsh parses it
     try:
         gmsh.option.setNumber("General.Terminal", 0)
@@ -92,7 +94,7 @@ def gmsh_p2_mesh(obj, mesh_size_m: float):
         gmsh.option.setNumber("Mesh.MeshSizeMin", 0.25 * mesh_size_m)
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 24)
         gmsh.option.setNumber("Mesh.ElementOrder", 2)
-        gmsh.option.setNumber("Mesh.HighOrderOptimize", 1)
+        gmsh.option.setNumber("Mesh.HighOrderOptimize", high_order_optimize)
         gmsh.model.mesh.generate(3)
         tags, coords, _ = gmsh.model.mesh.getNodes()
         xyz = np.zeros((int(tags.max()) + 1, 3))
@@ -121,14 +123,15 @@ def gmsh_p2_mesh(obj, mesh_size_m: float):
     return nodes, tets, mids
 
 
-def reference_frequencies_hz(obj, n_modes: int, mesh_size_m: float, material: Material | None = None):
-    """The lowest ``n_modes`` elastic frequencies [Hz] from gmsh + scikit-fem P2."""
+def reference_frequencies_hz(obj, n_modes: int, mesh_size_m: float, material: Material | None = None,
+                             high_order_optimize: int = 1):
+    """The lowest ``n_modes`` elastic frequencies [Hz] from gmsh + scikit-fem P2, and the dof count."""
     from skfem import Basis, BilinearForm, ElementTetP2, ElementVector, MeshTet, MeshTet2, asm
     from skfem.helpers import dot
     from skfem.models.elasticity import linear_elasticity
 
     material = material or obj.material
-    nodes, tets, mids = gmsh_p2_mesh(obj, mesh_size_m)
+    nodes, tets, mids = gmsh_p2_mesh(obj, mesh_size_m, high_order_optimize)
     vol = np.einsum("ij,ij->i", nodes[tets[:, 1]] - nodes[tets[:, 0]],
                     np.cross(nodes[tets[:, 2]] - nodes[tets[:, 0]], nodes[tets[:, 3]] - nodes[tets[:, 0]]))
     neg = vol < 0
