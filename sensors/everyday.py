@@ -191,8 +191,10 @@ def bottle(body_radius_m: float = 0.032, neck_radius_m: float = 0.013, wall_m: f
     dims = dict(body_radius_m=body_radius_m, neck_radius_m=neck_radius_m, wall_m=wall_m, height_m=height,
                 floor_m=floor_m)
     radii = (body_radius_m - wall_m, body_radius_m, neck_radius_m - wall_m, neck_radius_m)
+    # 1.5x the axial levels of the first version: at (16, 8, 6) modes sat up to 1.23 % stiff against the
+    # gmsh + scikit-fem reference, now 0.81 % (64 around instead moved them less per dof).
     return _revolved_container("bottle", material, inner, outer, floor_m, height,
-                               [(floor_m, x1, 16), (x1, x2, 8), (x2, height, 6)], 48, dims, radii)
+                               [(floor_m, x1, 24), (x1, x2, 12), (x2, height, 9)], 48, dims, radii)
 
 
 # ----------------------------------------------------------------------------- mug (pytetwild)

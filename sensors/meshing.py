@@ -160,8 +160,13 @@ def boundary_faces(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     local = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
     faces = t[:, local].reshape(-1, 3)
     owner = np.repeat(np.arange(len(t)), 4)
-    key = np.sort(faces, axis=1)
-    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    key = np.sort(faces, axis=1).astype(np.int64)
+    n = int(key.max()) + 1 if len(key) else 1
+    if n < 2_000_000:  # one int64 code per face (n^3 < 2^63): 1-D unique, several times faster than rows
+        key = (key[:, 0] * n + key[:, 1]) * n + key[:, 2]
+        _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+    else:
+        _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
     single = counts[inverse.ravel()] == 1
     return faces[single], owner[single]
 
