@@ -41,8 +41,9 @@ REFERENCE_MESH_M = {"mug": 0.004, "bottle": 0.004, "can": 0.003, "box": 0.003, "
 #: What to try when gmsh's curved-element optimization fails on a size (it aborts the whole
 #: process, so every attempt runs in a child): (element size factor, Mesh.HighOrderOptimize:
 #: 1 optimization, 4 fast curving, 0 none). The bottle's revolved polyline fails 1 (and 2, and
-#: finer sizes); 4 and 0 give the same frequencies to 1e-5 there.
-REFERENCE_ATTEMPTS = ((1.0, 1), (1.0, 4), (1.0, 0))
+#: finer sizes); 4 and 0 give the same frequencies to 1e-5 there. The spoon (a surface remeshed
+#: by gmsh) runs out of memory at 3 mm; the last attempt is coarser.
+REFERENCE_ATTEMPTS = ((1.0, 1), (1.0, 4), (1.0, 0), (4 / 3, 1))
 _OPTIMIZE_NAMES = {1: "", 4: ", fast curving", 0: ", curved, not optimized"}
 
 
@@ -63,8 +64,8 @@ def reference_in_child(name: str, n_modes: int) -> tuple[np.ndarray, int, str]:
             f, dof = json.loads(res.stdout.strip().splitlines()[-1])
             return np.array(f), dof, f"{size * 1000:.1f} mm" + _OPTIMIZE_NAMES[optimize]
         errors.append(f"{size * 1000:.1f} mm / optimize {optimize}: {(res.stderr.strip().splitlines() or ['?'])[-1]}")
-        print(f"  reference for {name} failed ({errors[-1]}); trying the next setting", flush=True)
-    raise RuntimeError(f"no reference for {name}: " + "; ".join(errors))
+        print(f"  reference for {name} failed ({errors[-1]})", flush=True)
+    return np.full(n_modes, np.nan), 0, "none: " + "; ".join(e.replace("|", "/") for e in errors)
 
 
 def run(name: str) -> dict:
