@@ -49,8 +49,10 @@ _OPTIMIZE_NAMES = {1: "", 4: ", fast curving", 0: ", curved, not optimized"}
 
 def reference_in_child(name: str, n_modes: int) -> tuple[np.ndarray, int, str]:
     """The gmsh + scikit-fem reference frequencies, dof count and the settings that worked."""
-    errors = []
+    errors, too_big = [], set()
     for factor, optimize in REFERENCE_ATTEMPTS:
+        if factor in too_big:  # out of memory at this size: only a coarser one can help
+            continue
         size = REFERENCE_MESH_M[name] * factor
         code = ("import json, sys; sys.path.insert(0, sys.argv[1]);"
                 "from everyday_reference import reference_frequencies_hz;"
@@ -64,6 +66,8 @@ def reference_in_child(name: str, n_modes: int) -> tuple[np.ndarray, int, str]:
             f, dof = json.loads(res.stdout.strip().splitlines()[-1])
             return np.array(f), dof, f"{size * 1000:.1f} mm" + _OPTIMIZE_NAMES[optimize]
         errors.append(f"{size * 1000:.1f} mm / optimize {optimize}: {(res.stderr.strip().splitlines() or ['?'])[-1]}")
+        if errors[-1].endswith("MemoryError"):
+            too_big.add(factor)
         print(f"  reference for {name} failed ({errors[-1]})", flush=True)
     return np.full(n_modes, np.nan), 0, "none: " + "; ".join(e.replace("|", "/") for e in errors)
 
