@@ -21,7 +21,7 @@ import numpy as np
 
 from .atomic import atomic_open
 
-__all__ = ["CODE_VERSION", "default_cache_dir", "content_key", "load_arrays", "save_arrays", "entry_path"]
+__all__ = ["CODE_VERSION", "source_version", "default_cache_dir", "content_key", "load_arrays", "save_arrays", "entry_path"]
 
 log = logging.getLogger(__name__)
 
@@ -29,10 +29,11 @@ log = logging.getLogger(__name__)
 _SOURCES = ("meshing.py", "fem.py", "eigen.py", "modal_build.py", "modal_io.py", "materials.py", "cache.py")
 
 
-def _code_version() -> str:
+def source_version(*names: str) -> str:
+    """Hash of the named source files of this package (a key part that changes when they do)."""
     h = hashlib.sha256()
     here = Path(__file__).resolve().parent
-    for name in _SOURCES:
+    for name in names:
         try:
             h.update((here / name).read_bytes())
         except OSError:
@@ -41,7 +42,7 @@ def _code_version() -> str:
 
 
 #: Hash of the source files that produce cached results.
-CODE_VERSION = _code_version()
+CODE_VERSION = source_version(*_SOURCES)
 
 
 def default_cache_dir() -> Path:

@@ -23,7 +23,8 @@ log = logging.getLogger("sensors.modal_model")
 DEFAULT_MAX_FREQUENCY_HZ = 22050.0  # Nyquist of the 44.1 kHz audio chain
 
 
-def _cached(cls, key, opts):
+def cached(cls, key, opts):
+    """The model stored under ``key`` in the disk cache, or None."""
     hit = cache_mod.load_arrays(key, opts["cache_dir"])
     if hit is None:
         return None
@@ -40,12 +41,12 @@ def build(cls, key, make_mesh, material, opts: dict, meta: dict):
     solved once (other processes wait on a lock instead of solving it again)."""
     if not opts["cache"]:
         return _solve(cls, key, make_mesh, material, opts, meta)
-    model = _cached(cls, key, opts)
+    model = cached(cls, key, opts)
     if model is not None:
         return model
     with cache_mod.build_lock(key, opts["cache_dir"]):
         # Another process may have built it while this one waited for the lock.
-        model = _cached(cls, key, opts)
+        model = cached(cls, key, opts)
         return model if model is not None else _solve(cls, key, make_mesh, material, opts, meta)
 
 def _solve(cls, key, make_mesh, material, opts, meta):

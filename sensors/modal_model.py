@@ -293,6 +293,12 @@ class ModalModel:
         return modal_build.build(cls, key, make, material, opts, meta)
 
     @classmethod
+    def from_cache_key(cls, key: str, **options) -> "ModalModel | None":
+        """The model cached under ``key`` (a built model's ``metadata["cache_key"]``), or None
+        if it is not in the cache (or unreadable there); options as :meth:`from_tet_mesh`."""
+        return modal_build.cached(cls, key, modal_build.options(options))
+
+    @classmethod
     def from_tet_mesh(cls, tet_mesh: TetMesh, material, **options) -> "ModalModel":
         """Build from an existing linear :class:`~sensors.meshing.TetMesh`.
 

@@ -82,3 +82,41 @@ def test_modes_below_10_khz_within_1_percent_of_independent_reference(tmp_path, 
     ref, _ = reference_frequencies_hz(obj, n, mesh_size_m)
     err = model.frequencies_hz[:n] / ref - 1
     assert np.max(np.abs(err)) < 0.01, f"{name}: errors {np.round(100 * err, 2)} %"
+
+
+def test_a_cached_model_loads_without_meshing_and_an_edit_misses(tmp_path, monkeypatch):
+    """The alias entry names the model's own cache entry: a cached load skips the mesher, and
+    another geometry or material is a miss that builds its own model."""
+    import dataclasses
+
+    obj = everyday_object("l_bracket")
+    built = obj.modal_model(max_frequency_hz=6000.0, cache_dir=tmp_path, progress=False)
+    assert not built.metadata.get("cache_hit")
+
+    def no_mesh(resolution=1.0):
+        raise AssertionError("a cached load must not mesh")
+
+    no_mesher = dataclasses.replace(obj, tet_mesher=no_mesh)
+    no_mesh.__module__ = obj.tet_mesher.__module__
+    loaded = no_mesher.modal_model(max_frequency_hz=6000.0, cache_dir=tmp_path, progress=False)
+    assert loaded.metadata.get("cache_hit")
+    np.testing.assert_array_equal(loaded.frequencies_hz, built.frequencies_hz)
+    # Another material, band or resolution is not served the bracket's model.
+    with pytest.raises(AssertionError, match="must not mesh"):
+        dataclasses.replace(no_mesher, material=everyday_object("can").material).modal_model(
+            max_frequency_hz=6000.0, cache_dir=tmp_path, progress=False)
+    with pytest.raises(AssertionError, match="must not mesh"):
+        no_mesher.modal_model(max_frequency_hz=5000.0, cache_dir=tmp_path, progress=False)
+    # An edited mesher (its source is in the key) is a miss.
+    import sensors.everyday
+
+    with monkeypatch.context() as m:
+        m.setattr(sensors.everyday, "_MESHER_VERSION", "edited")
+        with pytest.raises(AssertionError, match="must not mesh"):
+            no_mesher.modal_model(max_frequency_hz=6000.0, cache_dir=tmp_path, progress=False)
+    # A corrupt alias is a miss, rebuilt from the mesh (which hits the model's own entry).
+    for alias in tmp_path.glob("*.npz"):
+        if "modal_key" in np.load(alias).files:
+            alias.write_bytes(b"not an npz")
+    again = obj.modal_model(max_frequency_hz=6000.0, cache_dir=tmp_path, progress=False)
+    np.testing.assert_array_equal(again.frequencies_hz, built.frequencies_hz)
