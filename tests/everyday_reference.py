@@ -73,7 +73,8 @@ def gmsh_p2_mesh(obj, mesh_size_m: float, high_order_optimize: int = 1):
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add(obj.name)
-        if _occ_solid(obj, gmsh) is None:  # spoon: volume-mesh a fine surface of the same shape
+        exact = _occ_solid(obj, gmsh) is not None
+        if not exact:  # spoon: volume-mesh a fine surface of the same shape
             import tempfile
 
             fine = obj.tet_mesh(resolution=3.0)
@@ -92,7 +93,9 @@ def gmsh_p2_mesh(obj, mesh_size_m: float, high_order_optimize: int = 1):
             gmsh.model.geo.synchronize()
         gmsh.option.setNumber("Mesh.MeshSizeMax", mesh_size_m)
         gmsh.option.setNumber("Mesh.MeshSizeMin", 0.25 * mesh_size_m)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 24)
+        # Curvature sizing on a remeshed faceted surface (the spoon) sees every facet edge as
+        # curvature: millions of elements, out of memory. There the size is the mesh size alone.
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 24 if exact else 0)
         gmsh.option.setNumber("Mesh.ElementOrder", 2)
         gmsh.option.setNumber("Mesh.HighOrderOptimize", high_order_optimize)
         gmsh.model.mesh.generate(3)

@@ -209,6 +209,7 @@ def test_saved_recording_is_whole_and_partial_files_are_gone(rig, tmp_path):
 
 def _fault_during_recording(rig, tmp_path, fault, after_s=1.0):
     """Record 5 s; once ``after_s`` of audio is in, run ``fault()`` from another thread.
+    Returns the ``DeviceLostError`` and how many frames had arrived before the fault.
 
     Under CPU load the loopback may underrun before the fault is injected; the rig then
     (rightly) raises ``XrunError`` and the run tested nothing about the fault: it is tried
@@ -218,13 +219,16 @@ def _fault_during_recording(rig, tmp_path, fault, after_s=1.0):
         for p in tmp_path.iterdir():
             p.unlink()
         started, injected, cancelled = threading.Event(), threading.Event(), threading.Event()
+        frames_seen, frames_before_fault = [0], [0]
 
         def progress(frames):
+            frames_seen[0] = frames
             if frames >= after_s * ex.sample_rate_hz:
                 started.set()
 
         def inject():
             if started.wait(15) and not cancelled.is_set():
+                frames_before_fault[0] = frames_seen[0]
                 fault()
                 injected.set()
 
@@ -233,7 +237,7 @@ def _fault_during_recording(rig, tmp_path, fault, after_s=1.0):
         try:
             rig.record(ex, 5.0, save_path=tmp_path / "rec.npz", on_progress=progress)
         except real.DeviceLostError as exc:
-            return exc
+            return exc, frames_before_fault[0]
         except real.XrunError:
             if injected.is_set() or attempt == 2:
                 raise
@@ -250,7 +254,7 @@ def test_device_vanishing_mid_recording_keeps_what_was_recorded(rig, audio_loopb
     fault = (lambda: loopback.unload_sink(runtime_dir=rt)) if how == "unload_sink" else (
         lambda: loopback.stop_loopback(rt))
     try:
-        err = _fault_during_recording(rig, tmp_path, fault)
+        err, before_fault = _fault_during_recording(rig, tmp_path, fault)
     finally:
         _restore(audio_loopback)
     assert "'default'" in str(err) and err.device == "default"
@@ -262,11 +266,13 @@ def test_device_vanishing_mid_recording_keeps_what_was_recorded(rig, audio_loopb
     part = sensors.AcousticObservation.load(err.partial_path)
     np.testing.assert_array_equal(part.waveform, rec.mic)
     assert part.metadata["partial"] and not part.metadata["complete"] and "DeviceLostError" in part.metadata["error"]
-    # and what was recorded is the excitation, in sync, or the recording says it is not
-    # (an underflow under load can damage the first period)
-    assert rec.latency_samples is not None
+    # and what was recorded before the fault is the excitation, in sync, or the recording says
+    # it is not (an underflow under load can damage the first period). Samples from the moment
+    # the device goes away on are the error's, not a silent damage: the first period (1 s, from
+    # the latency on) runs past the fault injected after 1 s, so it is compared up to the fault.
+    assert rec.latency_samples is not None and before_fault > rec.latency_samples
     ex = rec.excitation
-    seg = part.waveform[rec.latency_samples:rec.latency_samples + ex.period_samples]
+    seg = part.waveform[rec.latency_samples:min(rec.latency_samples + ex.period_samples, before_fault)]
     if not np.allclose(seg, GAIN * ex.signal[:seg.size], atol=1e-6):
         assert rec.problems, "a damaged recording must report it"
     # the restarted server works again
