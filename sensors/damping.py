@@ -23,9 +23,15 @@ from .contact import Contact
 MAX_SURFACE_DISTANCE_M = 2e-3
 
 
+class OffSurfaceError(ValueError):
+    """A contact or drive/mic point lies farther from the modal model's surface than allowed
+    (a wrong frame, or a collision hull that over-covers the solid where it was touched)."""
+
+
 def check_on_surface(model, points_m: np.ndarray, what: str = "contact",
                      max_distance_m: float = MAX_SURFACE_DISTANCE_M) -> None:
-    """Raise ``ValueError`` if a point is farther than ``max_distance_m`` from the surface.
+    """Raise :class:`OffSurfaceError` (a ``ValueError``) if a point is farther than
+    ``max_distance_m`` from the surface.
 
     Only applies when the model offers ``surface_distance_m(points_m)``.
     """
@@ -39,7 +45,7 @@ def check_on_surface(model, points_m: np.ndarray, what: str = "contact",
     bad = np.flatnonzero(~(d <= max_distance_m))
     if bad.size:
         i = int(bad[0])
-        raise ValueError(
+        raise OffSurfaceError(
             f"{what} at {pts[i].tolist()} m is {d[i] * 1e3:.3g} mm from the object surface "
             f"(limit {max_distance_m * 1e3:.3g} mm): is it in the object frame?")
 

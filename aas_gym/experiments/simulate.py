@@ -23,6 +23,7 @@ from aas_gym.scenario import (DomainRandomization, choose_objects, default_distr
 from aas_gym.scene import build_scene, get_object
 from aas_gym.sim_sensor import SimAcousticSensor
 from sensors import Excitation
+from sensors.damping import OffSurfaceError
 from sensors.grasp_task import HOME_TCP, MAX_OPENING_M
 
 # Datasets vary the grasp (jitter, position, contacts), not the table pose: the target lies at
@@ -74,14 +75,21 @@ def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
         grasp = planar_grasp(model, data, body, position_m + jitter_m, grip_force_n=config.grip_force_n,
                              height_offset_m=height_offset_m, hand=hand,
                              grasp=target_grasp(spec, position_m, layout, shift_m=jitter_m))
-        if grasp.success:
+        if not grasp.success:
+            continue
+        try:
+            # A pad can rest on a collision piece where it over-covers the solid (a box's rim
+            # corner): the contact is then off the modal surface, a grasp that failed.
+            observations = [sensor.sense(Excitation.by_name(name), config.duration_s) for name in config.excitations]
             break
+        except OffSurfaceError as exc:
+            if attempt == attempts - 1:
+                raise OffSurfaceError(f"task {task.task_id}: {exc}") from exc
     if not grasp.success:
         raise RuntimeError(f"task {task.task_id}: the scripted grasp did not hold the object in {attempts} "
                            f"attempts ({grasp})")
     rows = []
-    for name in config.excitations:
-        obs = sensor.sense(Excitation.by_name(name), config.duration_s)
+    for name, obs in zip(config.excitations, observations):
         meta = obs.metadata
         row = {
             "task_id": task.task_id, "scene": task.scene, "object": spec.label, "material": spec.material,
