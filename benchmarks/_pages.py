@@ -3,6 +3,7 @@ Markdown page with the machine it ran on."""
 
 from __future__ import annotations
 
+import argparse
 import os
 import platform
 from pathlib import Path
@@ -16,6 +17,15 @@ def machine_line() -> str:
     busy = " (other jobs shared the cores: wall times are upper bounds)" if load > 0.75 * (os.cpu_count() or 1) else ""
     return (f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
             f"1-minute load average at the end of the run {load:.1f}{busy}.")
+
+
+def parse_args(description: str, items_name: str, default_items, page_name: str, argv=None) -> argparse.Namespace:
+    """``[items ...] [--out OUT]``: which items to run (default all) and the page to write
+    (default docs/benchmarks/<page_name>)."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument(items_name, nargs="*", default=list(default_items))
+    parser.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "docs" / "benchmarks" / page_name))
+    return parser.parse_args(argv)
 
 
 def rows_to_page(items, run, table, out, title: str, written_by: str, explanation: str) -> list[dict]:

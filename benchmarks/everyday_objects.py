@@ -11,7 +11,6 @@ Writes docs/benchmarks/everyday_objects.md. Run: python benchmarks/everyday_obje
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import tempfile
@@ -29,7 +28,7 @@ import subprocess  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from _pages import rows_to_page  # noqa: E402
+from _pages import parse_args, rows_to_page  # noqa: E402
 from aas_gym.collision import collision_geometry  # noqa: E402
 from sensors.everyday import EVERYDAY_OBJECTS, everyday_object  # noqa: E402
 
@@ -115,10 +114,7 @@ def table(rows) -> str:
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("objects", nargs="*", default=list(EVERYDAY_OBJECTS))
-    parser.add_argument("--out", default=str(ROOT / "docs" / "benchmarks" / "everyday_objects.md"))
-    args = parser.parse_args(argv)
+    args = parse_args(__doc__.splitlines()[0], "objects", EVERYDAY_OBJECTS, "everyday_objects.md", argv)
     rows_to_page(
         args.objects, run, table, args.out, "Everyday objects: build cost and modal accuracy",
         "`python benchmarks/everyday_objects.py` (fresh cache; wall-clock seconds)",

@@ -16,7 +16,6 @@ Writes docs/benchmarks/fluid.md. Run: python benchmarks/fluid.py [mug glass can 
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import tempfile
@@ -28,7 +27,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import numpy as np  # noqa: E402
-from _pages import rows_to_page  # noqa: E402
+from _pages import parse_args, rows_to_page  # noqa: E402
 
 from sensors.everyday import everyday_object  # noqa: E402
 from sensors.fluid import Container  # noqa: E402
@@ -83,10 +82,7 @@ def table(rows) -> str:
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("containers", nargs="*", default=list(CONTAINERS))
-    parser.add_argument("--out", default=str(ROOT / "docs" / "benchmarks" / "fluid.md"))
-    args = parser.parse_args(argv)
+    args = parse_args(__doc__.splitlines()[0], "containers", CONTAINERS, "fluid.md", argv)
     cache_dir = tempfile.mkdtemp(prefix="aas-fluid-")  # a fresh modal cache: every FEM build is cold
     rows_to_page(
         args.containers, lambda name: run(name, cache_dir), table, args.out,

@@ -26,6 +26,9 @@ from pathlib import Path
 from aas_gym.experiments.config import DatasetConfig
 from sensors.atomic import atomic_write_text
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _pages import machine_line  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -111,11 +114,10 @@ def cli_rows(workers: list[int]) -> list[str]:
             reference = reference or data
             rows.append((w, wall, cpu, data == reference))
     base = rows[0][1]
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     return ["", "## `aas generate` end to end", "",
             f"`aas generate OUT --workers N` on the default configuration ({n} grasps, 3 excitations each, warm "
             f"modal cache), one after the other in one run, each into a fresh folder; wall time includes start-up, "
-            f"import and the workers' model loads. 1-minute load average at the end: {load:.1f}.", "",
+            f"import and the workers' model loads. {machine_line()}", "",
             "| workers | wall [s] | CPU [s] | speed-up vs first row | same bytes |", "|---:|---:|---:|---:|---|"] + [
         f"| {w} | {wall:.1f} | {cpu:.1f} | {base / wall:.2f}x | {'yes' if same else 'NO'} |" for w, wall, cpu, same in rows]
 

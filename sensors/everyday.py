@@ -115,8 +115,9 @@ class EverydayObject:
 
 
 #: The source of the meshers (structured and pytetwild): part of the modal alias key, so an
-#: edited mesher is never served an old model through the alias.
-_MESHER_VERSION = cache_mod.source_version("everyday.py", "layered_meshing.py", "surface_meshing.py", "meshing.py")
+#: edited mesher is never served an old model through the alias (meshing.py is already in
+#: every key through cache.CODE_VERSION).
+_MESHER_VERSION = cache_mod.source_version("everyday.py", "layered_meshing.py", "surface_meshing.py")
 
 
 # ----------------------------------------------------------------------------- helpers

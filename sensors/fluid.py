@@ -70,7 +70,7 @@ from .damping import modal_damping_matrix
 from .fem import QUADRATURE, shape_functions, shape_gradients_ref
 from .liquids import LIQUIDS, Liquid, get_liquid
 from .materials import get_material
-from .modal_basis import material_scaling
+from .modal_basis import band_text, material_scaling
 
 __all__ = ["filled", "container", "Container", "FilledModalModel", "LiquidBody", "Liquid", "LIQUIDS"]
 
@@ -508,8 +508,7 @@ class FilledModalModel:
         return self.dry.surface_normal_at(points_m)
 
     def describe(self) -> str:
-        f = self.frequencies_hz
-        band = f"{f[0]:.0f}-{f[-1]:.0f} Hz" if len(f) else "no modes"
+        band = band_text(self.frequencies_hz)
         return (f"{self.container.name} of {self.material.name} holding {self.liquid.volume_m3 * 1e6:.4g} ml of "
                 f"{self.liquid.liquid.name} ({100 * self.fill_fraction:.0f}% full), {self.n_modes} wet modes {band}")
 

@@ -155,9 +155,9 @@ def revolved_mesh(levels_x_m: np.ndarray, inner_radius_m, outer_radius_m, floor_
 
 def p2_dof_count(tet_mesh: TetMesh) -> int:
     """Degrees of freedom of the P2 model on ``tet_mesh`` (3 per corner and per edge)."""
-    from .meshing import P2_EDGES
+    from .meshing import P2_EDGES, row_codes
 
-    pairs = np.sort(tet_mesh.tets[:, P2_EDGES].reshape(-1, 2), axis=1).astype(np.int64)
-    n = int(pairs.max()) + 1 if len(pairs) else 1
-    edges = np.unique(pairs[:, 0] * n + pairs[:, 1])  # 1-D codes: 5x faster than unique rows
+    pairs = np.sort(tet_mesh.tets[:, P2_EDGES].reshape(-1, 2), axis=1)
+    codes = row_codes(pairs)
+    edges = np.unique(codes) if codes is not None else np.unique(pairs, axis=0)
     return 3 * (len(np.unique(tet_mesh.tets)) + len(edges))

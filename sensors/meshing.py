@@ -149,6 +149,19 @@ def check_tet_quality(vertices: np.ndarray, tets: np.ndarray, min_quality: float
         )
 
 
+def row_codes(rows: np.ndarray) -> np.ndarray | None:
+    """One int64 code per row of non-negative ints (equal rows, equal codes), or None if the
+    codes would overflow. np.unique on the codes is several times faster than on rows."""
+    rows = np.asarray(rows, dtype=np.int64)
+    n = int(rows.max()) + 1 if rows.size else 1
+    if rows.ndim != 2 or n ** rows.shape[1] >= 2**63:
+        return None
+    codes = np.zeros(len(rows), dtype=np.int64)
+    for column in rows.T:
+        codes = codes * n + column
+    return codes
+
+
 def boundary_faces(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Boundary triangles of a tet mesh, oriented outward, and the tet each belongs to.
 
@@ -160,13 +173,10 @@ def boundary_faces(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     local = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
     faces = t[:, local].reshape(-1, 3)
     owner = np.repeat(np.arange(len(t)), 4)
-    key = np.sort(faces, axis=1).astype(np.int64)
-    n = int(key.max()) + 1 if len(key) else 1
-    if n < 2_000_000:  # one int64 code per face (n^3 < 2^63): 1-D unique, several times faster than rows
-        key = (key[:, 0] * n + key[:, 1]) * n + key[:, 2]
-        _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
-    else:
-        _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    key = np.sort(faces, axis=1)
+    codes = row_codes(key)
+    _, inverse, counts = (np.unique(codes, return_inverse=True, return_counts=True) if codes is not None
+                          else np.unique(key, axis=0, return_inverse=True, return_counts=True))
     single = counts[inverse.ravel()] == 1
     return faces[single], owner[single]
 

@@ -42,6 +42,12 @@ class ModalBasis(Protocol):
     def mode_shapes_at(self, points_m) -> np.ndarray: ...
 
 
+def band_text(frequencies_hz) -> str:
+    """'f_min-f_max Hz' of a mode set, or 'no modes' (for one-line descriptions)."""
+    f = np.asarray(frequencies_hz)
+    return f"{f[0]:.0f}-{f[-1]:.0f} Hz" if len(f) else "no modes"
+
+
 def material_scaling(old: Material, new: Material) -> tuple[float, float]:
     """``(frequency_scale, shape_scale)`` taking modes in ``old`` to modes in ``new`` exactly.
 

@@ -21,7 +21,7 @@ from .damping import modal_damping_matrix
 from .fem import assemble, shape_functions
 from .materials import get_material
 from .meshing import MeshError, TetMesh, bar_mesh, rod_mesh, tet_volumes, tetrahedralize_surface, tube_mesh, validate_surface
-from .modal_basis import material_scaling
+from .modal_basis import band_text, material_scaling
 from .tet_locator import TetLocator, closest_points_on_triangles  # noqa: F401  (re-exported)
 
 #: Sizes [m] of what a gripper holds: a mesh outside is probably in another unit (``scale=``).
@@ -117,8 +117,7 @@ class ModalModel:
     def describe(self) -> str:
         """One-line human description."""
         dims = ", ".join(f"{k}={v * 1000:.4g} mm" for k, v in self.dimensions_m.items())
-        f = self.frequencies_hz
-        band = f"{f[0]:.0f}-{f[-1]:.0f} Hz" if len(f) else "no modes"
+        band = band_text(self.frequencies_hz)
         return (f"{self.kind} ({dims}) of {self.material.name}, {self.element.upper()} "
                 f"{len(self.elements)} tets, {self.n_modes} modes {band}")
 

@@ -126,3 +126,14 @@ def test_pytetwild_path_tight_and_cached(tmp_path):
     n = min(4, bar.n_modes)
     np.testing.assert_allclose(general.frequencies_hz[:n], bar.frequencies_hz[:n], rtol=0.01)
     assert general.kind == "mesh" and general.dimensions_m["extent_x_m"] == pytest.approx(0.06)
+
+
+def test_row_codes_are_equal_exactly_for_equal_rows_and_refuse_overflow():
+    from sensors.meshing import row_codes
+
+    rows = np.random.default_rng(0).integers(0, 7, size=(500, 3))
+    codes = row_codes(rows)
+    same_code = codes[:, None] == codes[None, :]
+    same_row = (rows[:, None, :] == rows[None, :, :]).all(axis=2)
+    np.testing.assert_array_equal(same_code, same_row)
+    assert row_codes(np.array([[3_000_000, 0, 0]])) is None  # (n)^3 would overflow int64
