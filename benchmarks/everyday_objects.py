@@ -34,7 +34,7 @@ from sensors.everyday import EVERYDAY_OBJECTS, everyday_object  # noqa: E402
 
 BAND_HZ = 10000.0
 #: gmsh element size of the reference per object (finer than the model's mesh).
-REFERENCE_MESH_M = {"mug": 0.004, "bottle": 0.004, "can": 0.003, "box": 0.003, "spoon": 0.003, "l_bracket": 0.002,
+REFERENCE_MESH_M = {"mug": 0.0025, "bottle": 0.004, "can": 0.003, "box": 0.003, "spoon": 0.003, "l_bracket": 0.002,
                     "glass": 0.003}
 #: What to try when gmsh's curved-element optimization fails on a size (it aborts the whole
 #: process, so every attempt runs in a child): (element size factor, Mesh.HighOrderOptimize:

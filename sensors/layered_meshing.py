@@ -25,7 +25,8 @@ import numpy as np
 
 from .meshing import TetMesh, _extrude, _grid_triangles, _orient, boundary_faces, rod_mesh
 
-__all__ = ["Template", "disk_template", "grid_template", "layered_mesh", "revolved_mesh", "p2_dof_count"]
+__all__ = ["Template", "disk_template", "grid_template", "layered_mesh", "revolved_mesh", "handled_cup_mesh",
+           "p2_dof_count"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -97,6 +98,26 @@ def grid_template(u_lines: np.ndarray, v_lines: np.ndarray, region_of_cell) -> T
     return Template(points, tris[keep], region[keep])
 
 
+def _sweep(template: Template, n_layers: int, active, place) -> tuple[np.ndarray, np.ndarray]:
+    """Coordinates of every template point on every level (level k, point i -> row k p + i) and
+    the solid tets in that numbering (before unused points are dropped)."""
+    n_tri = len(template.triangles)
+    if callable(active):
+        active = np.stack([np.asarray(active(k), bool) for k in range(n_layers)])
+    active = np.asarray(active, bool).reshape(n_layers, n_tri)
+    _, tets = _extrude(template.points, template.triangles, 1.0, n_layers)
+    tets = tets[np.tile(active.ravel(), 3)]
+    coords = np.concatenate([np.asarray(place(template.points, k), float) for k in range(n_layers + 1)])
+    return coords, tets
+
+
+def _tet_mesh(coords, tets, kind, dimensions_m, cylinder_radii_m) -> TetMesh:
+    used, inverse = np.unique(tets, return_inverse=True)
+    vertices = coords[used]
+    tets = _orient(vertices, inverse.reshape(-1, 4))
+    return TetMesh(vertices, tets, kind, dict(dimensions_m or {}), tuple(cylinder_radii_m))
+
+
 def layered_mesh(template: Template, n_layers: int, active, place, kind: str = "mesh",
                  dimensions_m: dict | None = None, cylinder_radii_m: tuple = ()) -> TetMesh:
     """Sweep ``template`` through ``n_layers`` layers into a conforming tet mesh.
@@ -109,17 +130,34 @@ def layered_mesh(template: Template, n_layers: int, active, place, kind: str = "
         cylinder_radii_m: exact cylinders about x whose P2 mid-edge nodes
             :func:`sensors.meshing.quadratic_mesh` curves onto them.
     """
-    n_tri = len(template.triangles)
-    if callable(active):
-        active = np.stack([np.asarray(active(k), bool) for k in range(n_layers)])
-    active = np.asarray(active, bool).reshape(n_layers, n_tri)
-    _, tets = _extrude(template.points, template.triangles, 1.0, n_layers)
-    tets = tets[np.tile(active.ravel(), 3)]
-    coords = np.concatenate([np.asarray(place(template.points, k), float) for k in range(n_layers + 1)])
-    used, inverse = np.unique(tets, return_inverse=True)
-    vertices = coords[used]
-    tets = _orient(vertices, inverse.reshape(-1, 4))
-    return TetMesh(vertices, tets, kind, dict(dimensions_m or {}), tuple(cylinder_radii_m))
+    coords, tets = _sweep(template, n_layers, active, place)
+    return _tet_mesh(coords, tets, kind, dimensions_m, cylinder_radii_m)
+
+
+def _revolved(levels_x_m, inner_radius_m, outer_radius_m, floor_layers, n_theta, n_wall, angle_of=None):
+    """(template, active, place) of a container about x; ``angle_of`` (theta -> theta, monotone,
+    odd) moves the wall's points around the axis (faded out inside half the cavity radius)."""
+    levels = np.asarray(levels_x_m, float)
+    tpl = disk_template(n_theta, n_wall)
+    rho_t = np.hypot(tpl.points[:, 0], tpl.points[:, 1])
+    unit = tpl.points / np.where(rho_t > 0, rho_t, 1.0)[:, None]
+    if angle_of is not None:
+        theta = np.arctan2(unit[:, 1], unit[:, 0])
+        phi = theta + (np.asarray(angle_of(theta)) - theta) * np.clip(2.0 * rho_t - 1.0, 0.0, 1.0)
+        unit = np.where(rho_t[:, None] > 0, np.stack([np.cos(phi), np.sin(phi)], 1), unit)
+    wall = tpl.region == 1
+
+    def place(points, k):
+        x = levels[k]
+        ri, ro = float(inner_radius_m(x)), float(outer_radius_m(x))
+        r = np.where(rho_t <= 1.0 + 1e-12, rho_t * ri, ri + (rho_t - 1.0) * (ro - ri))
+        # Exact radii on the rings (no round-off) so quadratic_mesh recognises the cylinders.
+        out = np.empty((len(points), 3))
+        out[:, 0] = x
+        out[:, 1:] = unit * r[:, None]
+        return out
+
+    return tpl, (lambda k: np.ones_like(wall) if k < floor_layers else wall), place
 
 
 def revolved_mesh(levels_x_m: np.ndarray, inner_radius_m, outer_radius_m, floor_layers: int,
@@ -133,24 +171,115 @@ def revolved_mesh(levels_x_m: np.ndarray, inner_radius_m, outer_radius_m, floor_
             surface (in the floor, the inner radius only places the inner grid ring).
         floor_layers: the first ``floor_layers`` layers are the solid floor.
     """
-    levels = np.asarray(levels_x_m, float)
-    tpl = disk_template(n_theta, n_wall)
-    rho_t = np.hypot(tpl.points[:, 0], tpl.points[:, 1])
-    unit = tpl.points / np.where(rho_t > 0, rho_t, 1.0)[:, None]
-    wall = tpl.region == 1
+    tpl, active, place = _revolved(levels_x_m, inner_radius_m, outer_radius_m, floor_layers, n_theta, n_wall)
+    return layered_mesh(tpl, len(levels_x_m) - 1, active, place, kind, dimensions_m, cylinder_radii_m)
 
-    def place(points, k):
-        x = levels[k]
-        ri, ro = float(inner_radius_m(x)), float(outer_radius_m(x))
-        r = np.where(rho_t <= 1.0 + 1e-12, rho_t * ri, ri + (rho_t - 1.0) * (ro - ri))
-        # Exact radii on the rings (no round-off) so quadratic_mesh recognises the cylinders.
+
+def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius_m: float, floor_layers: int,
+                     handle_levels: tuple[int, int, int, int], handle_half_angle_rad: float, n_across: int,
+                     stub_m: float, n_stub: int, n_bend: int, n_theta: int = 48, n_wall: int = 1, kind: str = "mug",
+                     dimensions_m: dict | None = None) -> TetMesh:
+    """A straight cup about x with a D handle on its +y side, structured and conforming.
+
+    The handle is a rectangular bar swept along a path in the x-y plane: a straight stub out of
+    the wall, a half circle, a stub back. Its ends are the wall's own outer faces: the wall
+    points are turned about the axis so that ``n_across`` cells span exactly
+    +-``handle_half_angle_rad`` (the handle is ``2 r sin(angle)`` wide in z), and the stubs
+    start on the axial levels ``handle_levels`` = (k0, k1) lower stub, (k2, k3) upper stub.
+
+    The handle is itself a layered sweep: its template is the (across, along-path) grid and its
+    layers go through the thickness. Conformity at the joints follows from the split rule of
+    :func:`sensors.meshing._extrude` (a quad's diagonal joins the bottom of the higher template
+    number to the top of the lower): the handle's template numbers rise with the wall's
+    along the upper joint and fall along the lower one, where its layers run down the axis.
+
+    Args:
+        levels_x_m: axial levels [m]; ``floor_layers`` solid floor layers first.
+        inner_radius_m, outer_radius_m: the wall's radii [m].
+        stub_m: length of each straight stub beyond the wall's outermost point [m].
+        n_stub, n_bend: cells along a stub and along the half circle.
+        n_wall: cells through the wall.
+    """
+    levels = np.asarray(levels_x_m, float)
+    k0, k1, k2, k3 = handle_levels
+    if not (floor_layers <= k0 < k1 < k2 < k3 < len(levels)) or k1 - k0 != k3 - k2:
+        raise ValueError(f"handle levels {handle_levels} must rise inside the wall with equal stub heights")
+    if n_across % 2:
+        raise ValueError(f"n_across must be even (the handle is centred on +y), got {n_across}")
+    ri, ro = float(inner_radius_m), float(outer_radius_m)
+    step = 2 * math.pi / n_theta
+    half = n_across // 2
+    if half * step >= math.pi / 2:
+        raise ValueError("the handle spans more than half the cup")
+
+    def angle_of(theta):
+        # Piecewise linear, odd: the rim points at +-half steps land on +-handle_half_angle.
+        a, b = half * step, handle_half_angle_rad
+        t = np.abs(theta)
+        return np.sign(theta) * np.where(t <= a, t * b / a, b + (t - a) * (math.pi - b) / (math.pi - a))
+
+    tpl, active, place = _revolved(levels, lambda x: ri, lambda x: ro, floor_layers, n_theta, n_wall, angle_of)
+    body_xyz, body_tets = _sweep(tpl, len(levels) - 1, active, place)
+    p = len(tpl.points)
+
+    # The joint's wall points: outer ring (rho = 2), ordered by angle across the handle.
+    rho_t = np.hypot(tpl.points[:, 0], tpl.points[:, 1])
+    outer = np.flatnonzero(np.isclose(rho_t, 2.0))
+    ang = np.arctan2(tpl.points[outer, 1], tpl.points[outer, 0])
+    patch = outer[np.abs(ang) <= (half + 0.5) * step]
+    patch = patch[np.argsort(np.arctan2(tpl.points[patch, 1], tpl.points[patch, 0]))]
+    assert len(patch) == n_across + 1
+    z = body_xyz[patch, 2]
+    y_wall = body_xyz[patch, 1]
+
+    # Handle template: (n_across + 1) x (S + 1) points; row 0 at the upper joint, row S at the lower.
+    S = 2 * n_stub + n_bend
+    index = np.empty((n_across + 1, S + 1), int)
+    rank = np.argsort(np.argsort(patch))                 # order of the wall's template numbers
+    index[:, 0] = rank
+    index[:, 1:S] = n_across + 1 + np.arange((n_across + 1) * (S - 1)).reshape(n_across + 1, S - 1)
+    index[:, S] = (n_across + 1) * S + (n_across - rank)
+    points = np.zeros(((n_across + 1) * (S + 1), 2))
+    ii, ss = np.meshgrid(np.arange(n_across + 1), np.arange(S + 1), indexing="ij")
+    points[index.ravel()] = np.stack([ii.ravel(), ss.ravel()], 1)
+    handle = Template(points, _grid_triangles(n_across, S, index), np.zeros(2 * n_across * S, int))
+
+    n_t = k3 - k2
+    t_m = levels[k3] - levels[k2]
+    x_c = 0.5 * (levels[k3] + levels[k0])
+    r_in = 0.5 * (levels[k2] - levels[k1])
+    y_c = ro + stub_m
+    col, row = points[:, 0].astype(int), points[:, 1].astype(int)
+
+    def place_handle(_, j):
         out = np.empty((len(points), 3))
-        out[:, 0] = x
-        out[:, 1:] = unit * r[:, None]
+        out[:, 2] = z[col]
+        up, down = row <= n_stub, row >= n_stub + n_bend
+        f_up = row / n_stub
+        f_down = (S - row) / n_stub
+        out[up, 0] = levels[k2 + j]
+        out[up, 1] = y_wall[col[up]] + f_up[up] * (y_c - y_wall[col[up]])
+        out[down, 0] = levels[k1 - j]
+        out[down, 1] = y_wall[col[down]] + f_down[down] * (y_c - y_wall[col[down]])
+        bend = ~(up | down)
+        phi = math.pi * (row[bend] - n_stub) / n_bend
+        rho = r_in + t_m * j / n_t
+        out[bend, 0] = x_c + rho * np.cos(phi)
+        out[bend, 1] = y_c + rho * np.sin(phi)
         return out
 
-    return layered_mesh(tpl, len(levels) - 1, lambda k: np.ones_like(wall) if k < floor_layers else wall, place,
-                        kind, dimensions_m, cylinder_radii_m)
+    handle_xyz, handle_tets = _sweep(handle, n_t, np.ones((n_t, len(handle.triangles)), bool), place_handle)
+    # Handle vertex (layer j, template number h) -> body vertex on the joints, else a new one.
+    q = len(points)
+    to_global = len(body_xyz) + np.arange(len(handle_xyz))
+    j = np.arange(n_t + 1)
+    top_h = (j[:, None] * q + index[:, 0][None, :]).ravel()
+    to_global[top_h] = ((k2 + j)[:, None] * p + patch[None, :]).ravel()
+    low_h = (j[:, None] * q + index[:, S][None, :]).ravel()
+    to_global[low_h] = ((k1 - j)[:, None] * p + patch[None, :]).ravel()
+    coords = np.concatenate([body_xyz, handle_xyz])
+    tets = np.concatenate([body_tets, to_global[handle_tets]])
+    return _tet_mesh(coords, tets, kind, dimensions_m, (ri, ro))
 
 
 def p2_dof_count(tet_mesh: TetMesh) -> int:

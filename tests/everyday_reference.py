@@ -1,7 +1,7 @@
 """Independent modal reference for the everyday objects: gmsh geometry and mesh, scikit-fem P2.
 
 Nothing here comes from the project's meshers or FEM: the solid is rebuilt from its sizes
-with gmsh's OpenCASCADE kernel (cylinders, boxes, a torus, a revolved profile), meshed by
+with gmsh's OpenCASCADE kernel (cylinders, boxes, a revolved profile), meshed by
 gmsh with curved 10-node tets on the exact geometry, and K and M are assembled with
 scikit-fem's own linear-elasticity and mass forms. Only the spoon (a mapped plate with no
 CAD primitive) is rebuilt from a fine surface of the same shape and volume-meshed by gmsh.
@@ -42,10 +42,19 @@ def _occ_solid(obj, gmsh):
         out = [e for e in out if e[0] == 3]
     elif name == "mug":
         h, ro, ri = d["height_m"], d["outer_radius_m"], d["inner_radius_m"]
+        w, t, top, bottom = d["handle_width_m"], d["handle_thickness_m"], d["handle_top_m"], d["handle_bottom_m"]
+        y_c = ro + d["handle_stub_m"]
+        x_c, r_out = 0.5 * (top + bottom), 0.5 * (top - bottom)
         body = occ.addCylinder(0, 0, 0, h, 0, 0, ro)
-        torus = occ.addTorus(0.5 * h, ro + 0.4 * d["handle_radius_m"], 0, d["handle_radius_m"],
-                             0.5 * d["handle_thickness_m"])
-        fused, _ = occ.fuse([(3, body)], [(3, torus)])
+        # D handle: two boxes from the axis out to y_c (the part inside the cup is wall or
+        # hollow), joined by a half annulus (a z cylinder pair cut to y >= y_c).
+        stubs = [occ.addBox(x0, 0, -w / 2, t, y_c, w) for x0 in (top - t, bottom)]
+        ring = occ.addCylinder(x_c, y_c, -w / 2, 0, 0, w, r_out)
+        hole = occ.addCylinder(x_c, y_c, -w / 2, 0, 0, w, r_out - t)
+        ring, _ = occ.cut([(3, ring)], [(3, hole)])
+        half = occ.addBox(x_c - 2 * r_out, y_c, -w, 4 * r_out, 2 * r_out, 2 * w)
+        bend, _ = occ.intersect(ring, [(3, half)])
+        fused, _ = occ.fuse([(3, body)], [(3, b) for b in stubs] + bend)
         hollow = occ.addCylinder(d["floor_m"], 0, 0, h + 0.01, 0, 0, ri)
         out, _ = occ.cut(fused, [(3, hollow)])
     elif name == "box":

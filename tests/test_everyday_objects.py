@@ -40,8 +40,6 @@ def test_surface_is_a_closed_outward_solid_of_graspable_size(objects, name):
 @pytest.mark.parametrize("name", list(EVERYDAY_OBJECTS))
 def test_tet_mesh_is_valid_and_fills_the_surface(objects, name):
     obj = objects[name]
-    if name == "mug":
-        pytest.skip("the mug's pytetwild mesh is built in the benchmark and the accuracy test")
     tm = obj.tet_mesh()
     check_tet_quality(tm.vertices_m, tm.tets)
     # Revolved surfaces are finer than the mesh (faceting): within 1%; grids are exact.
