@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from aas_gym.experiments.config import DatasetConfig
-from aas_gym.experiments.generate import generate_dataset, load_dataset
+from aas_gym.experiments.generate import MANIFEST, generate_dataset, load_dataset
 
 # Two objects, one excitation, tiny counts: every code path, a few seconds of simulation.
 SMALL = dict(objects=("aluminium_bar", "wood_bar"), excitations=("linear",), single_grasps=2,
@@ -81,6 +81,38 @@ def test_another_config_in_the_same_folder_is_refused(reference, tmp_path):
     generate_dataset(DatasetConfig(**dict(SMALL, scenes=("position",))), out, progress=False)
     with pytest.raises(FileExistsError, match="another configuration"):
         generate_dataset(DatasetConfig(**dict(SMALL, scenes=("position",), seed=1)), out, progress=False)
+
+
+def test_a_dataset_begun_by_other_code_is_not_finished_by_this_code(tmp_path, monkeypatch):
+    # A dataset begun before a physics change (here: the source hash differs) would otherwise
+    # be resumed silently, its old shards mixed with new ones.
+    import aas_gym.experiments.config as config_mod
+    import aas_gym.experiments.generate as generate_mod
+
+    out = tmp_path / "d"
+    config = DatasetConfig(**dict(SMALL, scenes=("position",)))
+    generate_dataset(config, out, progress=False)
+    monkeypatch.setattr(config_mod, "code_version", lambda: "0123456789abcdef")
+    monkeypatch.setattr(generate_mod, "code_version", config_mod.code_version)
+    with pytest.raises(FileExistsError, match="begun by other aas-gym code"):
+        generate_dataset(config, out, progress=False)
+    generate_dataset(config, out, progress=False, overwrite=True)
+    assert json.loads((out / MANIFEST).read_text())["code_version"] == "0123456789abcdef"
+
+
+def test_source_hash_changes_with_any_module(tmp_path):
+    import shutil
+
+    import sensors
+    from aas_gym.experiments.config import source_hash
+
+    pkg = tmp_path / "sensors"
+    shutil.copytree(Path(sensors.__file__).parent, pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    before = source_hash(pkg)
+    assert source_hash(pkg) == before
+    deep = pkg / "calibration" / next(p.name for p in (pkg / "calibration").glob("*.py"))
+    deep.write_text(deep.read_text() + "\n# edited\n")
+    assert source_hash(pkg) != before
 
 
 @pytest.mark.slow

@@ -56,7 +56,7 @@ def _add_config_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--waveforms", action="store_true", help="also store raw waveforms")
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="local worker processes")
     p.add_argument("--ray-address", help="run on Ray: 'local' starts a local instance, or a cluster address")
-    p.add_argument("--overwrite", action="store_true", help="replace a dataset with another configuration")
+    p.add_argument("--overwrite", action="store_true", help="replace a dataset with another configuration or begun by other code")
 
 
 def _generate(args: argparse.Namespace, out: Path) -> Path:
@@ -113,7 +113,7 @@ def add_subcommands(sub) -> None:
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("generate", help="generate a sharded, resumable dataset (Parquet)")
-    p.add_argument("out", help="output folder (resumed if it holds the same configuration)")
+    p.add_argument("out", help="output folder (resumed if it holds the same configuration, begun by the same code)")
     _add_config_options(p)
     p.set_defaults(func=_cmd_generate)
 

@@ -10,9 +10,11 @@ which worker ran which shard, nor on the order they finished in.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -96,8 +98,10 @@ class DatasetConfig:
         return cls(**data)
 
     def fingerprint(self) -> str:
-        """Hash of everything that determines the output bytes."""
-        return hashlib.sha256(json.dumps(self.to_dict(), sort_keys=True).encode()).hexdigest()[:16]
+        """Hash of everything that determines the output bytes: this configuration and the
+        simulator's source (:func:`code_version`)."""
+        text = json.dumps({"config": self.to_dict(), "code": code_version()}, sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def tasks(self) -> list[Task]:
         """All work units, in a fixed order."""
@@ -137,3 +141,26 @@ class Task:
         """The task's own random stream: a function of the dataset seed and the task id only."""
         key = int.from_bytes(hashlib.sha256(self.task_id.encode()).digest()[:8], "little")
         return np.random.default_rng(np.random.SeedSequence([dataset_seed, key]))
+
+
+@functools.lru_cache(maxsize=1)
+def code_version() -> str:
+    """Hash of every module of ``sensors`` and ``aas_gym``: the code a dataset's bytes come from.
+
+    Part of a dataset's fingerprint, so a dataset begun by other code (a changed mesh, damping
+    or scene) is never finished by this one: its shards would mix two physics and nothing would
+    tell them apart.
+    """
+    import sensors
+
+    return source_hash(Path(sensors.__file__).parent, Path(__file__).resolve().parents[1])
+
+
+def source_hash(*packages: Path) -> str:
+    """Hash of the names and bytes of every ``.py`` file under the given package folders."""
+    h = hashlib.sha256()
+    for package in packages:
+        for path in sorted(package.rglob("*.py")):
+            h.update(f"{package.name}/{path.relative_to(package).as_posix()}".encode() + b"\0")
+            h.update(path.read_bytes())
+    return h.hexdigest()[:16]

@@ -44,7 +44,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from aas_gym.experiments.config import DatasetConfig
+from aas_gym.experiments.config import DatasetConfig, code_version
 from sensors.atomic import atomic_write_bytes
 
 FORMAT = "aas-gym-dataset/1"
@@ -146,9 +146,16 @@ def _prepare(out_dir: Path, config: DatasetConfig, overwrite: bool) -> list[int]
     manifest_path = _manifest_path(out_dir)
     n_shards = len(config.shards())
     manifest = {"format": FORMAT, "fingerprint": config.fingerprint(), "n_shards": n_shards,
-                "n_tasks": len(config.tasks()), "config": config.to_dict()}
+                "n_tasks": len(config.tasks()), "config": config.to_dict(), "code_version": code_version()}
     if manifest_path.exists() and not overwrite:
         old = json.loads(manifest_path.read_text())
+        same_config = old.get("config") == json.loads(json.dumps(manifest["config"]))  # tuples as JSON lists
+        if old.get("fingerprint") != manifest["fingerprint"] and same_config:
+            raise FileExistsError(
+                f"{out_dir} holds a dataset begun by other aas-gym code (source {old.get('code_version', 'unrecorded')}"
+                f" != {manifest['code_version']}): finishing it would mix shards of both; choose another folder or "
+                "pass overwrite=True (--overwrite)"
+            )
         if old.get("fingerprint") != manifest["fingerprint"]:
             raise FileExistsError(
                 f"{out_dir} holds a dataset with another configuration (fingerprint {old.get('fingerprint')} "
