@@ -33,7 +33,9 @@ from aas_gym.collision import collision_geometry  # noqa: E402
 from sensors.everyday import EVERYDAY_OBJECTS, everyday_object  # noqa: E402
 
 BAND_HZ = 10000.0
-#: gmsh element size of the reference per object (finer than the model's mesh).
+#: gmsh element size of the reference per object (finer than the model's mesh). The mug's handle
+#: joints converge slowly (4 -> 3 -> 2.5 mm moved its handle mode 0.4 %, then 0.8 %): 2.5 mm,
+#: 270k dof, 10 GB, the finest that fits.
 REFERENCE_MESH_M = {"mug": 0.0025, "bottle": 0.004, "can": 0.003, "box": 0.003, "spoon": 0.003, "l_bracket": 0.002,
                     "glass": 0.003}
 #: What to try when gmsh's curved-element optimization fails on a size (it aborts the whole
@@ -118,12 +120,15 @@ def main(argv=None):
     rows_to_page(
         args.objects, run, table, args.out, "Everyday objects: build cost and modal accuracy",
         "`python benchmarks/everyday_objects.py` (fresh cache; wall-clock seconds)",
-        "Cold build = structured or pytetwild tet meshing + CoACD convex decomposition + P2 assembly and "
+        "Cold build = structured tet meshing (all seven; the goal is 10 s) + CoACD convex decomposition + P2 "
+        "assembly and "
         "eigensolve to 10 kHz. Cached = the second `EverydayObject.modal_model()` (an alias entry names the "
         "model's cache entry: no meshing) and the second "
         "`collision_geometry()`; the goal for a cached load is under 50 ms. Max error: largest |f / f_ref - 1| "
         "over every mode below 10 kHz, against gmsh (curved P2 on the exact geometry) + scikit-fem; the goal "
-        "is 1 %.")
+        "is 1 %. The mug's reference is the finest that fits in memory (2.5 mm, 10 GB): the re-entrant edges "
+        "where its handle meets the wall converge slowly, and its handle mode fell 0.4 % from a 4 to a 3 mm "
+        "reference and 0.8 % more at 2.5 mm.")
 
 
 if __name__ == "__main__":
