@@ -47,8 +47,9 @@ def test_mesh_is_one_conforming_solid_with_a_handle_hole(cup, resolution):
 def test_volume_converges_to_the_exact_shape(cup):
     exact = exact_volume_m3(cup.dimensions_m)
     errors = [abs(cup.tet_mesh(r).volume_m3() / exact - 1) for r in (1.0, 1.5)]
-    # Straight-sided (chordal) tets inside the curved wall: a little under, less when finer.
-    assert errors[0] < 2.5e-3 and errors[1] < 0.6 * errors[0]
+    # Straight-sided (chordal) tets inside the curved wall: a little under (48 around: a 48-gon
+    # holds 0.29 % less area than its circle), less when finer (72 around: 0.13 %).
+    assert errors[0] < 3.5e-3 and errors[1] < 0.6 * errors[0]
 
 
 def test_p2_nodes_on_the_joints_lie_on_the_wall_cylinder(cup):
