@@ -14,6 +14,8 @@ Templates here:
   unit disk, the wall the annulus. :func:`revolved_mesh` maps them to radii per height.
 * :func:`grid_template` - a tensor grid of a rectangle with given lines (box walls, L shapes,
   spoon planforms).
+
+:func:`handled_cup_mesh` joins a second sweep, a D handle, to a revolved cup's wall.
 """
 
 from __future__ import annotations
