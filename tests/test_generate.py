@@ -1,11 +1,9 @@
 """Dataset generation: deterministic bytes, resumable after a kill, same output on Ray."""
 
 import json
-import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
