@@ -28,8 +28,9 @@ log = logging.getLogger(__name__)
 
 #: CoACD settings: a concavity threshold of 5% with a shallow tree search keeps the cavities
 #: of the containers and the mug's handle open with 13-32 pieces that cover at most 2.2 mm
-#: outside the solid, in 2-7 s (the 2% / 100-iteration search took 100-180 s for the same
-#: cavities). Our surfaces are manifold already: no remeshing preprocess. Seeded.
+#: outside the solid, in 0.2-12 s (docs/benchmarks/everyday_objects.md; the 2% / 100-iteration
+#: search took 100-180 s for the same cavities). Our surfaces are manifold already: no
+#: remeshing preprocess. Seeded.
 COACD_OPTIONS = dict(threshold=0.05, max_convex_hull=32, preprocess_mode="off", resolution=1000,
                      mcts_iterations=30, mcts_max_depth=2, seed=0)
 

@@ -114,10 +114,10 @@ class EverydayObject:
                 "is_container": self.cavity is not None}
 
 
-#: The source of the meshers (structured and pytetwild): part of the modal alias key, so an
-#: edited mesher is never served an old model through the alias (meshing.py is already in
-#: every key through cache.CODE_VERSION).
-_MESHER_VERSION = cache_mod.source_version("everyday.py", "layered_meshing.py", "surface_meshing.py")
+#: The source of the meshers (all structured): part of the modal alias key, so an edited mesher
+#: is never served an old model through the alias (meshing.py is already in every key through
+#: cache.CODE_VERSION; user meshes, pytetwild's, take no alias).
+_MESHER_VERSION = cache_mod.source_version("everyday.py", "layered_meshing.py")
 
 
 # ----------------------------------------------------------------------------- helpers
