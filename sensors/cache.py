@@ -10,8 +10,10 @@ Directory: ``$AAS_GYM_CACHE`` if set, else ``~/.cache/aas_gym``.
 
 from __future__ import annotations
 
+import ast
 import contextlib
 import hashlib
+import importlib.util
 import json
 import logging
 import os
@@ -25,24 +27,45 @@ __all__ = ["CODE_VERSION", "source_version", "default_cache_dir", "content_key",
 
 log = logging.getLogger(__name__)
 
-# The files whose code decides what a cache entry holds (queries on a built model do not).
-_SOURCES = ("meshing.py", "fem.py", "eigen.py", "modal_build.py", "modal_io.py", "materials.py", "cache.py")
+# The modules whose code decides what a cache entry holds (queries on a built model do not).
+SOURCE_MODULES = ("sensors.meshing", "sensors.fem", "sensors.eigen", "sensors.modal_build", "sensors.modal_io",
+            "sensors.materials", "sensors.cache")
 
 
-def source_version(*names: str) -> str:
-    """Hash of the named source files of this package (a key part that changes when they do)."""
+def code_digest(source: str) -> bytes:
+    """What of a module's source a result can depend on: its code, without import statements,
+    docstrings and comments (``ast.dump`` of the rest). Moving a module, which rewrites its
+    relative imports, or editing its prose therefore changes no key; editing its code does."""
+    tree = ast.parse(source)
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if not isinstance(body, list):
+            continue
+        kept = [n for n in body if not isinstance(n, (ast.Import, ast.ImportFrom))]
+        if kept and isinstance(kept[0], ast.Expr) and isinstance(getattr(kept[0], "value", None), ast.Constant) \
+                and isinstance(kept[0].value.value, str):
+            kept = kept[1:]
+        node.body = kept or [ast.Pass()]
+    return ast.dump(tree, include_attributes=False).encode()
+
+
+def source_version(*modules: str) -> str:
+    """Hash of the code of the named modules (dotted names, e.g. ``"sensors.fem"``), found where
+    Python would import them from, without importing them; a key part that changes when their
+    code does. Only the code is hashed, not the names, so a module moved under a new name and
+    listed under it keeps every key (see :func:`code_digest`)."""
     h = hashlib.sha256()
-    here = Path(__file__).resolve().parent
-    for name in names:
-        try:
-            h.update((here / name).read_bytes())
-        except OSError:
-            h.update(name.encode())
+    for name in modules:
+        spec = importlib.util.find_spec(name)
+        if spec is None or not spec.origin or not spec.origin.endswith(".py"):
+            raise ValueError(f"source_version: no Python source for module {name!r}")
+        h.update(code_digest(Path(spec.origin).read_text(encoding="utf-8")))
+        h.update(b"\0")
     return h.hexdigest()[:16]
 
 
-#: Hash of the source files that produce cached results.
-CODE_VERSION = source_version(*_SOURCES)
+#: Hash of the code of the modules that produce cached results.
+CODE_VERSION = source_version(*SOURCE_MODULES)
 
 
 def default_cache_dir() -> Path:

@@ -117,7 +117,7 @@ class EverydayObject:
 #: The source of the meshers (all structured): part of the modal alias key, so an edited mesher
 #: is never served an old model through the alias (meshing.py is already in every key through
 #: cache.CODE_VERSION; user meshes, pytetwild's, take no alias).
-_MESHER_VERSION = cache_mod.source_version("everyday.py", "layered_meshing.py")
+_MESHER_VERSION = cache_mod.source_version("sensors.everyday", "sensors.layered_meshing")
 
 
 # ----------------------------------------------------------------------------- helpers

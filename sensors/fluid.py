@@ -55,10 +55,8 @@ from __future__ import annotations
 
 import collections
 import dataclasses
-import hashlib
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import scipy.linalg
@@ -97,14 +95,6 @@ def _rigid_body_data(model):
     inertia = np.trace(second) * np.eye(3) - second
     val, vec = np.linalg.eigh(inertia)
     return mass, centre, (vec / np.sqrt(val)) @ vec.T
-
-
-def _source_hash(*names: str) -> str:
-    h = hashlib.sha256()
-    here = Path(__file__).resolve().parent
-    for name in names:
-        h.update((here / name).read_bytes())
-    return h.hexdigest()[:16]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -235,7 +225,7 @@ class Container:
                   else [np.asarray(cav.mesh.vertices), np.asarray(cav.mesh.faces)])
         key = cache_mod.content_key("fluid static correction", ident, dry.material.to_dict(), self.n_dry,
                                     type(cav).__name__, cav_id, self.correction_degree,
-                                    _source_hash("added_mass.py", "cavity.py", "fem.py", "eigen.py"))
+                                    cache_mod.source_version("sensors.added_mass", "sensors.cavity", "sensors.fem", "sensors.eigen"))
 
         def build():
             dry_n = dry if self.n_dry == dry.n_modes else _truncated(dry, self.n_dry)
