@@ -18,7 +18,7 @@ from .eigen import solve_modes
 from .fem import assemble
 from .meshing import DEFAULT_MAX_DOF, check_tet_quality, quadratic_mesh
 
-log = logging.getLogger("sensors.modal_model")
+log = logging.getLogger(__name__)
 
 DEFAULT_MAX_FREQUENCY_HZ = 22050.0  # Nyquist of the 44.1 kHz audio chain
 
