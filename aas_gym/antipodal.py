@@ -4,7 +4,7 @@
 the opposite surface, and keep pairs that a parallel-jaw hand can hold:
 
 * both contact normals inside the friction cone of the grasp axis (half-angle atan(mu));
-* width between ``min_width_m`` and the hand's opening (:data:`sensors.grasp_task.MAX_OPENING_M`);
+* width between ``min_width_m`` and the hand's opening (:data:`sensors.task.grasp.MAX_OPENING_M`);
 * reachable from above: the grasp axis roughly horizontal (within ``max_tilt_rad`` of the
   plane normal to ``up``), nothing of the object above either contact (rays cast along
   +``up`` from just outside each contact hit nothing), room for each finger beside its
@@ -33,7 +33,7 @@ import math
 import numpy as np
 import trimesh
 
-from sensors.grasp_task import MAX_OPENING_M
+from sensors.task.grasp import MAX_OPENING_M
 
 __all__ = ["AntipodalGrasp", "GraspPath", "sample_antipodal_grasps", "grasp_path"]
 

@@ -28,7 +28,7 @@ SHAPE_DIMS = {
 
 def _base_material(spec: str):
     from sensors.calibration import load_material
-    from sensors.materials import get_material
+    from sensors.materials.solids import get_material
 
     if Path(spec).suffix == ".json" or Path(spec).is_file():
         return load_material(spec)
@@ -162,7 +162,7 @@ def add_subcommands(sub) -> None:
                    help="the grasp presses along this axis: actuator on +axis, microphone on -axis (default z)")
     p.add_argument("--friction", type=float, default=0.5, help="friction coefficient of the grasp contacts (default 0.5)")
     p.add_argument("--leak", nargs="+", metavar="NPZ",
-                   help="idle leak recording(s) of the rig (sensors.leak format), one per excitation: removed first")
+                   help="idle leak recording(s) of the rig (sensors.signals.leak format), one per excitation: removed first")
     p.add_argument("--fit-gamma", choices=("auto", "yes", "no"), default="auto",
                    help="fit gamma (auto: when grip forces / contact sets differ between recordings)")
     p.add_argument("--fixed-e", action="store_true", help="keep the base Young's modulus")

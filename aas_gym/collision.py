@@ -2,7 +2,7 @@
 
 Collision: a convex decomposition by CoACD (approximate convex decomposition with a
 collision-aware concavity metric), cached on disk content-addressed like the modal models
-(:mod:`sensors.cache`), as convex pieces ready for MJCF ``<mesh vertex="...">`` assets
+(:mod:`sensors._infra.cache`), as convex pieces ready for MJCF ``<mesh vertex="...">`` assets
 (MuJoCo takes the convex hull of each mesh asset's vertices for collision).
 
 Mass and inertia come from the solid itself (trimesh's exact polyhedral integrals) with the
@@ -19,8 +19,8 @@ import coacd
 import numpy as np
 import trimesh
 
-from sensors import cache as cache_mod
-from sensors.materials import get_material
+from sensors._infra import cache as cache_mod
+from sensors.materials.solids import get_material
 
 __all__ = ["CollisionGeometry", "convex_decomposition", "collision_geometry", "mass_properties"]
 
@@ -100,7 +100,7 @@ def collision_geometry(surface: trimesh.Trimesh, material, cache: bool = True, c
                        **options) -> CollisionGeometry:
     """Convex pieces (cached CoACD) and mass properties of a closed surface in a material.
 
-    The surface should already have passed :func:`sensors.surface_meshing.check_surface`.
+    The surface should already have passed :func:`sensors.mesh.surface.check_surface`.
     """
     material = get_material(material)
     pieces, elapsed = convex_decomposition(surface, cache=cache, cache_dir=cache_dir, **options)

@@ -71,7 +71,7 @@ class ObjectContacts:
 
     def to_sensor_contacts(self, min_force_n: float = 0.0) -> list:
         """Each contact as a ``sensors.Contact`` (object frame, outward normal)."""
-        from sensors.contact import Contact
+        from sensors.modal.contact import Contact
 
         return [Contact(position_m=p, normal=n, force_n=float(f), friction=float(mu))
                 for p, n, f, mu in zip(self.positions_m, self.normals, self.normal_forces_n, self.friction)

@@ -15,7 +15,7 @@ def render_signals(out_dir: Path) -> Path:
     from sensors import Excitation, amplitude_spectrum, feature_frequencies_hz, smooth_spectrum, spectral_features
     import matplotlib
 
-    from sensors.atomic import atomic_savefig
+    from sensors._infra.atomic import atomic_savefig
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -1,4 +1,4 @@
-"""Objects given by a closed surface: the shipped everyday set (:mod:`sensors.everyday`) and
+"""Objects given by a closed surface: the shipped everyday set (:mod:`sensors.objects.everyday`) and
 users' meshes. Their rest pose on the table, their grasps anywhere on the surface, and their
 MuJoCo bodies.
 
@@ -23,8 +23,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from sensors import cache as cache_mod
-from sensors.meshing import MeshError
+from sensors._infra import cache as cache_mod
+from sensors.mesh.meshing import MeshError
 
 __all__ = ["MESH_SUFFIXES", "FINGER_REACH_M", "ObjectGrasp", "GraspSet", "load_mesh_file", "store_surface",
            "stored_surface", "solid_of", "rest_rotation", "rest_height_m", "grasp_set", "add_solid_geoms"]
@@ -109,10 +109,10 @@ def stored_surface(mesh_id: str):
 
 @functools.lru_cache(maxsize=64)
 def solid_of(shape: str, material: str, mesh_id: str = "", name: str = ""):
-    """The :class:`sensors.everyday.EverydayObject` of an everyday shape in ``material``, or of
+    """The :class:`sensors.objects.everyday.EverydayObject` of an everyday shape in ``material``, or of
     a stored user surface (rests on its own -z side; tet-meshed with pytetwild)."""
-    from sensors.everyday import EVERYDAY_OBJECTS, EverydayObject
-    from sensors.materials import get_material
+    from sensors.objects.everyday import EVERYDAY_OBJECTS, EverydayObject
+    from sensors.materials.solids import get_material
 
     mat = get_material(material)
     if shape in EVERYDAY_OBJECTS:
@@ -128,7 +128,7 @@ def solid_of(shape: str, material: str, mesh_id: str = "", name: str = ""):
 def _user_tet_mesh(mesh_id: str, resolution: float = 1.0):
     """pytetwild mesh of a user's surface: edges a quarter of its smallest extent, at most the
     thinnest wall (one P2 element across), divided by ``resolution``."""
-    from sensors.surface_meshing import min_thickness_m, tetrahedralize_tuned
+    from sensors.mesh.surface import min_thickness_m, tetrahedralize_tuned
 
     surface = stored_surface(mesh_id)
     extents = np.ptp(np.asarray(surface.vertices), axis=0)

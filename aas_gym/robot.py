@@ -1,7 +1,7 @@
 """``MujocoRobot``: the robot interface of ``real.RealGraspEnv`` implemented on the simulated
 scene (the floating Franka hand), so the real env's logic runs end to end without a robot, on
 simulated or real sound. It implements ``real.RobotInterface`` structurally and returns
-``sensors.grasp_task.RobotState``; ``aas_gym`` does not import ``real``.
+``sensors.task.grasp.RobotState``; ``aas_gym`` does not import ``real``.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 
 from aas_gym.envs.acoustic_grasp import AcousticGraspEnv
-from sensors.grasp_task import RobotState
+from sensors.task.grasp import RobotState
 
 
 class MujocoRobot:

@@ -59,7 +59,7 @@ END_MARGIN_M = 0.02
 
 def _material(name: str):
     """The ``sensors`` material record for ``name``; ``ValueError`` listing known names."""
-    from sensors.materials import get_material
+    from sensors.materials.solids import get_material
 
     try:
         return get_material(name)
@@ -69,7 +69,7 @@ def _material(name: str):
 
 def known_material_names() -> list[str]:
     """Names accepted as object materials (the keys of ``sensors.MATERIALS``)."""
-    from sensors.materials import MATERIALS
+    from sensors.materials.solids import MATERIALS
 
     return sorted(MATERIALS)
 
@@ -82,7 +82,7 @@ class ObjectSpec:
     (y) x ``height_m`` (z). ``tube``: ``length_m``, ``outer_radius_m``, ``inner_radius_m``.
     ``rod``: ``length_m``, ``outer_radius_m``. Use the ``bar``/``tube``/``rod`` constructors.
 
-    Surface objects (in the frame of ``sensors.everyday``; their dimension fields are unused):
+    Surface objects (in the frame of ``sensors.objects.everyday``; their dimension fields are unused):
     an everyday shape (``mug``, ``bottle``, ``can``, ``glass``, ``box``, ``spoon``,
     ``l_bracket``) in any material, or ``mesh``: a user's surface stored under ``mesh_id``
     and labelled ``<material>_<name>`` (``ObjectSpec.from_mesh``).
@@ -140,7 +140,7 @@ class ObjectSpec:
         modelled (+z up) and is grasped where the hand reaches it from above.
         """
         from aas_gym import mesh_objects
-        from sensors.surface_meshing import check_surface
+        from sensors.mesh.surface import check_surface
 
         if isinstance(mesh, (str, Path)):
             name = name or Path(mesh).stem
@@ -162,7 +162,7 @@ class ObjectSpec:
         return self.shape in SHAPES
 
     def solid(self):
-        """The ``sensors.everyday.EverydayObject`` of a surface object (None for a prism)."""
+        """The ``sensors.objects.everyday.EverydayObject`` of a surface object (None for a prism)."""
         if self.is_prism:
             return None
         from aas_gym.mesh_objects import solid_of
@@ -256,7 +256,7 @@ class ObjectSpec:
     def modal_model(self, **options):
         """Build (or load from the disk cache) the ``sensors.ModalModel`` of this object;
         ``options`` go to ``ModalModel.bar/tube/rod`` (e.g. ``max_frequency_hz``)."""
-        from sensors.modal_model import ModalModel
+        from sensors.modal.model import ModalModel
 
         if not self.is_prism:
             return self.solid().modal_model(**options)

@@ -31,7 +31,7 @@ import numpy as np
 from aas_gym.scene import signature_partners, signature_sensor_name
 from aas_gym.sim_sensor import NO_VARIATION, SensorVariation, SimAcousticSensor
 from sensors import Contact, Excitation
-from sensors.streaming import AcousticStream, ContactTolerance, GraspState
+from sensors.synthesis.stream import AcousticStream, ContactTolerance, GraspState
 
 __all__ = ["SimAcousticStream", "span_bounds"]
 

@@ -8,7 +8,7 @@ import os
 import platform
 from pathlib import Path
 
-from sensors.atomic import atomic_write_text
+from sensors._infra.atomic import atomic_write_text
 
 
 def machine_line() -> str:

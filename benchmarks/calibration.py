@@ -42,7 +42,7 @@ import sensors  # noqa: E402
 from sensors import Contact, Excitation, LeakRecording, simulate_recording  # noqa: E402
 from sensors import with_material  # noqa: E402
 from sensors.calibration import RecordingSetup, calibrate, log_spectral_distance_db  # noqa: E402
-from sensors.materials import get_material  # noqa: E402
+from sensors.materials.solids import get_material  # noqa: E402
 
 DIMS = (0.2, 0.02, 0.01)  # bar length, width (y), height (z) [m]
 GRASPS = [(0.03, 10.0), (0.03, 40.0), (0.055, 10.0), (0.055, 40.0)]

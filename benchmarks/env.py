@@ -181,7 +181,7 @@ def main() -> None:
     if below:
         lines += ["", "Below the goal: " + ", ".join(f"{o} ({n} modes)" for o, n in below) + ". A new grasp "
                   "rebuilds the synthesis' per-grasp system (contact damping, eigen-decomposition of the "
-                  "2r-state system in `sensors.synthesis`), whose cost grows with the number of modes up to "
+                  "2r-state system in `sensors.synthesis.modal_system`), whose cost grows with the number of modes up to "
                   "the modal model's band limit (22.05 kHz by default); `SimAcousticSensor(modal_options="
                   "{'max_frequency_hz': ...})` trades feature accuracy for speed."]
     text = "\n".join(lines) + "\n"

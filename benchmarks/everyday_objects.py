@@ -30,7 +30,7 @@ import numpy as np  # noqa: E402
 
 from _pages import parse_args, rows_to_page  # noqa: E402
 from aas_gym.collision import collision_geometry  # noqa: E402
-from sensors.everyday import EVERYDAY_OBJECTS, everyday_object  # noqa: E402
+from sensors.objects.everyday import EVERYDAY_OBJECTS, everyday_object  # noqa: E402
 
 BAND_HZ = 10000.0
 #: gmsh element size of the reference per object (finer than the model's mesh). The mug's handle
@@ -56,7 +56,7 @@ def reference_in_child(name: str, n_modes: int) -> tuple[np.ndarray, int, str]:
         size = REFERENCE_MESH_M[name] * factor
         code = ("import json, sys; sys.path.insert(0, sys.argv[1]);"
                 "from everyday_reference import reference_frequencies_hz;"
-                "from sensors.everyday import everyday_object;"
+                "from sensors.objects.everyday import everyday_object;"
                 "f, dof = reference_frequencies_hz(everyday_object(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4]),"
                 " high_order_optimize=int(sys.argv[5]));"
                 "print(json.dumps([f.tolist(), dof]))")

@@ -29,9 +29,9 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import numpy as np  # noqa: E402
 from _pages import parse_args, rows_to_page  # noqa: E402
 
-from sensors.everyday import everyday_object  # noqa: E402
-from sensors.fluid import Container  # noqa: E402
-from sensors.modal_model import ModalModel  # noqa: E402
+from sensors.objects.everyday import everyday_object  # noqa: E402
+from sensors.fluid.model import Container  # noqa: E402
+from sensors.modal.model import ModalModel  # noqa: E402
 
 CONTAINERS = ("mug", "glass", "can", "bottle")
 FILLS = tuple(np.round(np.arange(1, 11) / 10, 2))

@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 from aas_gym.experiments.config import DatasetConfig
-from sensors.atomic import atomic_write_text
+from sensors._infra.atomic import atomic_write_text
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _pages import machine_line  # noqa: E402

@@ -4,7 +4,7 @@
 
 For each object, one grasp (two 40 N fingertips across y at x = 30 mm) resting on the table
 (two 1 N contacts under its ends): ``ModalSystem.build`` as the synthesis runs it (the
-contact damping's low-rank factor, :mod:`sensors.low_rank_modes`) against the same build
+contact damping's low-rank factor, :mod:`sensors.synthesis.low_rank_modes`) against the same build
 given the same C_m as a dense matrix, which forces LAPACK's dense 2r x 2r eigen-
 decomposition (the previous path). Both are measured in this run, interleaved; times are
 medians of CPU time of this process on one BLAS thread, the 1 s response's too. The error is
@@ -28,8 +28,8 @@ from threadpoolctl import threadpool_limits
 
 from aas_gym.scene import ObjectSpec, get_object
 from sensors import Contact, ModalSystem, modal_damping_matrix
-from sensors.synthesis import LOW_RANK_MIN_MODES
-from sensors.atomic import atomic_write_text
+from sensors.synthesis.modal_system import LOW_RANK_MIN_MODES
+from sensors._infra.atomic import atomic_write_text
 
 ROOT = Path(__file__).resolve().parent.parent
 FS_HZ = 44100

@@ -26,7 +26,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from sensors.atomic import atomic_write_text
+from sensors._infra.atomic import atomic_write_text
 
 ROOT = Path(__file__).resolve().parent.parent
 GOAL_S = 0.5  # issue 18: each within 0.5 s

@@ -1,7 +1,7 @@
 """Streaming synthesis cost per env step (sensors side only, no MuJoCo).
 
 One env step of 0.05 s = 2205 samples at 44.1 kHz = 25 physics steps of 2 ms (88 or 89
-samples).  ``sensors.streaming.AcousticStream`` records it for FEM objects of about 12, 46
+samples).  ``sensors.synthesis.stream.AcousticStream`` records it for FEM objects of about 12, 46
 and 100 modes below Nyquist, under the linear sweep with sensor noise, in four cases:
 
 - ``same object``: the same ``GraspState`` for all 25 spans (nothing to compare);
@@ -38,7 +38,7 @@ sys.path.insert(0, str(ROOT))
 
 import sensors  # noqa: E402
 from sensors import Contact, Excitation  # noqa: E402
-from sensors.streaming import AcousticStream, GraspState  # noqa: E402
+from sensors.synthesis.stream import AcousticStream, GraspState  # noqa: E402
 
 FS = 44100
 ENV_STEP = 2205

@@ -28,7 +28,7 @@ import sensors  # noqa: E402
 from sensors import Contact, Excitation, simulate_recording  # noqa: E402
 from sensors import with_material  # noqa: E402
 from sensors.calibration import calibrate, load_material, save_material  # noqa: E402
-from sensors.materials import get_material  # noqa: E402
+from sensors.materials.solids import get_material  # noqa: E402
 
 OUT = ROOT / "outputs" / "calibration"
 LENGTH_M, WIDTH_M, HEIGHT_M = 0.2, 0.02, 0.01

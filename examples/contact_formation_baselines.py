@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 from aas_gym.experiments.contact_formation import collect, evaluate, format_table
-from sensors.atomic import atomic_write_text
+from sensors._infra.atomic import atomic_write_text
 
 
 def main(argv=None) -> dict:

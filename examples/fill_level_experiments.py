@@ -23,7 +23,7 @@ from tqdm import tqdm
 
 import aas_gym  # noqa: F401  (registers the envs)
 from aas_gym.experiments.protocols import _on_log_features, recognition
-from sensors.atomic import atomic_write_text
+from sensors._infra.atomic import atomic_write_text
 
 CONTAINERS = ("mug", "glass", "can", "bottle")
 LIQUIDS = ("water", "oil", "ethanol", "honey")

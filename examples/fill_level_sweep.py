@@ -17,8 +17,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from sensors.everyday import everyday_object
-from sensors.fluid import container
+from sensors.objects.everyday import everyday_object
+from sensors.fluid.model import container
 
 CONTAINERS = ("mug", "glass", "can", "bottle")
 FILLS = np.round(np.linspace(0.0, 1.0, 11), 2)

@@ -78,7 +78,7 @@ def _plot(wave, fs, dt, grip, table, events, out: Path) -> Path:
     import matplotlib.pyplot as plt
     from scipy.signal import spectrogram
 
-    from sensors.atomic import atomic_savefig
+    from sensors._infra.atomic import atomic_savefig
 
     f, tt, S = spectrogram(wave, fs, nperseg=1024, noverlap=512)
     fig, (ax, bx) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, gridspec_kw={"height_ratios": [3, 1]})

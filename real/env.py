@@ -1,7 +1,7 @@
 """``RealGraspEnv``: the ``aas_gym/AcousticGrasp-v0`` task on a real robot and rig.
 
 Same action and observation spaces as the simulated environment (both built from
-``sensors.grasp_task``), so a policy or classifier moves between them unchanged. The robot
+``sensors.task.grasp``), so a policy or classifier moves between them unchanged. The robot
 comes in through :class:`RobotInterface`, which a user implements for their driver (e.g.
 franka_ros / libfranka); ``aas_gym.robot.MujocoRobot`` implements it on the simulated scene,
 to test the env's logic end to end. This package does not import ``aas_gym``.
@@ -17,7 +17,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sensors import AcousticSensor, Excitation
-from sensors.grasp_task import (HOME_TCP, MAX_DELTA, AcousticConfig, RobotState, check_action, check_grip_force,
+from sensors.task.grasp import (HOME_TCP, MAX_DELTA, AcousticConfig, RobotState, check_action, check_grip_force,
                                 proprio_spaces)
 
 
@@ -71,7 +71,7 @@ class RealGraspEnv(gym.Env):
         robot: a :class:`RobotInterface`.
         sensor: a ``sensors.AcousticSensor`` (:class:`real.RealAcousticSensor`, or any other).
         excitation: ``sensors.Excitation`` or name.
-        acoustic: ``sensors.grasp_task.AcousticConfig`` (or a dict of its fields): when to
+        acoustic: ``sensors.task.grasp.AcousticConfig`` (or a dict of its fields): when to
             record (``cadence``), recording length, waveform in the observation, feature
             scale; the same configuration as the simulated envs'.
         grip_force_n: grasp force.

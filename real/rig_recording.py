@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from sensors import AcousticObservation, Excitation
-from sensors.atomic import atomic_write_text
+from sensors._infra.atomic import atomic_write_text
 
 from .devices import AudioDevice
 from .errors import StorageError

@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from sensors import Excitation
-from sensors.features import spectral_features
+from sensors.signals.features import spectral_features
 
 from .devices import _new_portaudio, _quiet_stderr, _terminate_portaudio
 from .errors import DeviceLostError, ExcitationNotFoundError, RigError

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from sensors import AcousticObservation, Excitation
-from sensors.leak import save_leak
+from sensors.signals.leak import save_leak
 
 from .errors import DeviceLostError
 from .rig import PyAudioRig, RigRecording, RigWarning, XrunError
@@ -99,7 +99,7 @@ class RealAcousticSensor:
     def record_leak(self, excitation: Excitation | str, path: str | os.PathLike, duration_s: float = 2.0, *,
                     labels: dict[str, Any] | None = None) -> Path:
         """Record the actuator-to-microphone leak with the gripper idle (nothing grasped) and
-        save it atomically in the format the simulated sensor loads (``sensors.leak``).
+        save it atomically in the format the simulated sensor loads (``sensors.signals.leak``).
 
         The saved waveform starts at the first excitation period (the pre-roll is cut); the
         simulator re-aligns it by its excitation peak anyway.
@@ -121,7 +121,7 @@ def record_leaks(sensor: RealAcousticSensor, out_dir: str | os.PathLike,
                  excitations: list[Excitation | str] | None = None, duration_s: float = 2.0) -> dict[str, Path]:
     """Record the leak for each excitation (default: the paper's three) into
     ``out_dir/leak_<name>.npz``; returns excitation name -> path (the mapping
-    ``aas_gym.SimAcousticSensor(leak=...)`` takes, after ``sensors.leak.load_leak``)."""
+    ``aas_gym.SimAcousticSensor(leak=...)`` takes, after ``sensors.signals.leak.load_leak``)."""
     out = {}
     for ex in excitations or ["impulse", "linear", "exponential"]:
         ex = _excitation(ex)

@@ -7,28 +7,28 @@ Modal estimation, calibration and the scikit-learn transformer are exported lazi
 they pull in scikit-learn and scipy.optimize, which ``import sensors`` should not pay for.
 """
 
-from .excitation import Excitation
-from .features import amplitude_spectrum, feature_frequencies_hz, scale_features, smooth_spectrum, spectral_features
-from .observation import AcousticObservation, AcousticSensor
-from .contact import Contact
-from .damping import modal_damping_matrix
-from .synthesis import ModalSystem, modal_response, modal_state_matrix, periodic_response
-from .fingertip import FingertipModel
-from .leak import LeakRecording, align_leak, load_leak, save_leak
-from .recording import SynthesisCache, simulate_recording
-from .materials import Material, MATERIALS, get_material
-from .modal_basis import MaterialView, ModalBasis, with_material
-from .modal_model import ModalModel
-from .meshing import MeshError
-from .eigen import EigenSolveError
-from .npz import FileFormatError
+from .signals.excitation import Excitation
+from .signals.features import amplitude_spectrum, feature_frequencies_hz, scale_features, smooth_spectrum, spectral_features
+from .signals.observation import AcousticObservation, AcousticSensor
+from .modal.contact import Contact
+from .modal.damping import modal_damping_matrix
+from .synthesis.modal_system import ModalSystem, modal_response, modal_state_matrix, periodic_response
+from .synthesis.fingertip import FingertipModel
+from .signals.leak import LeakRecording, align_leak, load_leak, save_leak
+from .synthesis.recording import SynthesisCache, simulate_recording
+from .materials.solids import Material, MATERIALS, get_material
+from .modal.basis import MaterialView, ModalBasis, with_material
+from .modal.model import ModalModel
+from .mesh.meshing import MeshError
+from .fem.eigen import EigenSolveError
+from ._infra.npz import FileFormatError
 
 _LAZY = {
-    "SpectralFeatures": "sensors.transformers",
-    "ModalEstimate": "sensors.modal_estimation",
-    "estimate_modes": "sensors.modal_estimation",
-    "estimate_modes_from_observation": "sensors.modal_estimation",
-    "transfer_function": "sensors.modal_estimation",
+    "SpectralFeatures": "sensors.signals.transformers",
+    "ModalEstimate": "sensors.calibration.estimation",
+    "estimate_modes": "sensors.calibration.estimation",
+    "estimate_modes_from_observation": "sensors.calibration.estimation",
+    "transfer_function": "sensors.calibration.estimation",
     "CalibrationResult": "sensors.calibration",
     "RecordingSetup": "sensors.calibration",
     "calibrate": "sensors.calibration",

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from sensors import Contact
-from sensors.materials import Material
+from sensors.materials.solids import Material
 
 BETA_L = np.array([4.730041, 7.853205, 10.995608, 14.137165, 17.278760])
 

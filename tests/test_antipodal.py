@@ -7,8 +7,8 @@ import pytest
 import trimesh
 
 from aas_gym.antipodal import grasp_path, sample_antipodal_grasps
-from sensors.everyday import everyday_object
-from sensors.grasp_task import MAX_OPENING_M
+from sensors.objects.everyday import everyday_object
+from sensors.task.grasp import MAX_OPENING_M
 
 
 def check_constraints(surface, grasps, friction, up, max_tilt_rad):

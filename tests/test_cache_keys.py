@@ -5,7 +5,7 @@ import textwrap
 
 import pytest
 
-from sensors import cache as cache_mod
+from sensors._infra import cache as cache_mod
 
 CODE = """
 def stiffness(e, a):

@@ -19,9 +19,9 @@ from sensors.calibration import (
     RecordingSetup, calibrate, fit_damping, fit_stiffness, load_material, log_spectral_distance_db,
     save_material,
 )
-from sensors.materials import Material, get_material
-from sensors.modal_basis import MaterialView, with_material
-from sensors.modal_estimation import ModalEstimate
+from sensors.materials.solids import Material, get_material
+from sensors.modal.basis import MaterialView, with_material
+from sensors.calibration.estimation import ModalEstimate
 
 SNR_DB = 30.0
 DURATION_S = 5.0  # the paper records 5 s
@@ -249,7 +249,7 @@ class _PairModel:
 
 def test_exact_damping_model_handles_contact_coupled_close_modes():
     from sensors.calibration.damping_fit import _exact_decay_rates
-    from sensors.damping import modal_damping_matrix
+    from sensors.modal.damping import modal_damping_matrix
 
     truth = Material("t", 1000.0, 1e9, 0.3, alpha=5.0, beta=2e-7, gamma=0.05)
     model = _PairModel(truth)

@@ -5,7 +5,7 @@ import pytest
 import trimesh
 
 from aas_gym.collision import collision_geometry, mass_properties
-from sensors.everyday import everyday_object
+from sensors.objects.everyday import everyday_object
 
 
 @pytest.fixture(scope="module")

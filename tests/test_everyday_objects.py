@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from everyday_reference import reference_frequencies_hz
-from sensors.everyday import EVERYDAY_OBJECTS, everyday_object
-from sensors.grasp_task import MAX_OPENING_M
-from sensors.layered_meshing import p2_dof_count
-from sensors.meshing import check_tet_quality, quadratic_mesh
-from sensors.surface_meshing import DEFAULT_MAX_DOF
+from sensors.objects.everyday import EVERYDAY_OBJECTS, everyday_object
+from sensors.task.grasp import MAX_OPENING_M
+from sensors.mesh.layered import p2_dof_count
+from sensors.mesh.meshing import check_tet_quality, quadratic_mesh
+from sensors.mesh.surface import DEFAULT_MAX_DOF
 
 CONTAINERS = ("mug", "bottle", "can", "glass", "box")
 MATERIAL_OF = {"mug": "ceramic", "bottle": "glass", "can": "steel", "glass": "glass", "box": "abs", "spoon": "wood",
@@ -106,10 +106,10 @@ def test_a_cached_model_loads_without_meshing_and_an_edit_misses(tmp_path, monke
     with pytest.raises(AssertionError, match="must not mesh"):
         no_mesher.modal_model(max_frequency_hz=5000.0, cache_dir=tmp_path, progress=False)
     # An edited mesher (its source is in the key) is a miss.
-    import sensors.everyday
+    import sensors.objects.everyday
 
     with monkeypatch.context() as m:
-        m.setattr(sensors.everyday, "_MESHER_VERSION", "edited")
+        m.setattr(sensors.objects.everyday, "_MESHER_VERSION", "edited")
         with pytest.raises(AssertionError, match="must not mesh"):
             no_mesher.modal_model(max_frequency_hz=6000.0, cache_dir=tmp_path, progress=False)
     # A corrupt alias is a miss, rebuilt from the mesh (which hits the model's own entry).

@@ -15,7 +15,7 @@ import threading
 import numpy as np
 import pytest
 
-from sensors.atomic import atomic_open, atomic_savefig, atomic_write_text
+from sensors._infra.atomic import atomic_open, atomic_savefig, atomic_write_text
 
 
 @pytest.mark.parametrize("umask, mode", [(0o022, 0o644), (0o077, 0o600), (0o002, 0o664)])
@@ -88,7 +88,7 @@ def test_corrupt_or_foreign_observation_and_model_files_are_named(tmp_path):
 
 def test_a_model_file_with_nan_frequencies_is_refused(tmp_path):
     from sensors import MATERIALS, FileFormatError, ModalModel
-    from sensors import modal_io
+    from sensors.modal import io as modal_io
 
     nodes = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]]) * 0.01
     good = ModalModel(nodes, [[0, 1, 2, 3]], [1000.0, 2000.0], np.ones((4, 3, 2)), MATERIALS["steel"])

@@ -113,7 +113,7 @@ def test_transformer_passes_sklearn_estimator_checks():
 
 def test_feature_scales_read_a_known_tone():
     """A 1e-3 sine on a feature bin reads 1e-3 linear, 60 dB re 1e-6, and unit norm."""
-    from sensors.features import DB_FLOOR, DB_REFERENCE, scale_features
+    from sensors.signals.features import DB_FLOOR, DB_REFERENCE, scale_features
 
     sample_rate_hz = 44100
     t = np.arange(sample_rate_hz) / sample_rate_hz
@@ -133,8 +133,8 @@ def test_feature_scales_read_a_known_tone():
 
 def test_transformer_and_env_config_scale_alike():
     from sensors import SpectralFeatures
-    from sensors.features import scale_features
-    from sensors.grasp_task import AcousticConfig
+    from sensors.signals.features import scale_features
+    from sensors.task.grasp import AcousticConfig
 
     rng = np.random.default_rng(0)
     X = rng.standard_normal((3, 22050)) * 1e-4

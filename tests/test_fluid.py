@@ -1,4 +1,4 @@
-"""sensors.fluid on a small aluminium can (built in seconds): the behaviour a filled container
+"""sensors.fluid.model on a small aluminium can (built in seconds): the behaviour a filled container
 must have, its API for the scene/env side, and that synthesis takes it unchanged.
 
 The physics is checked against references in test_fluid_analytic.py (series solution) and
@@ -15,13 +15,13 @@ import pytest
 
 import sensors
 from sensors import Contact, Excitation, ModalBasis, simulate_recording, with_material
-from sensors.cavity import LiquidSpillError
-from sensors.damping import modal_damping_parts
-from sensors.everyday import can
-from sensors.fluid import Container, FilledModalModel, container, filled
-from sensors.liquids import LIQUIDS, Liquid, get_liquid
-from sensors.meshing import MeshError
-from sensors.modal_basis import MaterialView, scaled_material
+from sensors.fluid.cavity import LiquidSpillError
+from sensors.modal.damping import modal_damping_parts
+from sensors.objects.everyday import can
+from sensors.fluid.model import Container, FilledModalModel, container, filled
+from sensors.materials.liquids import LIQUIDS, Liquid, get_liquid
+from sensors.mesh.meshing import MeshError
+from sensors.modal.basis import MaterialView, scaled_material
 
 SMALL_CAN = dict(outer_radius_m=0.02, wall_m=0.002, height_m=0.04, floor_m=0.003, material="aluminium")
 
@@ -205,7 +205,7 @@ def test_filled_memoizes_containers_and_fills(small_can, tmp_path):
     with pytest.raises(TypeError, match="cavity"):
         container(c.dry)
     with pytest.raises(TypeError, match="not a container"):
-        container(c.dry, cavity=sensors.everyday.spoon())
+        container(c.dry, cavity=sensors.objects.everyday.spoon())
 
 
 def test_liquids():

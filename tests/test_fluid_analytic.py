@@ -1,6 +1,6 @@
 """Physics check 1: ovalling modes of a partially filled cylindrical tank against a series solution.
 
-Reference (implemented here, independently of ``sensors.fluid``): the Rayleigh-Ritz method of
+Reference (implemented here, independently of ``sensors.fluid.model``): the Rayleigh-Ritz method of
 Amabili, Paidoussis & Lakis, "Vibrations of partially filled cylindrical tanks with
 ring-stiffeners and flexible bottom", J. Sound Vib. 213 (1998) 259-299 (and, for the wall
 alone, Lindholm, Kana & Abramson, "Breathing vibrations of a circular cylindrical shell with an
@@ -37,8 +37,8 @@ import pytest
 import scipy.linalg
 import scipy.special
 
-from sensors.everyday import can
-from sensors.fluid import Container
+from sensors.objects.everyday import can
+from sensors.fluid.model import Container
 
 FILLS = (0.2, 0.4, 0.6, 0.8, 1.0)
 RHO_WATER = 998.2

@@ -1,7 +1,7 @@
 """Physics check 2: the project's wet modes against a fully coupled structure-liquid FEM solve,
 for the everyday mug (ceramic, with its handle) at three fill levels.
 
-The reference is written here with scikit-fem, independently of ``sensors.fluid`` (no modal
+The reference is written here with scikit-fem, independently of ``sensors.fluid.model`` (no modal
 reduction, no static correction, no project liquid mesh or quadrature):
 
 * Wall: the mug's own tet mesh (the one its dry model is built on, its P2 nodes curved onto
@@ -34,9 +34,9 @@ import scipy.sparse
 import scipy.sparse.linalg
 import scipy.spatial
 
-from sensors.everyday import everyday_object
-from sensors.fluid import container
-from sensors.meshing import rod_mesh
+from sensors.objects.everyday import everyday_object
+from sensors.fluid.model import container
+from sensors.mesh.meshing import rod_mesh
 
 RHO_WATER = 998.2
 FILLS = (0.3, 0.6, 1.0)

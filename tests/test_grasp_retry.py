@@ -6,7 +6,7 @@ import pytest
 from aas_gym.experiments import simulate
 from aas_gym.experiments.config import DatasetConfig
 from aas_gym.sim_sensor import SimAcousticSensor
-from sensors.damping import OffSurfaceError
+from sensors.modal.damping import OffSurfaceError
 
 
 def _task(config):

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import scipy.integrate
 
-from sensors.everyday import _surface_of, mug
-from sensors.layered_meshing import handled_cup_mesh
-from sensors.meshing import P2_EDGES, boundary_faces, check_tet_quality, quadratic_mesh
+from sensors.objects.everyday import _surface_of, mug
+from sensors.mesh.layered import handled_cup_mesh
+from sensors.mesh.meshing import P2_EDGES, boundary_faces, check_tet_quality, quadratic_mesh
 
 
 @pytest.fixture(scope="module")

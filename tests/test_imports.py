@@ -36,8 +36,8 @@ def test_deferred_numba_kernels_match_their_python_source():
     code = """
 import sys
 import numpy as np
-from sensors import fingertip as ft, low_rank_kernels as kernels
-from sensors.lazy_jit import jitted
+from sensors.synthesis import fingertip as ft, low_rank_kernels as kernels
+from sensors._infra.jit import jitted
 assert "numba" not in sys.modules
 rng = np.random.default_rng(0)
 k, n = 6, 5
@@ -64,7 +64,7 @@ assert np.allclose(out, ref, rtol=1e-12, atol=1e-12) and np.isclose(min_f, ref_m
 def test_aas_help_loads_neither_the_sensor_stack_nor_mujoco():
     loaded = _loaded("import contextlib, io\nfrom aas_gym.cli import build_parser\n"
                      "with contextlib.redirect_stdout(io.StringIO()):\n    build_parser().format_help()")
-    assert "sensors.synthesis" not in loaded and "pyaudio" not in loaded and "mujoco" not in loaded
+    assert "sensors.synthesis.modal_system" not in loaded and "pyaudio" not in loaded and "mujoco" not in loaded
     assert not [m for m in HEAVY if m in loaded]
 
 
@@ -72,7 +72,7 @@ def test_lazy_exports_resolve():
     import real
     import sensors
 
-    assert sensors.SpectralFeatures.__module__ == "sensors.transformers"
+    assert sensors.SpectralFeatures.__module__ == "sensors.signals.transformers"
     assert callable(sensors.calibrate) and real.PyAudioRig.__module__ == "real.rig"
     with pytest.raises(AttributeError):
         sensors.no_such_name  # noqa: B018

@@ -8,7 +8,7 @@ import pytest
 import scipy.linalg as sla
 
 from sensors import MATERIALS, Contact, ModalModel
-from sensors.low_rank_modes import low_rank_modes
+from sensors.synthesis.low_rank_modes import low_rank_modes
 
 
 def _state_matrix(w, d, Q):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from sensors.meshing import (
+from sensors.mesh.meshing import (
     MeshError,
     bar_mesh,
     boundary_faces,
@@ -129,7 +129,7 @@ def test_pytetwild_path_tight_and_cached(tmp_path):
 
 
 def test_row_codes_are_equal_exactly_for_equal_rows_and_refuse_overflow():
-    from sensors.meshing import row_codes
+    from sensors.mesh.meshing import row_codes
 
     rows = np.random.default_rng(0).integers(0, 7, size=(500, 3))
     codes = row_codes(rows)

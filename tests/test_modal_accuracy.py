@@ -8,7 +8,7 @@
 
 FE modes are classified (axial, bending, torsion, other) from their displacement on rings
 around the axis; repeated pairs are compared as a set, never vector by vector.
-The beam-theory references live in ``sensors.beam_theory`` (shared with
+The beam-theory references live in ``sensors.fem.beam_theory`` (shared with
 ``benchmarks/modal_accuracy.py``).
 """
 
@@ -23,7 +23,7 @@ import scipy.sparse.linalg
 
 from sensors import MATERIALS, Material, ModalModel
 
-from sensors.beam_theory import (BAR, TABLE, TUBE, beam_reference_hz,  # noqa: F401
+from sensors.fem.beam_theory import (BAR, TABLE, TUBE, beam_reference_hz,  # noqa: F401
                                  compare_to_beam, timoshenko_free_free_hz)
 
 # ----------------------------------------------------------------------------- scikit-fem reference
@@ -35,7 +35,7 @@ def skfem_p2_frequencies_hz(kind: str, dims: dict, material: Material, n_modes: 
     from skfem.helpers import dot
     from skfem.models.elasticity import linear_elasticity
 
-    from sensors.meshing import bar_mesh, tube_mesh
+    from sensors.mesh.meshing import bar_mesh, tube_mesh
 
     tm = bar_mesh(**dims, resolution=resolution) if kind == "bar" else tube_mesh(**dims, resolution=resolution)
     mesh = MeshTet2.from_mesh(MeshTet(tm.vertices_m.T.copy(), tm.tets.T.copy()))

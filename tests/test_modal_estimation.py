@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from scipy.signal import lfilter
 
 from sensors import AcousticObservation, Excitation
-from sensors.modal_estimation import esprit, estimate_modes, estimate_modes_from_observation, transfer_function
+from sensors.calibration.estimation import esprit, estimate_modes, estimate_modes_from_observation, transfer_function
 
 FS = 44100
 

@@ -9,8 +9,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from sensors import Material, ModalModel
-from sensors.eigen import EigenSolveError, mode_residuals
-from sensors.meshing import MeshError
+from sensors.fem.eigen import EigenSolveError, mode_residuals
+from sensors.mesh.meshing import MeshError
 
 materials = st.builds(
     Material,

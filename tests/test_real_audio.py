@@ -184,7 +184,7 @@ def test_classifier_trained_on_sim_acoustic_sensor_accepts_real(recordings):
 
 
 def test_leak_recording_loads_in_the_simulator_format(rig, tmp_path):
-    from sensors.leak import align_leak, load_leak
+    from sensors.signals.leak import align_leak, load_leak
 
     sensor = real.RealAcousticSensor(rig)
     ex = sensors.Excitation.by_name("exponential")
@@ -380,7 +380,7 @@ def test_cli_record_and_record_leak(audio_loopback, tmp_path, capsys):
     assert obs.metadata["kind"] == "recording"
     assert cli.main(["record-leak", "-o", str(tmp_path / "leaks"), "--excitations", "linear", "-s", "0.5",
                      "--gain", "0.5"]) == 0
-    from sensors.leak import load_leak
+    from sensors.signals.leak import load_leak
 
     assert load_leak(tmp_path / "leaks" / "leak_linear.npz").matches(sensors.Excitation.by_name("linear"))
     assert cli.main(["record", "--input", "no-such-card", "-o", str(tmp_path / "x.npz")]) == 1

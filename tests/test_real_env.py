@@ -115,7 +115,7 @@ def test_nonfinite_or_misshapen_action_never_reaches_the_robot(bad):
 
 
 def test_acoustic_config_and_old_keywords_agree():
-    from sensors.grasp_task import AcousticConfig
+    from sensors.task.grasp import AcousticConfig
 
     a = RealGraspEnv(_CommandLog(), _Recorder(), include_waveform=True, duration_s=0.5, sense_mode="every_step")
     b = RealGraspEnv(_CommandLog(), _Recorder(), acoustic=AcousticConfig(waveform=True, duration_s=0.5,

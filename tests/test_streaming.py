@@ -1,4 +1,4 @@
-"""sensors.streaming: the microphone recording without a break while contacts change.
+"""sensors.synthesis.stream: the microphone recording without a break while contacts change.
 
 References are independent of the code under test: scipy.signal.lsim on state-space systems
 built here from the model's frequencies, damping matrix and mode shapes (and from the
@@ -11,8 +11,8 @@ import scipy.signal as ss
 
 import sensors
 from sensors import Contact, Excitation, FingertipModel, LeakRecording, align_leak, simulate_recording
-from sensors.recording import mic_gain
-from sensors.streaming import AcousticStream, ContactTolerance, GraspState
+from sensors.synthesis.recording import mic_gain
+from sensors.synthesis.stream import AcousticStream, ContactTolerance, GraspState
 from synthesis_fakes import BoxModel
 
 FS = 44100

@@ -18,8 +18,8 @@ from aas_gym.scene import build_scene
 from aas_gym.sim_sensor import SimAcousticSensor
 from aas_gym.sim_stream import SimAcousticStream, span_bounds
 from scripted_policy import reach_until_grasped
-from sensors.damping import modal_damping_matrix
-from sensors.synthesis import modal_state_matrix
+from sensors.modal.damping import modal_damping_matrix
+from sensors.synthesis.modal_system import modal_state_matrix
 
 STEP = 2205          # samples per env step (0.05 s)
 

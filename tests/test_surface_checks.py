@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from sensors.meshing import MeshError
-from sensors.surface_meshing import (
+from sensors.mesh.meshing import MeshError
+from sensors.mesh.surface import (
     MeshDegenerateError,
     MeshInvertedError,
     MeshNotWatertightError,
@@ -95,7 +95,7 @@ def test_thickness_probe_measures_a_plate():
 
 def test_a_cached_tet_mesh_loads_without_re_checking_the_surface(tmp_path, monkeypatch):
     """A hit was checked when it was built: loading it skips the check (seconds on a mug)."""
-    import sensors.surface_meshing as sm
+    import sensors.mesh.surface as sm
 
     built = tetrahedralize_tuned(box(), element_size_m=0.01, cache_dir=tmp_path, progress=False)
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from sensors.synthesis import ModalSystem, modal_response, periodic_response
+from sensors.synthesis.modal_system import ModalSystem, modal_response, periodic_response
 
 
 class OneMode:

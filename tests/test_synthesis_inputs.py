@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from sensors.contact import Contact
-from sensors.damping import modal_damping_matrix
-from sensors.synthesis import ModalSystem, modal_response
+from sensors.modal.contact import Contact
+from sensors.modal.damping import modal_damping_matrix
+from sensors.synthesis.modal_system import ModalSystem, modal_response
 from synthesis_fakes import BoxModel, grasp, lsim_reference
 
 

@@ -6,9 +6,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sensors.contact import Contact
-from sensors.damping import modal_damping_matrix
-from sensors.synthesis import ModalSystem, modal_response
+from sensors.modal.contact import Contact
+from sensors.modal.damping import modal_damping_matrix
+from sensors.synthesis.modal_system import ModalSystem, modal_response
 from synthesis_fakes import BoxModel, box_points, grasp, lsim_reference
 
 FS = 44100
@@ -95,7 +95,7 @@ def _bar_model():
     sensors = pytest.importorskip("sensors")
     if not hasattr(sensors, "ModalModel"):
         try:
-            from sensors.modal_model import ModalModel
+            from sensors.modal.model import ModalModel
         except ImportError:
             pytest.skip("sensors.ModalModel not available yet")
         return ModalModel

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from sensors import AcousticObservation, Contact, Excitation
-from sensors.fingertip import FingertipModel, _simulate_one_sided
-from sensors.leak import align_leak, load_leak, save_leak
-from sensors.recording import mic_gain, simulate_recording
+from sensors.synthesis.fingertip import FingertipModel, _simulate_one_sided
+from sensors.signals.leak import align_leak, load_leak, save_leak
+from sensors.synthesis.recording import mic_gain, simulate_recording
 from synthesis_fakes import BoxModel, grasp
 
 FS = 44100

@@ -6,8 +6,8 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from sensors.contact import Contact
-from sensors.synthesis import ModalSystem, modal_state_energy
+from sensors.modal.contact import Contact
+from sensors.synthesis.modal_system import ModalSystem, modal_state_energy
 from synthesis_fakes import TABLE, BoxModel, box_points, grasp
 
 FS = 44100

@@ -11,7 +11,7 @@ from gymnasium import spaces
 from aas_gym.envs.base import _OBJECT, _TCP, AasEnv
 from aas_gym.grasp import SQUEEZE_TARGET_M
 from aas_gym.scenario import position_along_path
-from sensors.grasp_task import HOME_TCP, MAX_DELTA, MAX_OPENING_M, check_action
+from sensors.task.grasp import HOME_TCP, MAX_DELTA, MAX_OPENING_M, check_action
 
 
 class AcousticGraspEnv(AasEnv):

@@ -26,13 +26,13 @@ from aas_gym.scenario import (DomainRandomization, choose_objects, default_distr
 from aas_gym.sim_sensor import SensorVariation, SimAcousticSensor
 from aas_gym.sim_stream import SimAcousticStream
 from sensors import LeakRecording, load_leak
-from sensors.grasp_task import (HOME_TCP, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT, STATE_SIZE,
+from sensors.task.grasp import (HOME_TCP, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT, STATE_SIZE,
                                 AcousticConfig, check_grip_force, proprio_spaces)
 
 __all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "N_FEATURES", "resolve_excitation"]
 
 EXCITATION_NAMES = ("impulse", "linear", "exponential")
-# Where the proprioceptive entries sit in the state vector (sensors.grasp_task.STATE_LAYOUT),
+# Where the proprioceptive entries sit in the state vector (sensors.task.grasp.STATE_LAYOUT),
 # as plain ints for the per-step code.
 _TCP = STATE_LAYOUT["tcp"].start
 _OBJECT = STATE_LAYOUT["object"].start

@@ -7,10 +7,10 @@ import numpy as np
 from gymnasium import spaces
 
 from aas_gym.envs.base import AasEnv
-from sensors.grasp_task import check_action
+from sensors.task.grasp import check_action
 
 TASKS = ("fill", "liquid")
-#: The everyday containers a liquid can fill (``sensors.fluid``).
+#: The everyday containers a liquid can fill (``sensors.fluid.model``).
 CONTAINERS = ("mug", "glass", "can", "bottle")
 
 
@@ -22,7 +22,7 @@ class FillLevelEnv(AasEnv):
     ``fill_range`` (task ``"fill"``; ``fill_fraction`` for task ``"liquid"``) and a liquid from
     ``liquids`` (``"water"``, ``"oil"``, ``"honey"``, ``"ethanol"`` or a density in kg/m^3).
     The container stands upright; the liquid's free surface is level. Its modes are the wet
-    modes of ``sensors.fluid.filled`` (potential-flow added mass on the dry modes), and
+    modes of ``sensors.fluid.model.filled`` (potential-flow added mass on the dry modes), and
     MuJoCo carries the liquid's mass at its centre of mass, so the grasp holds it. The hand
     grasps across the container (not pinching the wall: a finger in the liquid is not
     modelled) and records the excitation.
@@ -52,7 +52,7 @@ class FillLevelEnv(AasEnv):
             raise ValueError(f"fill_range must satisfy 0 <= low <= high <= 1, got {fill_range}")
         if not 0.0 <= fill_fraction <= 1.0:
             raise ValueError(f"fill_fraction must be in [0, 1], got {fill_fraction}")
-        from sensors.liquids import get_liquid
+        from sensors.materials.liquids import get_liquid
 
         self.liquids = tuple(liquids)
         if not self.liquids:
@@ -104,7 +104,7 @@ class FillLevelEnv(AasEnv):
 
     def _fill(self, fill_fraction: float, liquid):
         """Put the liquid in: the sensor hears the wet modes, MuJoCo carries its mass."""
-        from sensors.fluid import filled
+        from sensors.fluid.model import filled
 
         sc = self._scene
         target, body = sc.objects[0], sc.bodies[0]

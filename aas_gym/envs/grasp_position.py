@@ -6,7 +6,7 @@ import numpy as np
 from gymnasium import spaces
 
 from aas_gym.envs.base import AasEnv
-from sensors.grasp_task import check_action
+from sensors.task.grasp import check_action
 
 ACTION_FORMATS = ("normalized", "metres")
 

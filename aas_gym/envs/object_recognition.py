@@ -7,7 +7,7 @@ from gymnasium import spaces
 
 from aas_gym.envs.base import EXCITATION_NAMES, AasEnv, resolve_excitation
 from aas_gym.scene import DEFAULT_OBJECT_NAMES
-from sensors.grasp_task import check_action
+from sensors.task.grasp import check_action
 
 ACTION_FORMATS = ("box", "dict")
 _DICT_KEYS = ("command", "position", "excitation", "label")

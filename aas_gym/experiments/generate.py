@@ -45,7 +45,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from aas_gym.experiments.config import DatasetConfig, code_version
-from sensors.atomic import atomic_write_bytes
+from sensors._infra.atomic import atomic_write_bytes
 
 FORMAT = "aas-gym-dataset/1"
 #: How long an explicit Ray address may take to answer a TCP connection.

@@ -9,7 +9,7 @@ import numpy as np
 from joblib import Parallel, delayed
 from tqdm.auto import tqdm
 
-from sensors.atomic import atomic_savefig, atomic_write_text
+from sensors._infra.atomic import atomic_savefig, atomic_write_text
 
 from aas_gym.experiments.protocols import (
     CLASSIFIERS,

@@ -10,7 +10,7 @@ import numpy as np
 from aas_gym.experiments.generate import load_dataset
 from aas_gym.experiments.protocols import RecognitionResult
 from aas_gym.experiments.report import run_protocols, write_report
-from sensors.atomic import atomic_write_text
+from sensors._infra.atomic import atomic_write_text
 
 
 def dataset_spectra(df, excitation: str = "linear") -> list[tuple[str, str, np.ndarray, np.ndarray]]:

@@ -23,8 +23,8 @@ from aas_gym.scenario import (DomainRandomization, choose_objects, default_distr
 from aas_gym.scene import build_scene, get_object
 from aas_gym.sim_sensor import SimAcousticSensor
 from sensors import Excitation
-from sensors.damping import OffSurfaceError
-from sensors.grasp_task import HOME_TCP, MAX_OPENING_M
+from sensors.modal.damping import OffSurfaceError
+from sensors.task.grasp import HOME_TCP, MAX_OPENING_M
 
 # Datasets vary the grasp (jitter, position, contacts), not the table pose: the target lies at
 # the origin, axis along x, as in the paper's recordings.

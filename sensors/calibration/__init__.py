@@ -13,7 +13,7 @@ What is fitted, and from what:
   recording with contacts P obeys, to first order in the damping,
   ``sigma = (alpha + beta w^2 + gamma G_cc) / 2`` with ``G = sum_p c_p U_p^T (mu I +
   (1 - mu) n n^T) U_p`` the contact damping per unit gamma of that recording's contacts
-  (:func:`sensors.damping.contact_damping_matrix`). gamma is identifiable when the
+  (:func:`sensors.modal.damping.contact_damping_matrix`). gamma is identifiable when the
   recordings differ in grip force or contact set; otherwise it is held at the base value.
   Weights come from each decay rate's standard deviation plus a relative floor for model
   error; uncertainties from the covariance (scaled by the reduced chi-square when the

@@ -9,11 +9,11 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..damping import contact_damping_matrix
-from ..leak import LeakRecording, load_leak
-from ..materials import Material, get_material
-from ..modal_estimation import ModalEstimate, estimate_modes_from_observation
-from ..observation import AcousticObservation
+from ..modal.damping import contact_damping_matrix
+from ..signals.leak import LeakRecording, load_leak
+from ..materials.solids import Material, get_material
+from .estimation import ModalEstimate, estimate_modes_from_observation
+from ..signals.observation import AcousticObservation
 from .damping_fit import DampingFit, _refine_exact, fit_damping
 from .recordings import RecordingSetup, mode_clusters, observability
 from .stiffness import StiffnessFit, _decay_terms, _match, fit_stiffness, undamped_frequencies_hz
@@ -153,7 +153,7 @@ def calibrate(
         leak: the rig's idle leak recording(s) (``sensors.LeakRecording``, a path to one, or
             a sequence of them, one per excitation): removed from each recording made with
             the matching excitation before its modes are estimated.
-        **estimate_kwargs: passed to :func:`sensors.modal_estimation.estimate_modes_from_observation`.
+        **estimate_kwargs: passed to :func:`sensors.calibration.estimation.estimate_modes_from_observation`.
     """
     if damping_model not in ("exact", "diagonal"):
         raise ValueError(f"damping_model must be 'exact' or 'diagonal', got {damping_model!r}")

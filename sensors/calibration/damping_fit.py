@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.optimize
 
-from ..synthesis import modal_state_matrix
+from ..synthesis.modal_system import modal_state_matrix
 
 
 @dataclass

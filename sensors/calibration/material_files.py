@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from ..atomic import atomic_write_text
-from ..materials import Material
+from .._infra.atomic import atomic_write_text
+from ..materials.solids import Material
 
 MATERIAL_FILE_FORMAT = "aas-gym material"
 

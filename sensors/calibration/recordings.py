@@ -7,8 +7,8 @@ from typing import Sequence
 
 import numpy as np
 
-from ..contact import Contact
-from ..observation import AcousticObservation
+from ..modal.contact import Contact
+from ..signals.observation import AcousticObservation
 
 
 @dataclass

@@ -9,7 +9,7 @@ from typing import Sequence
 import numpy as np
 import scipy.optimize
 
-from ..modal_estimation import ModalEstimate
+from .estimation import ModalEstimate
 
 
 @dataclass

@@ -1,0 +1,153 @@
+"""What synthesis, the simulated sensor and calibration need of a modal model, and the one
+exact view of a model in another material.
+
+``ModalBasis`` is the interface: a ``sensors.ModalModel``, a :class:`MaterialView` of one,
+or any user object with these members works everywhere a modal model is taken.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from .damping import modal_damping_matrix
+from ..materials.solids import Material, get_material
+
+
+@runtime_checkable
+class ModalBasis(Protocol):
+    """Mass-normalised elastic modes of one object.
+
+    Members (SI units):
+        frequencies_hz, angular_frequencies_rad_s: (r,) undamped natural frequencies.
+        material: a ``sensors.Material`` (alpha [1/s], beta [s], gamma [s/m] for damping).
+        mode_shapes_at(points_m): (n, 3, r) mode shapes at points of the object frame.
+
+    Optional members the code uses when present: ``surface_distance_m(points_m)`` (contacts
+    off the surface are refused), ``mass_kg`` (the fingertip drive model), ``n_modes``,
+    ``decay_rates_per_s`` (decay rates without contacts [1/s]), ``added_damping_per_s`` ((r,)
+    modal damping [1/s] added to the diagonal alpha + beta w^2, e.g. a liquid's), and
+    ``material_scales_modes = False`` with a ``with_material`` method for models whose modes
+    a plain material rescaling does not give (a filled container: the liquid's added mass
+    does not scale with the wall's density).
+    """
+
+    frequencies_hz: np.ndarray
+    angular_frequencies_rad_s: np.ndarray
+    material: Material
+
+    def mode_shapes_at(self, points_m) -> np.ndarray: ...
+
+
+def band_text(frequencies_hz) -> str:
+    """'f_min-f_max Hz' of a mode set, or 'no modes' (for one-line descriptions)."""
+    f = np.asarray(frequencies_hz)
+    return f"{f[0]:.0f}-{f[-1]:.0f} Hz" if len(f) else "no modes"
+
+
+def material_scaling(old: Material, new: Material) -> tuple[float, float]:
+    """``(frequency_scale, shape_scale)`` taking modes in ``old`` to modes in ``new`` exactly.
+
+    With the Poisson ratio kept, K scales with E and M with the density: eigenvalues scale by
+    (E'/rho') / (E/rho) with the same shapes, which mass-normalised scale by sqrt(rho/rho').
+    A different Poisson ratio changes the shapes: ``ValueError``.
+    """
+    if not math.isclose(new.poisson_ratio, old.poisson_ratio, rel_tol=0, abs_tol=1e-12):
+        raise ValueError(f"Poisson ratio {old.poisson_ratio} -> {new.poisson_ratio} changes the mode shapes: "
+                         "this needs a new FEM solve")
+    c2 = (new.youngs_modulus_pa / new.density_kg_m3) / (old.youngs_modulus_pa / old.density_kg_m3)
+    return math.sqrt(c2), math.sqrt(old.density_kg_m3 / new.density_kg_m3)
+
+
+class MaterialView:
+    """A modal model seen in another material of the same Poisson ratio: exact, no new solve
+    (:func:`material_scaling`). Damping comes from the new material; shapes, surface and
+    everything not material-dependent are the base model's.
+    """
+
+    def __init__(self, base: ModalBasis, material: Material) -> None:
+        if isinstance(base, MaterialView):  # a view of a view is a view of the base
+            base = base.base
+        if getattr(base, "material_scales_modes", True) is False:
+            raise TypeError(f"a {type(base).__name__} does not rescale exactly with its material: "
+                            "use sensors.with_material(model, material)")
+        self.base = base
+        self.material = get_material(material)
+        self.frequency_scale, self.shape_scale = material_scaling(base.material, self.material)
+        self.angular_frequencies_rad_s = np.asarray(base.angular_frequencies_rad_s, float) * self.frequency_scale
+        self.frequencies_hz = self.angular_frequencies_rad_s / (2 * np.pi)
+
+    def mode_shapes_at(self, points_m) -> np.ndarray:
+        return np.asarray(self.base.mode_shapes_at(points_m)) * self.shape_scale
+
+    def surface_distance_m(self, points_m) -> np.ndarray:
+        return self.base.surface_distance_m(points_m)
+
+    @property
+    def mass_kg(self) -> float:
+        return float(self.base.mass_kg) * self.material.density_kg_m3 / self.base.material.density_kg_m3
+
+    @property
+    def n_modes(self) -> int:
+        return int(self.angular_frequencies_rad_s.size)
+
+    @property
+    def eigenvalues(self) -> np.ndarray:
+        """w^2 [rad^2/s^2]."""
+        return self.angular_frequencies_rad_s ** 2
+
+    @property
+    def decay_rates_per_s(self) -> np.ndarray:
+        """Rayleigh decay rates (alpha + beta w^2) / 2 [1/s] of the new material."""
+        return self.material.decay_rate(self.angular_frequencies_rad_s)
+
+    def damping_matrix(self, contacts=()) -> np.ndarray:
+        """C_m of the new material (see :func:`sensors.modal_damping_matrix`)."""
+        return modal_damping_matrix(self, contacts)
+
+    def with_material(self, material) -> "MaterialView":
+        return MaterialView(self.base, material)
+
+    def __repr__(self) -> str:
+        return f"MaterialView({self.base!r}, material={self.material.name!r})"
+
+    def __getattr__(self, name: str):
+        if name in ("save", "nodes_m", "mode_shapes", "elements"):
+            # material-dependent data of the base (or a file of it) must not pass as this view's
+            raise AttributeError(f"a MaterialView has no {name!r}: build the model in {self.material.name} instead")
+        return getattr(self.base, name)
+
+
+def with_material(model: ModalBasis, material) -> ModalBasis:
+    """``model`` in ``material``: exact without a new solve when the Poisson ratio is kept
+    (:class:`MaterialView`, or the model's own ``with_material`` when it declares
+    ``material_scales_modes = False``); otherwise the model's own ``with_material`` rebuilds it (bars,
+    tubes and rods) or ``ValueError``."""
+    material = get_material(material)
+    if getattr(model, "material_scales_modes", True) is False:
+        return model.with_material(material)
+    try:
+        material_scaling(model.material, material)
+    except ValueError:
+        own = getattr(model, "with_material", None)
+        if callable(own) and not isinstance(model, MaterialView):
+            return own(material)
+        raise
+    return MaterialView(model, material)
+
+
+def scaled_material(material: Material, *, damping_scale: float = 1.0, modulus_scale: float = 1.0,
+                    density_scale: float = 1.0) -> Material:
+    """``material`` with its damping (alpha, beta, gamma), Young's modulus and density scaled
+    (domain randomization); every scale must be > 0."""
+    for name, v in (("damping_scale", damping_scale), ("modulus_scale", modulus_scale),
+                    ("density_scale", density_scale)):
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be > 0, got {v!r}")
+    m = material
+    return dataclasses.replace(
+        m, alpha=m.alpha * damping_scale, beta=m.beta * damping_scale, gamma=m.gamma * damping_scale,
+        youngs_modulus_pa=m.youngs_modulus_pa * modulus_scale, density_kg_m3=m.density_kg_m3 * density_scale)

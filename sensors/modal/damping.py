@@ -1,0 +1,111 @@
+"""Modal damping with contact damping (Zheng & James 2011, as in the paper).
+
+C_m = diag(alpha + beta w^2) + gamma G,
+G   = sum_p c_p U_p^T (mu_p I + (1 - mu_p) n_p n_p^T) U_p,
+
+with U the mass-normalised mode shapes (U^T M U = I), so U^T (alpha M + beta K) U is the
+diagonal diag(alpha + beta w^2).  c_p is the contact's normal force [N], n_p its normal, mu_p
+its friction coefficient and U_p the 3 x r rows of U at the contact point.  The weight
+mu I + (1 - mu) n n^T has eigenvalues 1 (normal) and mu (tangential), so G is positive
+semi-definite for every mu >= 0 and the damped system stays passive.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from .contact import Contact
+
+# A contact farther than this from the object's surface is a bug upstream (wrong frame,
+# wrong object), not a modelling choice: refuse it rather than damp with garbage shapes.
+MAX_SURFACE_DISTANCE_M = 2e-3
+
+
+class OffSurfaceError(ValueError):
+    """A contact or drive/mic point lies farther from the modal model's surface than allowed
+    (a wrong frame, or a collision hull that over-covers the solid where it was touched)."""
+
+
+def check_on_surface(model, points_m: np.ndarray, what: str = "contact",
+                     max_distance_m: float = MAX_SURFACE_DISTANCE_M) -> None:
+    """Raise :class:`OffSurfaceError` (a ``ValueError``) if a point is farther than
+    ``max_distance_m`` from the surface.
+
+    Only applies when the model offers ``surface_distance_m(points_m)``.
+    """
+    surf = getattr(model, "surface_distance_m", None)
+    if surf is None:
+        return
+    pts = np.atleast_2d(np.asarray(points_m, dtype=float))
+    if pts.size == 0:
+        return
+    d = np.abs(np.asarray(surf(pts), dtype=float).reshape(-1))
+    bad = np.flatnonzero(~(d <= max_distance_m))
+    if bad.size:
+        i = int(bad[0])
+        raise OffSurfaceError(
+            f"{what} at {pts[i].tolist()} m is {d[i] * 1e3:.3g} mm from the object surface "
+            f"(limit {max_distance_m * 1e3:.3g} mm): is it in the object frame?")
+
+
+def contact_damping_factor(model, contacts: Sequence[Contact]) -> np.ndarray:
+    """F with G = F^T F, shape (3 P, r), units sqrt(N): per contact p the rows
+    sqrt(c_p) W_p^(1/2) U_p, where W_p^(1/2) = sqrt(mu_p) (I - n_p n_p^T) + n_p n_p^T is the
+    square root of the weight (it has eigenvalues 1 along the normal and mu_p across it).
+
+    The contact damping has rank at most 3 P: the synthesis uses this factor to find the
+    complex modes in O(r^2 P^2) instead of O(r^3) (:mod:`sensors.synthesis.low_rank_modes`)."""
+    r = len(model.angular_frequencies_rad_s)
+    contacts = [c for c in contacts if c.force_n > 0.0]
+    if not contacts:
+        return np.zeros((0, r))
+    pos = np.array([c.position_m for c in contacts])
+    nrm = np.array([c.normal for c in contacts])
+    f = np.array([c.force_n for c in contacts])
+    mu = np.array([c.friction for c in contacts])
+    U = np.asarray(model.mode_shapes_at(pos), dtype=float)   # (P, 3, r)
+    along = np.einsum("pi,pir->pr", nrm, U)                   # n^T U
+    normal_part = nrm[:, :, None] * along[:, None, :]         # n n^T U
+    F = np.sqrt(f)[:, None, None] * (np.sqrt(mu)[:, None, None] * (U - normal_part) + normal_part)
+    return F.reshape(-1, r)
+
+
+def contact_damping_matrix(model, contacts: Sequence[Contact]) -> np.ndarray:
+    """G = sum_p c_p U_p^T (mu_p I + (1 - mu_p) n_p n_p^T) U_p, shape (r, r), units N."""
+    F = contact_damping_factor(model, contacts)
+    return F.T @ F
+
+
+def modal_damping_parts(model, contacts: Sequence[Contact] = (), *,
+                        max_surface_distance_m: float = MAX_SURFACE_DISTANCE_M) -> tuple[np.ndarray, np.ndarray]:
+    """``(d, Q)`` with C_m = diag(d) + Q^T Q: the Rayleigh part d = alpha + beta w^2 [1/s]
+    (plus the model's ``added_damping_per_s`` if it has one) and the contact part's factor Q = sqrt(gamma) F (``contact_damping_factor``), shape
+    (3 P, r). Validates the contacts as :func:`modal_damping_matrix` does."""
+    contacts = list(contacts)
+    for c in contacts:
+        if not isinstance(c, Contact):
+            raise TypeError(f"expected sensors.Contact, got {type(c).__name__}")
+    w = np.asarray(model.angular_frequencies_rad_s, dtype=float)
+    mat = model.material
+    d = float(mat.alpha) + float(mat.beta) * w ** 2
+    extra = getattr(model, "added_damping_per_s", None)  # e.g. a liquid's boundary layer
+    if extra is not None:
+        d = d + np.asarray(extra, dtype=float)
+    if not contacts:
+        return d, np.zeros((0, w.size))
+    check_on_surface(model, np.array([c.position_m for c in contacts]), "contact", max_surface_distance_m)
+    return d, np.sqrt(float(mat.gamma)) * contact_damping_factor(model, contacts)
+
+
+def modal_damping_matrix(model, contacts: Sequence[Contact] = (), *,
+                         max_surface_distance_m: float = MAX_SURFACE_DISTANCE_M) -> np.ndarray:
+    """Total modal damping C_m = diag(alpha + beta w^2) + gamma G, shape (r, r), units 1/s.
+
+    ``model`` offers ``angular_frequencies_rad_s``, ``material`` (alpha [1/s], beta [s],
+    gamma [s/m]) and ``mode_shapes_at``; contacts farther than ``max_surface_distance_m`` from
+    the surface raise ``ValueError`` when the model offers ``surface_distance_m``.
+    """
+    d, Q = modal_damping_parts(model, contacts, max_surface_distance_m=max_surface_distance_m)
+    return np.diag(d) + Q.T @ Q
