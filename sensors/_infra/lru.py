@@ -1,0 +1,87 @@
+"""The one bounded in-memory LRU of the project, and every in-memory cache's size in one place.
+
+Each in-memory cache (built systems, steady states, filled containers, scenes, modal models) is
+an :class:`LRU` created with ``LRU(CACHE_SIZES["name"])``, so a user who needs more or less
+memory finds every bound here and can change them at run time before the caches are built.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from typing import Callable, Generic, Hashable, TypeVar
+
+__all__ = ["CACHE_SIZES", "LRU"]
+
+V = TypeVar("V")
+
+#: Entries each in-memory cache keeps, by name. Sizes bound memory: a modal system of 200 modes
+#: is about 1 MB, a filled container's wet model tens of MB, a MuJoCo scene a few MB.
+CACHE_SIZES: dict[str, int] = {
+    "synthesis.systems": 8,          # grasp systems of a batch recording (SynthesisCache)
+    "synthesis.forces": 8,           # fingertip drive forces of a batch recording
+    "stream.systems": 16,            # streamed contact systems (SystemCache)
+    "stream.drive_systems": 4,       # fingertip drive systems per fingertip model
+    "stream.steady_states": 8,       # periodic steady states per (system, drive)
+    "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container
+    "fluid.containers": 8,           # containers (dry model + static correction) per object
+    "sim.models": 32,                # modal models shared by the scenes of one process
+    "sim.material_views": 16,        # randomized material views of those models
+    "env.scenes": 8,                 # compiled MuJoCo scenes per env
+}
+
+
+class LRU(Generic[V]):
+    """A dict bounded to ``max_size`` entries that drops the least recently used one.
+
+    ``get_or_build(key, build)`` returns the cached value or builds, stores and returns it;
+    ``hits`` and ``misses`` count lookups. Not thread-safe (each env or stream owns its own).
+    """
+
+    def __init__(self, max_size: int) -> None:
+        if isinstance(max_size, bool) or not isinstance(max_size, int) or max_size < 1:
+            raise ValueError(f"an LRU cache needs a whole max_size >= 1, got {max_size!r}")
+        self.max_size = max_size
+        self.hits = 0
+        self.misses = 0
+        self._entries: OrderedDict[Hashable, V] = OrderedDict()
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def __contains__(self, key: Hashable) -> bool:
+        return key in self._entries
+
+    def __repr__(self) -> str:
+        return f"LRU({len(self)}/{self.max_size}, hits={self.hits}, misses={self.misses})"
+
+    def get(self, key: Hashable, default: V | None = None) -> V | None:
+        """The value under ``key`` (now the most recent), or ``default``; counts a hit or miss."""
+        if key in self._entries:
+            self._entries.move_to_end(key)
+            self.hits += 1
+            return self._entries[key]
+        self.misses += 1
+        return default
+
+    def put(self, key: Hashable, value: V) -> V:
+        """Store ``value`` as the most recent entry, dropping the oldest beyond ``max_size``."""
+        self._entries[key] = value
+        self._entries.move_to_end(key)
+        while len(self._entries) > self.max_size:
+            self._entries.popitem(last=False)
+        return value
+
+    def get_or_build(self, key: Hashable, build: Callable[[], V]) -> V:
+        """The cached value, or ``build()`` stored under ``key``."""
+        if key in self._entries:
+            self._entries.move_to_end(key)
+            self.hits += 1
+            return self._entries[key]
+        self.misses += 1
+        return self.put(key, build())
+
+    def values(self):
+        return self._entries.values()
+
+    def clear(self) -> None:
+        self._entries.clear()
