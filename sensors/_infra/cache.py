@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ast
 import contextlib
+import functools
 import hashlib
 import importlib.util
 import json
@@ -23,7 +24,7 @@ import numpy as np
 
 from .atomic import atomic_open
 
-__all__ = ["CODE_VERSION", "source_version", "default_cache_dir", "content_key", "load_arrays", "save_arrays", "entry_path"]
+__all__ = ["CODE_VERSION", "code_version", "source_version", "default_cache_dir", "content_key", "load_arrays", "save_arrays", "entry_path"]
 
 log = logging.getLogger(__name__)
 
@@ -65,8 +66,19 @@ def source_version(*modules: str) -> str:
     return h.hexdigest()[:16]
 
 
-#: Hash of the code of the modules that produce cached results.
-CODE_VERSION = source_version(*SOURCE_MODULES)
+@functools.cache
+def code_version() -> str:
+    """Hash of the code of the modules that produce cached results (``CODE_VERSION``).
+
+    Computed on first use, not at import: parsing those modules takes ~0.1 s, which
+    ``import sensors`` should not pay."""
+    return source_version(*SOURCE_MODULES)
+
+
+def __getattr__(name: str):
+    if name == "CODE_VERSION":
+        return code_version()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def default_cache_dir() -> Path:
@@ -94,7 +106,7 @@ def _feed(h, obj) -> None:
 def content_key(*parts) -> str:
     """SHA-256 hex key of ``parts`` (arrays, numbers, strings, dicts) and the code version."""
     h = hashlib.sha256()
-    _feed(h, CODE_VERSION)
+    _feed(h, code_version())
     for part in parts:
         _feed(h, part)
     return h.hexdigest()
