@@ -1,6 +1,7 @@
 """The physical rig: PyAudio play/record with the same observation API as the simulation.
 
-- :class:`PyAudioRig`, :func:`list_devices`: the actuator output and contact-microphone input.
+- :class:`PyAudioRig`, :func:`list_devices`: the actuator output and contact-microphone input;
+  :class:`RigSettings`: its settings as one frozen value.
 - :class:`RealAcousticSensor`: ``sense(excitation, duration_s) -> sensors.AcousticObservation``.
 - :class:`RigStream`: the rig recording without a break while the excitation loops, read
   piece by piece (``read(n)``, ``latest_features()``), as ``sensors.AcousticStream`` simulates.
@@ -17,11 +18,12 @@ PyAudio is imported lazily by the rig; ``import real`` works without it.
 # pay for the sensor stack and PortAudio (~0.4 s, measured with -X importtime).
 _LAZY = {
     "find_latency": "real.latency", "period_lags": "real.latency",
-    "AudioDevice": "real.devices", "list_devices": "real.devices",
+    "AudioDevice": "real.records", "list_devices": "real.devices",
     "DeviceLostError": "real.errors", "DeviceNotFoundError": "real.errors", "ExcitationNotFoundError": "real.errors",
     "NoAudioDeviceError": "real.errors", "RigError": "real.errors", "RigWarning": "real.errors",
     "StorageError": "real.errors", "UnsupportedSampleRateError": "real.errors", "XrunError": "real.errors",
-    "PyAudioRig": "real.rig", "RigRecording": "real.rig_recording", "recover_partial": "real.rig_recording",
+    "PyAudioRig": "real.rig", "RigSettings": "real.settings",
+    "RigRecording": "real.records", "recover_partial": "real.partial_files",
     "RigStream": "real.rig_stream",
     "RealAcousticSensor": "real.sensor", "record_leaks": "real.sensor",
     "RealGraspEnv": "real.env", "RobotInterface": "real.env", "RobotState": "real.env",

@@ -6,13 +6,13 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from dataclasses import dataclass
 from typing import Any, Iterator
 
 import numpy as np
 
 from . import bounded
 from .errors import DeviceLostError, DeviceNotFoundError, NoAudioDeviceError, UnsupportedSampleRateError
+from .records import AudioDevice
 
 try:  # PyAudio is the optional extra [real]; the error says how to get it.
     import pyaudio
@@ -28,7 +28,7 @@ def _require_pyaudio():
 
 
 @contextlib.contextmanager
-def _captured_stderr() -> Iterator[list[str]]:
+def captured_stderr() -> Iterator[list[str]]:
     """Collect what C libraries (ALSA, JACK) print on fd 2 instead of flooding the terminal;
     the lines are kept for error messages."""
     lines: list[str] = []
@@ -52,16 +52,17 @@ _NOISE = ("ALSA lib", "Expression '", "jack", "Jack", "Cannot connect to server"
 
 
 @contextlib.contextmanager
-def _quiet_stderr() -> Iterator[None]:
-    """Like :func:`_captured_stderr`, then writes back what is not PortAudio/ALSA noise."""
-    with _captured_stderr() as lines:
+def quiet_stderr() -> Iterator[None]:
+    """Like :func:`captured_stderr`, then writes back what is not PortAudio/ALSA noise."""
+    with captured_stderr() as lines:
         yield
     keep = [ln for ln in lines if not any(n in ln for n in _NOISE)]
     if keep:
         os.write(2, ("\n".join(keep) + "\n").encode())
 
 
-def _alsa_hint(lines: list[str], n: int = 3) -> str:
+def alsa_hint(lines: list[str], n: int = 3) -> str:
+    """The last ``n`` useful lines of captured diagnostics, as ``" [a | b]"`` for an error message."""
     useful = [ln for ln in lines if ln.strip() and "jack" not in ln.lower()]
     return (" [" + " | ".join(useful[-n:]) + "]") if useful else ""
 
@@ -71,10 +72,10 @@ def _alsa_hint(lines: list[str], n: int = 3) -> str:
 SERVER_TIMEOUT_S = 3.0
 
 
-def _new_portaudio(timeout_s: float = SERVER_TIMEOUT_S) -> Any:
+def new_portaudio(timeout_s: float = SERVER_TIMEOUT_S) -> Any:
     """A fresh PortAudio session (device lists are read at initialization, so a new
     session sees devices that appeared or vanished since the last one); the caller
-    terminates it (:func:`_terminate_portaudio`).
+    terminates it (:func:`terminate_portaudio`).
 
     Initializing waits at most ``timeout_s`` for a sound server that does not answer
     (:mod:`real.bounded`): :class:`DeviceLostError` instead of a hang. While a call given up
@@ -87,7 +88,7 @@ def _new_portaudio(timeout_s: float = SERVER_TIMEOUT_S) -> Any:
         raise DeviceLostError(f"the sound server has not answered for a while: PortAudio is still {still} from an "
                               "earlier recording (server stalled or stopped?); wait until it answers again, or "
                               "restart this process", device="default")
-    with _captured_stderr():
+    with captured_stderr():
         done, pa = bounded.call_bounded(pa_mod.PyAudio, timeout_s, "initializing",
                                         on_late_result=lambda late: late.terminate())
     if not done:
@@ -96,42 +97,21 @@ def _new_portaudio(timeout_s: float = SERVER_TIMEOUT_S) -> Any:
     return pa
 
 
-def _terminate_portaudio(pa, timeout_s: float = SERVER_TIMEOUT_S) -> None:
+def terminate_portaudio(pa, timeout_s: float = SERVER_TIMEOUT_S) -> None:
     """Terminate a session, waiting at most ``timeout_s``; behind a close that is still
     blocked, do not wait again: terminate after it."""
-    with _captured_stderr():
+    with captured_stderr():
         bounded.call_bounded(pa.terminate, 0.0 if bounded.pending() else timeout_s, "terminating")
 
 
 @contextlib.contextmanager
-def _portaudio(timeout_s: float = SERVER_TIMEOUT_S) -> Iterator[Any]:
-    """:func:`_new_portaudio` for a ``with`` block, terminated (bounded) at its end."""
-    pa = _new_portaudio(timeout_s)
+def portaudio_session(timeout_s: float = SERVER_TIMEOUT_S) -> Iterator[Any]:
+    """:func:`new_portaudio` for a ``with`` block, terminated (bounded) at its end."""
+    pa = new_portaudio(timeout_s)
     try:
         yield pa
     finally:
-        _terminate_portaudio(pa, timeout_s)
-
-
-@dataclass(frozen=True)
-class AudioDevice:
-    """A PortAudio device as listed by :func:`list_devices`."""
-
-    index: int
-    name: str
-    host_api: str
-    max_input_channels: int
-    max_output_channels: int
-    default_sample_rate_hz: float
-    is_default_input: bool = False
-    is_default_output: bool = False
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain-JSON description (stored in recording metadata)."""
-        return dict(self.__dict__)
-
-    def __str__(self) -> str:
-        return f"{self.name!r} (index {self.index}, {self.host_api})"
+        terminate_portaudio(pa, timeout_s)
 
 
 def _devices(pa) -> list[AudioDevice]:
@@ -156,7 +136,7 @@ def _devices(pa) -> list[AudioDevice]:
 
 def list_devices() -> list[AudioDevice]:
     """The audio devices PortAudio sees now (empty if there are none)."""
-    with _portaudio() as pa:
+    with portaudio_session() as pa:
         return _devices(pa)
 
 
@@ -216,9 +196,9 @@ def check_sample_rate(pa, device: AudioDevice, kind: str, sample_rate_hz: int, c
           if kind == "input" else
           {"output_device": device.index, "output_channels": channels, "output_format": pyaudio.paFloat32})
     try:
-        with _captured_stderr() as lines:
+        with captured_stderr() as lines:
             pa.is_format_supported(float(sample_rate_hz), **kw)
     except ValueError as exc:
         raise UnsupportedSampleRateError(
             f"{kind} device {device} does not support a sample rate of {sample_rate_hz} Hz ({exc.args[0] if exc.args else exc}); "
-            f"its default rate is {device.default_sample_rate_hz:g} Hz{_alsa_hint(lines)}", device=device.name) from None
+            f"its default rate is {device.default_sample_rate_hz:g} Hz{alsa_hint(lines)}", device=device.name) from None

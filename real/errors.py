@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from .rig_recording import RigRecording
+    from .records import RigRecording
 
 
 class RigError(RuntimeError):

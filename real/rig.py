@@ -31,16 +31,18 @@ from typing import Any
 
 from sensors import Excitation
 
-from .devices import (SERVER_TIMEOUT_S, AudioDevice, _portaudio, _quiet_stderr, check_sample_rate, list_devices,
-                      resolve_device)
+from .devices import SERVER_TIMEOUT_S, check_sample_rate, list_devices, portaudio_session, quiet_stderr, resolve_device
 from .errors import (DeviceLostError, DeviceNotFoundError, ExcitationNotFoundError, NoAudioDeviceError, RigError,
                      RigWarning, StorageError, UnsupportedSampleRateError, XrunError)
-from .rig_recording import RigRecording, partial_paths, recover_partial
-from .session import _Session
+from .partial_files import partial_paths, recover_partial
+from .records import AudioDevice, RigRecording
+from .session import RecordingSession
+from .settings import RigSettings
 
 __all__ = ["AudioDevice", "DeviceLostError", "DeviceNotFoundError", "ExcitationNotFoundError", "NoAudioDeviceError",
-           "PyAudioRig", "RigError", "RigRecording", "RigWarning", "StorageError", "UnsupportedSampleRateError", "XrunError",
-           "list_devices", "partial_paths", "recover_partial", "resolve_device", "check_sample_rate"]
+           "PyAudioRig", "RigError", "RigRecording", "RigSettings", "RigWarning", "StorageError",
+           "UnsupportedSampleRateError", "XrunError", "list_devices", "partial_paths", "recover_partial",
+           "resolve_device", "check_sample_rate"]
 
 
 class PyAudioRig:
@@ -124,14 +126,35 @@ class PyAudioRig:
             raise ValueError(f"server_timeout_s must be > 0, got {server_timeout_s!r}")
         self.server_timeout_s = float(server_timeout_s)
         self.last_recording: RigRecording | None = None
-        with _portaudio(self.server_timeout_s) as pa:
-            self.input_device, self.output_device = self._resolve(pa)
+        with portaudio_session(self.server_timeout_s) as pa:
+            self.resolve_devices(pa)
 
-    def _resolve(self, pa) -> tuple[AudioDevice, AudioDevice]:
+    @property
+    def settings(self) -> RigSettings:
+        """The rig's current settings as one frozen value: what a recording or a
+        :class:`real.RigStream` runs with (a snapshot, taken when it starts)."""
+        return RigSettings(
+            sample_rate_hz=self.sample_rate_hz, actuator_channel=self.actuator_channel, mic_channel=self.mic_channel,
+            output_channels=self.output_channels, input_channels=self.input_channels,
+            frames_per_buffer=self.frames_per_buffer, stream_mode=self.stream_mode, output_gain=self.output_gain,
+            max_latency_s=self.max_latency_s, start_timeout_s=self.start_timeout_s,
+            stall_timeout_s=self.stall_timeout_s, xrun_policy=self.xrun_policy,
+            sync_tolerance_samples=self.sync_tolerance_samples, period_tolerance=self.period_tolerance,
+            lead_in_s=self.lead_in_s, server_timeout_s=self.server_timeout_s)
+
+    def resolve_devices(self, pa) -> tuple[AudioDevice, AudioDevice]:
+        """Look the input and output devices up again in the PortAudio session ``pa`` (they may
+        have moved or vanished since), check the sample rate on both, keep them as
+        ``input_device`` / ``output_device`` and return them.
+
+        Raises:
+            NoAudioDeviceError, DeviceNotFoundError, UnsupportedSampleRateError.
+        """
         din = resolve_device(pa, self.input_spec, "input", self.input_channels)
         dout = resolve_device(pa, self.output_spec, "output", self.output_channels)
         check_sample_rate(pa, din, "input", self.sample_rate_hz, self.input_channels)
         check_sample_rate(pa, dout, "output", self.sample_rate_hz, self.output_channels)
+        self.input_device, self.output_device = din, dout
         return din, dout
 
     def __repr__(self) -> str:
@@ -168,11 +191,15 @@ class PyAudioRig:
         duration_s = float(duration_s)
         if not (math.isfinite(duration_s) and duration_s > 0):
             raise ValueError(f"duration_s must be > 0, got {duration_s!r}")
-        with _portaudio(self.server_timeout_s) as pa:
-            din, dout = self._resolve(pa)
-            self.input_device, self.output_device = din, dout
-            session = _Session(self, pa, din, dout, excitation, duration_s, save_path, labels, on_progress)
-            # PortAudio's threads print ALSA/PulseAudio diagnostics on fd 2 while streaming
-            # (many when a device vanishes): keep them out of the terminal, pass on the rest.
-            with _quiet_stderr():
-                return session.run()
+        with portaudio_session(self.server_timeout_s) as pa:
+            din, dout = self.resolve_devices(pa)
+            session = RecordingSession(self.settings, pa, din, dout, excitation, duration_s, save_path, labels,
+                                       on_progress)
+            try:
+                # PortAudio's threads print ALSA/PulseAudio diagnostics on fd 2 while streaming
+                # (many when a device vanishes): keep them out of the terminal, pass on the rest.
+                with quiet_stderr():
+                    return session.run()
+            finally:  # also what an error or Ctrl-C stopped: the samples recorded until then
+                if session.recording is not None:
+                    self.last_recording = session.recording

@@ -1,7 +1,7 @@
 """``RigStream``: the rig recording without a break while the excitation loops, read piece by
 piece -- the real counterpart of ``sensors.AcousticStream`` (what ``RealGraspEnv`` streams).
 
-The rig's devices open as for a recording (:class:`real.session._Streams`: separate or duplex
+The rig's devices open as for a recording (:class:`real.streams.RigStreams`: separate or duplex
 streams, callbacks, xrun flags, device-lost checks) and stay open until :meth:`RigStream.close`.
 The stream is aligned once: its sample 0 is the first complete excitation period that came
 back (the round-trip latency is measured with :func:`real.latency.find_latency` on the
@@ -23,12 +23,12 @@ import numpy as np
 from sensors import Excitation
 from sensors.signals.features import spectral_features
 
-from .devices import _new_portaudio, _quiet_stderr, _terminate_portaudio
+from .devices import new_portaudio, quiet_stderr, terminate_portaudio
 from .errors import DeviceLostError, ExcitationNotFoundError, RigError
 from .latency import MIN_PEAK_TO_MEDIAN, excitation_correlation, find_latency, period_mismatch
+from .records import RigRecording
 from .rig import PyAudioRig
-from .rig_recording import RigRecording
-from .session import _Streams
+from .streams import RigStreams
 
 
 class RigStream:
@@ -43,7 +43,7 @@ class RigStream:
     Args:
         rig: the :class:`PyAudioRig` whose devices, channels, gain, lead-in and timeouts
             (``max_latency_s``, ``start_timeout_s``, ``stall_timeout_s``,
-            ``sync_tolerance_samples``) the stream uses.
+            ``sync_tolerance_samples``) the stream uses, as they are when the stream is made.
         excitation: ``sensors.Excitation`` or its name, at the rig's sample rate.
         period_tolerance: if set, every complete period is also compared with the one before
             (relative RMS) and a larger difference is reported as dropped or inserted
@@ -51,6 +51,7 @@ class RigStream:
             changes the periods too. ``None``: alignment and PortAudio's flags only.
 
     Attributes:
+        settings: the rig's :class:`real.RigSettings` the stream runs with.
         latency_samples: input samples before stream sample 0 (``None`` until aligned).
         position: stream index of the next sample :meth:`read` returns.
     """
@@ -68,15 +69,16 @@ class RigStream:
         if period_tolerance is not None and not (math.isfinite(period_tolerance) and period_tolerance > 0):
             raise ValueError(f"period_tolerance must be > 0 or None, got {period_tolerance!r}")
         self.rig, self.excitation = rig, excitation
+        self.settings = rig.settings  # what the stream runs with, taken now
         self.period_tolerance = period_tolerance
-        self.sample_rate_hz = rig.sample_rate_hz
+        self.sample_rate_hz = self.settings.sample_rate_hz
         self.P = excitation.period_samples
         self.latency_samples: int | None = None
         self.position = 0
-        self._streams: _Streams | None = None
+        self._streams: RigStreams | None = None
         self._closed = False
         self._error: str | None = None
-        self._input = np.zeros((1 << 16, rig.input_channels), np.float32)  # grows by doubling
+        self._input = np.zeros((1 << 16, self.settings.input_channels), np.float32)  # grows by doubling
         self._n = 0                                 # input frames received
         self._reported: dict[str, float] = {}
         self._next_detect = 0.0
@@ -101,21 +103,20 @@ class RigStream:
         # The first matched filter imports scipy.signal (~0.4 s holding the GIL): done now, not
         # while PortAudio's callbacks need the GIL to keep the output fed.
         excitation_correlation(self.excitation.signal, self.excitation)
-        pa = _new_portaudio(self.rig.server_timeout_s)
+        pa = new_portaudio(self.settings.server_timeout_s)
         try:
-            din, dout = self.rig._resolve(pa)
-            self.rig.input_device, self.rig.output_device = din, dout
-            self._streams = _Streams(self.rig, pa, din, dout, self.excitation)
-            with _quiet_stderr():
-                self._streams._start()
-            self._reported = self._streams._reported_latency()
+            din, dout = self.rig.resolve_devices(pa)
+            self._streams = RigStreams(self.settings, pa, din, dout, self.excitation)
+            with quiet_stderr():
+                self._streams.start()
+            self._reported = self._streams.reported_latency()
         except BaseException:
             self._closed = True
             if self._streams is None:
-                _terminate_portaudio(pa, self.rig.server_timeout_s)
+                terminate_portaudio(pa, self.settings.server_timeout_s)
             else:
-                with _quiet_stderr():
-                    self._streams._stop(terminate=True)
+                with quiet_stderr():
+                    self._streams.stop(terminate=True)
             raise
         return self
 
@@ -125,8 +126,8 @@ class RigStream:
         stays available (:meth:`recording`)."""
         if self.running:
             self._closed = True
-            with _quiet_stderr():
-                self._streams._stop(terminate=True)
+            with quiet_stderr():
+                self._streams.stop(terminate=True)
             self._collect()  # the last blocks delivered before the streams stopped
             if self.latency_samples is not None:
                 self._check_periods()
@@ -208,7 +209,7 @@ class RigStream:
         alignment is checked once the next quarter period is in, so a problem in the samples
         just read shows after about 1.25 periods more."""
         found = [p for p in (self._sync_problem, self._period_problem) if p]
-        return found + (self._streams._flag_problems() if self._streams else [])
+        return found + (self._streams.flag_problems() if self._streams else [])
 
     def recording(self) -> RigRecording:
         """Everything recorded so far (all input channels from the moment the input started,
@@ -218,10 +219,10 @@ class RigStream:
             raise RuntimeError("the stream was never started")
         s, L = self._streams, self.latency_samples
         return RigRecording(
-            input=self._input[:self._n].copy(), mic_channel=self.rig.mic_channel, sample_rate_hz=self.sample_rate_hz,
-            excitation=self.excitation, duration_s=(self._n - (L or 0)) / self.sample_rate_hz, latency_samples=L,
+            input=self._input[:self._n].copy(), mic_channel=self.settings.mic_channel,
+            sample_rate_hz=self.sample_rate_hz, excitation=self.excitation, duration_s=(self._n - (L or 0)) / self.sample_rate_hz, latency_samples=L,
             period_lags_samples=list(self._lags), events=list(s.events), input_device=s.din, output_device=s.dout,
-            stream_mode=self.rig.stream_mode, reported_latency_s=dict(self._reported), started_at=s.started_at,
+            stream_mode=self.settings.stream_mode, reported_latency_s=dict(self._reported), started_at=s.started_at,
             complete=self._error is None, problems=self.problems, error=self._error, lead_in_samples=s.lead_in)
 
     def __repr__(self) -> str:
@@ -232,7 +233,7 @@ class RigStream:
     # -- internals -------------------------------------------------------------------------
 
     def _mic(self, start: int, stop: int) -> np.ndarray:
-        return self._input[start:stop, self.rig.mic_channel]
+        return self._input[start:stop, self.settings.mic_channel]
 
     def _wait_for(self, stream_index: int, timeout_s: float | None, duration_s: float) -> None:
         """Block until the aligned stream holds samples up to ``stream_index`` (exclusive)."""
@@ -244,7 +245,7 @@ class RigStream:
         try:
             # PortAudio's threads print ALSA/PulseAudio diagnostics on fd 2 (many when a device
             # vanishes), mostly while a reader waits here; other lines pass on when it returns.
-            with _quiet_stderr():
+            with quiet_stderr():
                 self._wait_loop(stream_index, deadline, wait_s)
         except RigError as exc:
             if self.running:
@@ -263,7 +264,7 @@ class RigStream:
                     self._align()
                 if self.latency_samples is not None:
                     self._check_periods()
-                s._check_alive()
+                s.check_alive()
             if self.latency_samples is not None and self._n >= self.latency_samples + stream_index:
                 return
             if not self.running:
@@ -277,7 +278,7 @@ class RigStream:
 
     def _collect(self) -> None:
         """Move the queued input blocks into the kept recording."""
-        for block in self._streams._take():
+        for block in self._streams.take():
             m = block.shape[0]
             if self._n + m > self._input.shape[0]:
                 grown = np.zeros((max(2 * self._input.shape[0], self._n + m), self._input.shape[1]), np.float32)
@@ -288,7 +289,7 @@ class RigStream:
 
     def _align(self) -> None:
         P, now = self.P, time.monotonic()
-        give_up = int((self.rig.max_latency_s + 3 * self.excitation.period_s) * self.sample_rate_hz)
+        give_up = int((self.settings.max_latency_s + 3 * self.excitation.period_s) * self.sample_rate_hz)
         if self._n >= 2 * P and now >= self._next_detect:
             self._next_detect = now + self.DETECT_EVERY_S
             lat = find_latency(self._mic(0, min(self._n, give_up + 2 * P)), self.excitation)
@@ -301,8 +302,8 @@ class RigStream:
             s = self._streams
             raise ExcitationNotFoundError(
                 f"the excitation played on output device {s.dout} did not come back in input device {s.din} "
-                f"(channel {self.rig.mic_channel}) within {self.rig.max_latency_s} s: check the wiring, gains "
-                "and device choice", device=s.din.name)
+                f"(channel {self.settings.mic_channel}) within {self.settings.max_latency_s} s: check the wiring, "
+                "gains and device choice", device=s.din.name)
 
     def _check_periods(self) -> None:
         """Where each complete period's excitation arrives (a matched-filter peak within a
@@ -317,7 +318,7 @@ class RigStream:
             if c.size and c.max() >= MIN_PEAK_TO_MEDIAN * np.median(c):  # silent periods say nothing
                 lag = lo + int(np.argmax(c)) - k * P
                 self._lags.append(lag)
-                if abs(lag - L) > self.rig.sync_tolerance_samples and self._sync_problem is None:
+                if abs(lag - L) > self.settings.sync_tolerance_samples and self._sync_problem is None:
                     self._sync_problem = (f"sample synchronization lost at stream sample {k * P} (period {k}): the "
                                           f"excitation arrived {lag - L:+d} samples off, samples were dropped or inserted")
             if self.period_tolerance is not None and k > 0 and self._period_problem is None:

@@ -12,8 +12,9 @@ from typing import Any
 from sensors import AcousticObservation, Excitation
 from sensors.signals.leak import save_leak
 
-from .errors import DeviceLostError
-from .rig import PyAudioRig, RigRecording, RigWarning, XrunError
+from .errors import DeviceLostError, RigWarning, XrunError
+from .records import RigRecording
+from .rig import PyAudioRig
 
 
 def _excitation(excitation: Excitation | str) -> Excitation:

@@ -404,12 +404,12 @@ def test_a_sound_server_that_does_not_answer_fails_the_session_instead_of_hangin
     monkeypatch.setattr(devices, "pyaudio", fake)
     try:
         with pytest.raises(real.DeviceLostError, match="did not answer within 0.1 s") as info:
-            with devices._portaudio(0.1):
+            with devices.portaudio_session(0.1):
                 pass
         assert info.value.device == "default"
         # while PortAudio is still blocked, the next session says so at once instead of queueing
         with pytest.raises(real.DeviceLostError, match="still initializing"):
-            with devices._portaudio(0.1):
+            with devices.portaudio_session(0.1):
                 pass
     finally:
         fake.release.set()
@@ -447,12 +447,12 @@ def test_a_full_disk_keeps_an_exact_prefix_and_recovery_keeps_the_raw_files_unti
     recover_partial writes elsewhere on request and removes nothing it has not saved."""
     import real
     import sensors
-    from real.rig_recording import _PartialWriter
+    from real.partial_files import PartialWriter
 
     ex = sensors.Excitation.by_name("impulse")
     header = {"channels": 2, "mic_channel": 1, "sample_rate_hz": ex.sample_rate_hz, "excitation": ex.to_dict(),
               "metadata": {"source": "real"}}
-    w = _PartialWriter(tmp_path / "disk" / "take.npz", header)
+    w = PartialWriter(tmp_path / "disk" / "take.npz", header)
     w._fh = _DiskThatFills(w._fh, room=1003)  # 125 frames of 8 bytes and 3 bytes of the next
     blocks = [np.random.default_rng(i).standard_normal((40, 2)).astype(np.float32) for i in range(6)]
     for b in blocks:

@@ -76,3 +76,84 @@ def test_lazy_exports_resolve():
     assert callable(sensors.calibrate) and real.PyAudioRig.__module__ == "real.rig"
     with pytest.raises(AttributeError):
         sensors.no_such_name  # noqa: B018
+
+
+def _real_import_graph() -> tuple[dict[str, set[str]], list[str], list[str]]:
+    """``real``'s modules -> the modules of ``real`` each imports (every import statement, also
+    inside functions and under ``if TYPE_CHECKING:``), read from the source with ``ast``; the
+    absolute imports of other top-level packages; and the private names imported from a module."""
+    import ast
+    from pathlib import Path
+
+    import real
+
+    folder = Path(real.__file__).parent
+    modules = {p.stem: p for p in folder.glob("*.py")}  # "__init__" is the package
+    graph: dict[str, set[str]] = {name: set() for name in modules}
+    outside, private = [], []
+    for name, path in modules.items():
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.Import):
+                for alias in node.names:
+                    top, _, rest = alias.name.partition(".")
+                    if top == "real":
+                        graph[name].add(rest.split(".")[0] or "__init__")
+                    else:
+                        outside.append(f"{name}: {alias.name}")
+            elif isinstance(node, ast.ImportFrom):
+                if node.level == 0 and not (node.module or "").startswith("real"):
+                    outside.append(f"{name}: {node.module}")
+                    continue
+                if node.level > 1:
+                    raise AssertionError(f"real/{name}.py imports from above the package: {ast.unparse(node)}")
+                target = (node.module or "").removeprefix("real").lstrip(".").split(".")[0]
+                if target:
+                    graph[name].add(target)
+                    private += [f"{name}: {target}.{a.name}" for a in node.names if a.name.startswith("_")]
+                else:  # from . import x: a submodule (or a name of real/__init__.py)
+                    graph[name] |= {a.name if a.name in modules else "__init__" for a in node.names}
+    return graph, outside, private
+
+
+def _cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """One import circle of ``graph`` (its modules in order, the first repeated at the end), or None."""
+    state: dict[str, str] = {}
+
+    def visit(node: str, path: list[str]) -> list[str] | None:
+        state[node] = "open"
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == "open":
+                return path[path.index(nxt):] + [nxt]
+            if nxt not in state:
+                found = visit(nxt, path + [nxt])
+                if found:
+                    return found
+        state[node] = "done"
+        return None
+
+    for start in sorted(graph):
+        if start not in state:
+            found = visit(start, [start])
+            if found:
+                return found
+    return None
+
+
+def test_cycle_finder_finds_circles_and_only_circles():
+    assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == ["a", "b", "c", "a"]
+    assert _cycle({"a": {"a"}}) == ["a", "a"]
+    assert _cycle({"a": {"b", "c"}, "b": {"c"}, "c": set(), "d": {"a", "c"}}) is None
+
+
+def test_real_imports_form_no_circle_and_stay_off_aas_gym_and_mujoco():
+    """real/ runs on a robot computer without MuJoCo, and its modules import one another one
+    way only (data and settings at the bottom, the rig above its sessions), type-only imports
+    included; no module imports another's private name."""
+    graph, outside, private = _real_import_graph()
+    assert {"records", "settings", "errors", "devices", "streams", "session", "rig"} <= set(graph)
+    assert graph["rig"] >= {"session", "settings", "records"} and "rig" not in graph["session"]
+    assert _cycle(graph) is None, " -> ".join(_cycle(graph))
+    # the plain data of the rig stands alone
+    assert graph["records"] == set() and graph["settings"] == set()
+    assert not [m for m in outside if m.split(": ")[1].split(".")[0] in ("aas_gym", "mujoco")]
+    assert not private, private

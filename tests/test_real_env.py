@@ -129,25 +129,6 @@ def test_acoustic_config_and_old_keywords_agree():
         RealGraspEnv(_CommandLog(), _Recorder(), acoustic={"waveform": False}, include_waveform=True)
 
 
-def test_real_package_never_imports_aas_gym():
-    """real/ runs on a robot computer without MuJoCo: no module of it may import aas_gym."""
-    import ast
-    from pathlib import Path
-
-    import real
-
-    offenders = []
-    for path in Path(real.__file__).parent.glob("*.py"):
-        for node in ast.walk(ast.parse(path.read_text())):
-            names = []
-            if isinstance(node, ast.Import):
-                names = [a.name for a in node.names]
-            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-                names = [node.module]
-            offenders += [f"{path.name}: {n}" for n in names if n.split(".")[0] in ("aas_gym", "mujoco")]
-    assert not offenders, offenders
-
-
 def test_streaming_needs_the_rig():
     with pytest.raises(TypeError, match="cadence 'stream' needs a real.RealAcousticSensor"):
         RealGraspEnv(_CommandLog(), _Recorder(), acoustic={"cadence": "stream"})

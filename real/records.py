@@ -1,12 +1,13 @@
-"""What a recording on the rig yields (:class:`RigRecording`), and the partial files that keep
-it when a recording stops early."""
+"""The rig's plain records: :class:`AudioDevice` (a device as PortAudio lists it) and
+:class:`RigRecording` (what a recording on the rig yields), with the table of PortAudio's
+callback status flags they are described by.
+
+Data only: this module imports nothing else of ``real``, so every other module can use it.
+"""
 
 from __future__ import annotations
 
-import contextlib
-import json
 import os
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -14,15 +15,33 @@ from typing import Any
 import numpy as np
 
 from sensors import AcousticObservation, Excitation
-from sensors._infra.atomic import atomic_write_text
 
-from .devices import AudioDevice
-from .errors import StorageError
+#: PortAudio callback status flags (portaudio.h): bit -> name.
+CALLBACK_FLAGS = {1: "input_underflow", 2: "input_overflow", 4: "output_underflow", 8: "output_overflow",
+                  16: "priming_output"}
+#: The flags that mean lost or missing samples (priming the output is none).
+PROBLEM_FLAGS = 1 | 2 | 4 | 8
 
-# PortAudio callback status flags (portaudio.h).
-_FLAGS = {1: "input_underflow", 2: "input_overflow", 4: "output_underflow", 8: "output_overflow",
-          16: "priming_output"}
-_PROBLEM_FLAGS = 1 | 2 | 4 | 8
+
+@dataclass(frozen=True)
+class AudioDevice:
+    """A PortAudio device as listed by :func:`real.list_devices`."""
+
+    index: int
+    name: str
+    host_api: str
+    max_input_channels: int
+    max_output_channels: int
+    default_sample_rate_hz: float
+    is_default_input: bool = False
+    is_default_output: bool = False
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-JSON description (stored in recording metadata)."""
+        return dict(self.__dict__)
+
+    def __str__(self) -> str:
+        return f"{self.name!r} (index {self.index}, {self.host_api})"
 
 
 @dataclass
@@ -48,6 +67,9 @@ class RigRecording:
         problems: human-readable xrun/sync problems.
         error: why it stopped early, if it did.
         lead_in_samples: what the output played before its first period boundary.
+        partial_files: the partial files streamed while recording (anything with a
+            ``discard()``, :class:`real.partial_files.PartialWriter`), removed by
+            :meth:`save` and :meth:`discard_partial`; ``None`` if there are none.
     """
 
     input: np.ndarray
@@ -67,7 +89,7 @@ class RigRecording:
     problems: list[str] = field(default_factory=list)
     error: str | None = None
     lead_in_samples: int = 0
-    _writer: Any = field(default=None, repr=False, compare=False)
+    partial_files: Any = field(default=None, repr=False, compare=False)
 
     CLIP_LEVEL = 0.999
 
@@ -81,9 +103,9 @@ class RigRecording:
 
     def discard_partial(self) -> None:
         """Remove the partial files streamed while recording (once the final file is safe)."""
-        if self._writer is not None:
-            self._writer.discard()
-            self._writer = None
+        if self.partial_files is not None:
+            self.partial_files.discard()
+            self.partial_files = None
 
     @property
     def mic(self) -> np.ndarray:
@@ -109,7 +131,7 @@ class RigRecording:
 
     def flag_counts(self) -> dict[str, int]:
         """Number of callbacks with each status flag."""
-        counts = {name: 0 for name in _FLAGS.values()}
+        counts = {name: 0 for name in CALLBACK_FLAGS.values()}
         for ev in self.events:
             counts[ev["flag"]] += 1
         return counts
@@ -165,123 +187,3 @@ class RigRecording:
             raise ValueError("nothing was recorded")
         return AcousticObservation(waveform=np.array(wave, dtype=np.float32), sample_rate_hz=self.sample_rate_hz,
                                    excitation=self.excitation, start_time_s=start_s, metadata=meta)
-
-
-def partial_paths(path: str | os.PathLike) -> tuple[Path, Path, Path]:
-    """``(<name>.partial.f32, <name>.partial.json, <name>.partial.npz)`` for final ``path``."""
-    path = Path(path)
-    stem = path.with_suffix("") if path.suffix == ".npz" else path
-    return (stem.with_name(stem.name + ".partial.f32"), stem.with_name(stem.name + ".partial.json"),
-            stem.with_name(stem.name + ".partial.npz"))
-
-
-class _PartialWriter:
-    """Streams input samples to ``<name>.partial.f32`` as they arrive, described by
-    ``<name>.partial.json`` (written first), so a crash loses at most the last ~0.5 s.
-
-    A failing disk (full, file too large) never raises here: the writer keeps an exact
-    prefix of the samples on disk (unbuffered writes, so a short write is counted), stops
-    writing and keeps the first ``OSError`` in ``error`` for the recording loop to report;
-    the samples themselves stay in the caller's memory.
-    """
-
-    FSYNC_INTERVAL_S = 0.5
-
-    def __init__(self, final_path: Path, header: dict[str, Any]) -> None:
-        self.raw_path, self.json_path, self.npz_path = partial_paths(final_path)
-        self.frame_bytes = 4 * int(header["channels"])
-        self.bytes_written = 0
-        self.error: OSError | None = None
-        self._fh = None
-        self._last_sync = time.monotonic()
-        try:
-            self.raw_path.parent.mkdir(parents=True, exist_ok=True)
-            atomic_write_text(self.json_path, json.dumps({**header, "partial": True, "final_path": str(final_path)}))
-            self._fh = open(self.raw_path, "wb", buffering=0)
-        except OSError as exc:
-            self.error = exc
-
-    @property
-    def frames_written(self) -> int:
-        """Whole frames on disk."""
-        return self.bytes_written // self.frame_bytes
-
-    @property
-    def has_data(self) -> bool:
-        """A header and at least one whole frame are on disk (what :func:`recover_partial` needs)."""
-        return self.json_path.exists() and self.frames_written > 0
-
-    def append(self, block: np.ndarray) -> None:
-        if self.error is not None or self._fh is None:
-            return
-        data = memoryview(np.ascontiguousarray(block, dtype="<f4").tobytes())
-        try:
-            while data:
-                n = self._fh.write(data)
-                self.bytes_written += n
-                data = data[n:]
-            if time.monotonic() - self._last_sync > self.FSYNC_INTERVAL_S:
-                os.fsync(self._fh.fileno())
-                self._last_sync = time.monotonic()
-        except OSError as exc:
-            self.error = exc
-
-    def close(self) -> None:
-        if self._fh is not None and not self._fh.closed:
-            try:
-                os.fsync(self._fh.fileno())
-            except OSError as exc:
-                self.error = self.error or exc
-            finally:
-                self._fh.close()
-
-    def discard(self) -> None:
-        self.close()
-        for p in (self.raw_path, self.json_path):
-            with contextlib.suppress(FileNotFoundError):
-                p.unlink()
-
-
-def recover_partial(path: str | os.PathLike, out_dir: str | os.PathLike | None = None) -> Path | None:
-    """Turn the raw ``<name>.partial.f32`` + ``.partial.json`` left by a killed process (or by
-    a disk that filled up) into ``<name>.partial.npz`` (an ``AcousticObservation`` with
-    ``metadata["partial"] = True``). ``path`` is the final recording path or either partial
-    file. Returns the .npz, or None if there is nothing to recover.
-
-    ``out_dir``: write the .npz there instead of beside the partial files (when their disk is
-    full). The raw files are removed only once the .npz is safely written; if it cannot be,
-    :class:`real.StorageError` says so and they stay.
-    """
-    p = Path(path)
-    name = p.name
-    for suffix in (".partial.f32", ".partial.json", ".partial.npz"):
-        if name.endswith(suffix):
-            p = p.with_name(name[: -len(suffix)])
-    raw, js, npz = partial_paths(p)
-    if out_dir is not None:
-        npz = Path(out_dir) / npz.name
-    if not (raw.exists() and js.exists()):
-        return npz if npz.exists() else None
-    header = json.loads(js.read_text())
-    channels = int(header["channels"])
-    buf = raw.read_bytes()  # whole frames only: a full disk may have cut the last one short
-    data = np.frombuffer(buf[: len(buf) - len(buf) % (4 * channels)], dtype="<f4").reshape(-1, channels)
-    if data.shape[0] == 0:
-        raw.unlink()
-        js.unlink()
-        return None
-    meta = dict(header.get("metadata", {}))
-    meta.update({"partial": True, "complete": False,
-                 "error": meta.get("error") or "recovered from the partial files (the recording process ended "
-                                               "abruptly, or the disk filled up)"})
-    obs = AcousticObservation(waveform=data[:, int(header["mic_channel"])], sample_rate_hz=int(header["sample_rate_hz"]),
-                              excitation=Excitation.from_dict(header["excitation"]), start_time_s=0.0, metadata=meta)
-    try:
-        obs.save(npz)  # creates out_dir
-    except OSError as exc:
-        raise StorageError(f"cannot write {npz} ({exc.strerror or exc}); the partial files {raw.name} and {js.name} "
-                           f"are kept: real.recover_partial({str(path)!r}, out_dir=<a folder on another disk>)",
-                           cause=exc) from exc
-    raw.unlink()
-    js.unlink()
-    return npz
