@@ -19,7 +19,7 @@ from .synthesis.recording import SynthesisCache, simulate_recording
 from .materials.solids import Material, MATERIALS, get_material
 from .modal.basis import MaterialView, ModalBasis, with_material
 from .modal.model import ModalModel
-from .mesh.meshing import MeshError
+from .mesh.tets import MeshError
 from .fem.eigen import EigenSolveError
 from ._infra.npz import FileFormatError
 
