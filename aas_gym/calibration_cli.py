@@ -35,7 +35,9 @@ def _base_material(spec: str):
     return get_material(spec)
 
 
-def _build_model(args, material):
+def build_model(args, material):
+    """The model ``aas calibrate`` fits: the one saved at ``--model``, else ``--shape`` with
+    ``--dims`` in ``material``."""
     import sensors
 
     if args.model:
@@ -98,7 +100,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     from sensors.calibration import calibrate, save_material
 
     base = _base_material(args.material)
-    model = _build_model(args, base)
+    model = build_model(args, base)
     setups = _setups(args)
     fit_gamma = {"auto": "auto", "yes": True, "no": False}[args.fit_gamma]
     kwargs = {}

@@ -24,7 +24,7 @@ import mujoco
 import numpy as np
 
 from sensors._infra import cache as cache_mod
-from sensors.mesh.meshing import MeshError
+from sensors.mesh.tets import MeshError
 
 __all__ = ["MESH_SUFFIXES", "FINGER_REACH_M", "ObjectGrasp", "GraspSet", "load_mesh_file", "store_surface",
            "stored_surface", "solid_of", "rest_rotation", "rest_height_m", "grasp_set", "add_solid_geoms"]

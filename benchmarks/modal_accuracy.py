@@ -33,7 +33,7 @@ from aas_gym.object_names import DEFAULT_OBJECT_NAMES  # noqa: E402
 from sensors import MATERIALS, ModalModel  # noqa: E402
 from sensors._infra.atomic import atomic_write_text  # noqa: E402
 from sensors.fem.beam_theory import BAR, TUBE, classify_modes, compare_to_beam  # noqa: E402
-from sensors.mesh.meshing import bar_mesh  # noqa: E402
+from sensors.mesh.prisms import bar_mesh  # noqa: E402
 
 BAND_HZ = 10000.0
 #: Every material of the default objects, in their order (aluminium, pla, abs, steel, wood).

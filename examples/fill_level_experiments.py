@@ -22,7 +22,7 @@ from sklearn.neighbors import KNeighborsRegressor
 from tqdm import tqdm
 
 import aas_gym  # noqa: F401  (registers the envs)
-from aas_gym.experiments.protocols import _on_log_features, recognition
+from aas_gym.experiments.protocols import on_log_features, recognition
 from sensors._infra.atomic import atomic_write_text
 
 CONTAINERS = ("mug", "glass", "can", "bottle")
@@ -57,7 +57,7 @@ def main(argv=None) -> Path:
         X, truth = collect(env, args.episodes, seed=0)
         env.close()
         y = np.array([t["fill_fraction"] for t in truth])
-        pred = cross_val_predict(_on_log_features(KNeighborsRegressor(n_neighbors=3)), X, y,
+        pred = cross_val_predict(on_log_features(KNeighborsRegressor(n_neighbors=3)), X, y,
                                  cv=KFold(3, shuffle=True, random_state=0))
         rmse = 100 * float(np.sqrt(np.mean((pred - y) ** 2)))
         lines.append(f"| {truth[0]['label']} | {len(y)} | {rmse:.1f} | {100 * float(np.std(y)):.1f} |")

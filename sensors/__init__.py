@@ -41,7 +41,7 @@ from .synthesis.stream import AcousticStream, ContactTolerance, GraspState
 from .materials.solids import Material, MATERIALS, get_material
 from .modal.basis import MaterialView, ModalBasis, with_material
 from .modal.model import ModalModel
-from .mesh.meshing import MeshError
+from .mesh.tets import MeshError
 from .fem.eigen import EigenSolveError
 from ._infra.npz import FileFormatError
 

@@ -87,7 +87,7 @@ def gmsh_p2_mesh(obj, mesh_size_m: float, high_order_optimize: int = 1):
             import tempfile
 
             fine = obj.tet_mesh(resolution=3.0)
-            from sensors.mesh.meshing import boundary_faces
+            from sensors.mesh.tets import boundary_faces
             import trimesh
 
             faces, _ = boundary_faces(fine.tets)

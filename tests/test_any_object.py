@@ -16,7 +16,7 @@ import aas_gym  # noqa: F401  (registers the envs)
 from aas_gym.grasp import Hand, planar_grasp
 from aas_gym.scenario import DomainRandomization, place_objects, settle, target_grasp
 from aas_gym.scene import ObjectSpec, build_scene, get_object, object_specs_from_model
-from sensors.mesh.meshing import MeshError
+from sensors.mesh.tets import MeshError
 
 
 def _post() -> trimesh.Trimesh:

@@ -203,7 +203,7 @@ def test_cli_writes_a_loadable_material(tmp_path, monkeypatch, capsys, abs_case)
     bar, base, _, exc, setups, settings, result = abs_case
     paths = [str(s.observation.save(tmp_path / f"rec{k}.npz")) for k, s in enumerate(setups)]
     # the CLI builds sensors.ModalModel.bar; the analytic bar stands in for it here
-    monkeypatch.setattr(cli, "_build_model", lambda args, material: AnalyticBar(*args.dims, material))
+    monkeypatch.setattr(cli, "build_model", lambda args, material: AnalyticBar(*args.dims, material))
     out = tmp_path / "abs-cal.json"
     lk = settings[0][0]
     leaks = [str(save_leak(tmp_path / "leak.npz", lk.waveform, lk.sample_rate_hz, exc))]
@@ -248,7 +248,7 @@ class _PairModel:
 
 
 def test_exact_damping_model_handles_contact_coupled_close_modes():
-    from sensors.calibration.damping_fit import _exact_decay_rates
+    from sensors.calibration.damping_fit import exact_decay_rates
     from sensors.modal.damping import modal_damping_matrix
 
     truth = Material("t", 1000.0, 1e9, 0.3, alpha=5.0, beta=2e-7, gamma=0.05)
@@ -258,7 +258,7 @@ def test_exact_damping_model_handles_contact_coupled_close_modes():
     for x, force in [(0.02, 5.0), (0.02, 60.0), (0.07, 30.0)]:
         a = Contact([x, 0, 0.005], [0, 0, 1], force, 0.5)
         m = Contact([x, 0, -0.005], [0, 0, -1], force, 0.5)
-        sig = _exact_decay_rates(model.angular_frequencies_rad_s, modal_damping_matrix(model, [a, m]))
+        sig = exact_decay_rates(model.angular_frequencies_rad_s, modal_damping_matrix(model, [a, m]))
         n = sig.size
         estimates.append(ModalEstimate(model.frequencies_hz.copy(), sig, np.ones(n, complex), 1e-3 * np.ones(n),
                                        1e-3 * sig, np.full(n, 60.0)))

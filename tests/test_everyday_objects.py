@@ -10,7 +10,8 @@ from everyday_reference import reference_frequencies_hz
 from sensors.objects.everyday import EVERYDAY_OBJECTS, everyday_object
 from sensors.task.grasp import MAX_OPENING_M
 from sensors.mesh.layered import p2_dof_count
-from sensors.mesh.meshing import check_tet_quality, quadratic_mesh
+from sensors.mesh.quadratic import quadratic_mesh
+from sensors.mesh.tets import check_tet_quality
 from sensors.mesh.surface import DEFAULT_MAX_DOF
 
 CONTAINERS = ("mug", "bottle", "can", "glass", "box")

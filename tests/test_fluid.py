@@ -20,7 +20,7 @@ from sensors.modal.damping import modal_damping_parts
 from sensors.objects.everyday import can
 from sensors.fluid.model import Container, FilledModalModel, container, filled
 from sensors.materials.liquids import LIQUIDS, Liquid, get_liquid
-from sensors.mesh.meshing import MeshError
+from sensors.mesh.tets import MeshError
 from sensors.modal.basis import MaterialView, scaled_material
 
 SMALL_CAN = dict(outer_radius_m=0.02, wall_m=0.002, height_m=0.04, floor_m=0.003, material="aluminium")

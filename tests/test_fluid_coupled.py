@@ -36,7 +36,7 @@ import scipy.spatial
 
 from sensors.objects.everyday import everyday_object
 from sensors.fluid.model import container
-from sensors.mesh.meshing import rod_mesh
+from sensors.mesh.prisms import rod_mesh
 
 RHO_WATER = 998.2
 FILLS = (0.3, 0.6, 1.0)

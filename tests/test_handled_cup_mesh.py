@@ -9,7 +9,8 @@ import scipy.integrate
 
 from sensors.objects.everyday import _surface_of, mug
 from sensors.mesh.layered import handled_cup_mesh
-from sensors.mesh.meshing import P2_EDGES, boundary_faces, check_tet_quality, quadratic_mesh
+from sensors.mesh.quadratic import quadratic_mesh
+from sensors.mesh.tets import P2_EDGES, boundary_faces, check_tet_quality
 
 
 @pytest.fixture(scope="module")

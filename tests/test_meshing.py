@@ -4,18 +4,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from sensors.mesh.meshing import (
-    MeshError,
-    bar_mesh,
-    boundary_faces,
-    check_tet_quality,
-    quadratic_mesh,
-    rod_mesh,
-    tet_volumes,
-    tetrahedralize_surface,
-    tube_mesh,
-    validate_surface,
-)
+from sensors.mesh.prisms import bar_mesh, rod_mesh, tube_mesh
+from sensors.mesh.quadratic import quadratic_mesh
+from sensors.mesh.tets import MeshError, boundary_faces, check_tet_quality, tet_volumes
+from sensors.mesh.tetwild import tetrahedralize_surface, validate_surface
 
 
 @pytest.mark.parametrize(
@@ -129,7 +121,7 @@ def test_pytetwild_path_tight_and_cached(tmp_path):
 
 
 def test_row_codes_are_equal_exactly_for_equal_rows_and_refuse_overflow():
-    from sensors.mesh.meshing import row_codes
+    from sensors.mesh.tets import row_codes
 
     rows = np.random.default_rng(0).integers(0, 7, size=(500, 3))
     codes = row_codes(rows)

@@ -35,7 +35,7 @@ def skfem_p2_frequencies_hz(kind: str, dims: dict, material: Material, n_modes: 
     from skfem.helpers import dot
     from skfem.models.elasticity import linear_elasticity
 
-    from sensors.mesh.meshing import bar_mesh, tube_mesh
+    from sensors.mesh.prisms import bar_mesh, tube_mesh
 
     tm = bar_mesh(**dims, resolution=resolution) if kind == "bar" else tube_mesh(**dims, resolution=resolution)
     mesh = MeshTet2.from_mesh(MeshTet(tm.vertices_m.T.copy(), tm.tets.T.copy()))

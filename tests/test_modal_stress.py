@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from sensors import Material, ModalModel
 from sensors.fem.eigen import EigenSolveError, mode_residuals
-from sensors.mesh.meshing import MeshError
+from sensors.mesh.tets import MeshError
 
 materials = st.builds(
     Material,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from sensors.mesh.meshing import MeshError
+from sensors.mesh.tets import MeshError
 from sensors.mesh.surface import (
     MeshDegenerateError,
     MeshInvertedError,

@@ -49,10 +49,10 @@ def make_classifier(name: str):
     }
     if name not in models:
         raise ValueError(f"unknown classifier {name!r}; known: {CLASSIFIERS}")
-    return _on_log_features(models[name])
+    return on_log_features(models[name])
 
 
-def _on_log_features(model):
+def on_log_features(model):
     """``model`` behind the log-amplitude and standardization step (fitted on training data)."""
     return make_pipeline(FunctionTransformer(_log_amplitude), StandardScaler(), model)
 
@@ -134,7 +134,7 @@ class PositionResult:
 def grasp_position(features: np.ndarray, positions_m: np.ndarray, *, object_name: str, excitation: str,
                    seed: int = 0) -> PositionResult:
     """KNN regression (k = 3) of the grasp position, 3-fold CV; RMSE in millimetres."""
-    model = _on_log_features(KNeighborsRegressor(n_neighbors=3))
+    model = on_log_features(KNeighborsRegressor(n_neighbors=3))
     cv = KFold(n_splits=3, shuffle=True, random_state=seed)
     pred = cross_val_predict(model, features, positions_m, cv=cv)
     rmse_mm = 1e3 * float(np.sqrt(np.mean((pred - positions_m) ** 2)))

@@ -29,9 +29,12 @@ __all__ = ["CODE_VERSION", "code_version", "source_version", "default_cache_dir"
 log = logging.getLogger(__name__)
 
 # The modules whose code decides what a cache entry holds (queries on a built model do not;
-# this module's own key derivation changes the keys by itself when it changes).
-SOURCE_MODULES = ("sensors.mesh.meshing", "sensors.fem.assembly", "sensors.fem.eigen", "sensors.modal.build", "sensors.modal.io",
-                  "sensors.materials.solids")
+# this module's own key derivation changes the keys by itself when it changes). Meshes: every
+# module that makes or checks a cached or keyed tet mesh (layered meshes are keyed by their
+# content, and their code by the everyday objects' own alias key).
+SOURCE_MODULES = ("sensors.mesh.tets", "sensors.mesh.prisms", "sensors.mesh.quadratic", "sensors.mesh.intersections",
+                  "sensors.mesh.tetwild", "sensors.mesh.surface", "sensors.fem.assembly", "sensors.fem.eigen",
+                  "sensors.modal.build", "sensors.modal.io", "sensors.materials.solids")
 
 
 def code_digest(source: str) -> bytes:

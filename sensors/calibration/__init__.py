@@ -26,10 +26,10 @@ back by :func:`load_material`.
 from __future__ import annotations
 
 from .calibrate import CalibrationResult, calibrate, log_spectral_distance_db
-from .damping_fit import DampingFit, fit_damping
+from .damping_fit import DampingFit, exact_decay_rates, fit_damping, refine_damping_exact
 from .material_files import MATERIAL_FILE_FORMAT, load_material, save_material
 from .recordings import RecordingSetup, mode_clusters, observability
-from .stiffness import StiffnessFit, fit_stiffness, undamped_frequencies_hz
+from .stiffness import StiffnessFit, fit_stiffness, log_decay_terms, match_modes, undamped_frequencies_hz
 
 __all__ = [
     "MATERIAL_FILE_FORMAT",
@@ -44,6 +44,10 @@ __all__ = [
     "undamped_frequencies_hz",
     "fit_stiffness",
     "fit_damping",
+    "match_modes",
+    "log_decay_terms",
+    "exact_decay_rates",
+    "refine_damping_exact",
     "calibrate",
     "log_spectral_distance_db",
 ]

@@ -14,9 +14,9 @@ from ..signals.leak import LeakRecording, load_leak
 from ..materials.solids import Material, get_material
 from .estimation import ModalEstimate, estimate_modes_from_observation
 from ..signals.observation import AcousticObservation
-from .damping_fit import DampingFit, _refine_exact, fit_damping
+from .damping_fit import DampingFit, fit_damping, refine_damping_exact
 from .recordings import RecordingSetup, mode_clusters, observability
-from .stiffness import StiffnessFit, _decay_terms, _match, fit_stiffness, undamped_frequencies_hz
+from .stiffness import StiffnessFit, fit_stiffness, log_decay_terms, match_modes, undamped_frequencies_hz
 
 
 @dataclass
@@ -197,8 +197,8 @@ def calibrate(
         stiff = None
         scale = 1.0
         priors = [v.decay_priors for v in visible]
-        matches = [_match(np.log(undamped_frequencies_hz(e)), np.log(v.frequencies_hz), v.sizes, 0.0, rel_tol,
-                          *_decay_terms(e, priors, k))
+        matches = [match_modes(np.log(undamped_frequencies_hz(e)), np.log(v.frequencies_hz), v.sizes, 0.0, rel_tol,
+                               *log_decay_terms(e, priors, k))
                    for k, (e, v) in enumerate(zip(estimates, visible))]
 
     undamped = [undamped_frequencies_hz(est) for est in estimates]  # once per recording
@@ -222,9 +222,9 @@ def calibrate(
                           gamma=None if fit_gamma else base.gamma, rel_floor=rel_floor)
     if damping_model == "exact":
         sd = np.sqrt(rows_sd ** 2 + (rel_floor * rows_sig) ** 2)
-        damping = _refine_exact(damping, w_model * math.sqrt(base.youngs_modulus_pa / model_E) * scale, G_list,
-                                np.asarray(rec_of_row), members, rows_sig, sd,
-                                None if fit_gamma else base.gamma, rows_f)
+        damping = refine_damping_exact(damping, w_model * math.sqrt(base.youngs_modulus_pa / model_E) * scale,
+                                       G_list, np.asarray(rec_of_row), members, rows_sig, sd,
+                                       None if fit_gamma else base.gamma, rows_f)
     material = dataclasses.replace(
         base, name=name or f"{base.name}-calibrated", youngs_modulus_pa=base.youngs_modulus_pa * scale**2,
         alpha=damping.alpha, beta=damping.beta, gamma=damping.gamma)

@@ -157,7 +157,7 @@ def fit_damping(
                       f[keep], sig[keep], (A @ x)[keep] + (sig - target)[keep], keep.copy())
 
 
-def _exact_decay_rates(w: np.ndarray, C: np.ndarray) -> np.ndarray:
+def exact_decay_rates(w: np.ndarray, C: np.ndarray) -> np.ndarray:
     """Decay rate of each mode of ``q'' + C q' + diag(w^2) q = 0``: -Re of the state-space
     eigenvalue assigned to that mode (by damped frequency) [1/s]."""
     r = w.size
@@ -172,9 +172,9 @@ def _exact_decay_rates(w: np.ndarray, C: np.ndarray) -> np.ndarray:
     return sigma
 
 
-def _refine_exact(fit: DampingFit, w_model: np.ndarray, G_list: list[np.ndarray], row_rec: np.ndarray,
-                  row_members: list[np.ndarray], sigma: np.ndarray, sd: np.ndarray, gamma_held: float | None,
-                  freqs_hz: np.ndarray, outlier_sigma: float = 4.0) -> DampingFit:
+def refine_damping_exact(fit: DampingFit, w_model: np.ndarray, G_list: list[np.ndarray], row_rec: np.ndarray,
+                         row_members: list[np.ndarray], sigma: np.ndarray, sd: np.ndarray, gamma_held: float | None,
+                         freqs_hz: np.ndarray, outlier_sigma: float = 4.0) -> DampingFit:
     """Refit alpha, beta (and gamma) to the exact eigenvalues of the damped modal system of
     each recording, starting from the first-order (diagonal) fit.
 
@@ -192,7 +192,7 @@ def _refine_exact(fit: DampingFit, w_model: np.ndarray, G_list: list[np.ndarray]
         out = np.full(rows.size, np.nan)
         for r in np.unique(row_rec[rows]):
             C = np.diag(alpha + beta * w_model**2) + gamma * G_list[r]
-            s_modes = _exact_decay_rates(w_model, C)
+            s_modes = exact_decay_rates(w_model, C)
             for k in np.flatnonzero(row_rec[rows] == r):
                 out[k] = np.nanmean(s_modes[row_members[rows[k]]])
         return out

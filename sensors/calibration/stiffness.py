@@ -45,7 +45,7 @@ class StiffnessFit:
         return sum(len(m) for m in self.matches)
 
 
-def _match(log_f: np.ndarray, log_c: np.ndarray, sizes: np.ndarray, log_s: float, tol: float,
+def match_modes(log_f: np.ndarray, log_c: np.ndarray, sizes: np.ndarray, log_s: float, tol: float,
            log_sigma: np.ndarray | None = None, log_sigma_prior: np.ndarray | None = None) -> list[tuple[int, int]]:
     """One-to-one assignment of measured modes to clusters (a cluster of n modes takes up to
     n measured modes) minimising the log-frequency distance, pairs farther than 3 tol dropped.
@@ -75,7 +75,9 @@ def undamped_frequencies_hz(estimate: ModalEstimate) -> np.ndarray:
     return np.sqrt(f**2 + (np.asarray(estimate.decay_rates_per_s, float) / (2 * np.pi)) ** 2)
 
 
-def _decay_terms(est: ModalEstimate, priors: Sequence[np.ndarray] | None, k: int):
+def log_decay_terms(est: ModalEstimate, priors: Sequence[np.ndarray] | None, k: int):
+    """Log decay rates [log 1/s] of the measured modes and of recording ``k``\'s prior per cluster,
+    the last two arguments of :func:`match_modes`; (None, None) without priors."""
     if priors is None:
         return None, None
     with np.errstate(divide="ignore"):
@@ -128,7 +130,7 @@ def fit_stiffness(
         raise ValueError("no measured modes to match")
     log_s = float(grid[np.argmax(score)])
     for tol in (coarse_tol, rel_tol, rel_tol):
-        matches = [_match(lf, lc, np.asarray(sz), log_s, tol, *_decay_terms(est, cluster_decay_priors, k))
+        matches = [match_modes(lf, lc, np.asarray(sz), log_s, tol, *log_decay_terms(est, cluster_decay_priors, k))
                    for k, (lf, lc, sz, est) in enumerate(zip(log_fs, log_cs, cluster_sizes, measured))]
         ratios, weights = [], []
         for m, lf, lc, est in zip(matches, log_fs, log_cs, measured):

@@ -3,7 +3,7 @@
 Degrees of freedom are node-major: dof ``3 * node + component`` (x, y, z). Elements:
 
 * ``p1``: 4-node linear tets (constant strain; they lock in bending - kept for comparison).
-* ``p2``: 10-node quadratic tets in VTK node order (see :data:`sensors.mesh.meshing.P2_EDGES`),
+* ``p2``: 10-node quadratic tets in VTK node order (see :data:`sensors.mesh.tets.P2_EDGES`),
   isoparametric, so mid-edge nodes moved onto a curved surface give curved elements.
 
 Quadrature: stiffness with the 4-point degree-2 rule (exact for straight P2; the 14-point
@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..materials.solids import Material
-from ..mesh.meshing import P2_EDGES, MeshError
+from ..mesh.tets import MeshError, P2_EDGES
 
 __all__ = ["assemble", "shape_functions", "shape_gradients_ref", "QUADRATURE"]
 

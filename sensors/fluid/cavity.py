@@ -24,7 +24,10 @@ import scipy.optimize
 
 from ..fem.assembly import QUADRATURE, shape_functions, shape_gradients_ref
 from ..mesh.layered import disk_template
-from ..mesh.meshing import MeshError, TetMesh, _extrude, quadratic_mesh, tetrahedralize_surface, validate_surface
+from ..mesh.prisms import extrude_to_tets
+from ..mesh.quadratic import quadratic_mesh
+from ..mesh.tets import MeshError, TetMesh
+from ..mesh.tetwild import tetrahedralize_surface, validate_surface
 
 __all__ = ["LiquidMesh", "AxisymmetricCavity", "SurfaceCavity", "LiquidSpillError", "cavity_of", "p2_volume_m3",
            "unit"]
@@ -253,7 +256,7 @@ class AxisymmetricCavity:
             raise LiquidSpillError(f"{volume_m3 * 1e6:.4g} ml would spill over the rim at this tilt (it holds "
                                    f"{self.max_volume_m3(up) * 1e6:.4g} ml)")
         nz = max(2, int(math.ceil((s_rim.max() - self.axial_m[0]) / h - 1e-9)))
-        v, t = _extrude(pts, tris, 1.0, nz)
+        v, t = extrude_to_tets(pts, tris, 1.0, nz)
         nodes, tets = quadratic_mesh(TetMesh(v, t, "liquid", {}, (1.0,)))
         xi = nodes[:, 0] + 0.5
         y, z = nodes[:, 1], nodes[:, 2]

@@ -4,8 +4,8 @@ A layered solid is a 2D template triangulation swept through ``n`` layers. Each 
 only some template triangles (a container's floor keeps the whole disk, its wall only the
 annulus), and every layer places the template points in 3D on its own (a bottle's radius
 changes with height, a spoon's bowl is dished). The sweep and the prism-to-tet split are
-:func:`sensors.mesh.meshing._extrude`'s, whose global-number rule keeps the mesh conforming, so
-switching triangles off layer by layer never leaves a hanging face.
+:func:`sensors.mesh.prisms.extrude_to_tets`'s, whose global-number rule keeps the mesh
+conforming, so switching triangles off layer by layer never leaves a hanging face.
 
 Templates here:
 
@@ -25,7 +25,8 @@ import math
 
 import numpy as np
 
-from .meshing import TetMesh, _extrude, _grid_triangles, _orient, boundary_faces, rod_mesh
+from .prisms import extrude_to_tets, grid_triangles, rod_mesh
+from .tets import TetMesh, boundary_faces, orient_tets
 
 __all__ = ["Template", "disk_template", "grid_template", "layered_mesh", "revolved_mesh", "handled_cup_mesh",
            "p2_dof_count"]
@@ -50,7 +51,7 @@ def disk_template(n_theta: int, n_wall: int) -> Template:
     """O-grid unit disk (region 0) plus the annulus 1 <= rho <= 2 (region 1).
 
     ``n_theta`` (a multiple of 8) points around; ``n_wall`` element rings across the annulus.
-    The disk's grid is taken from :func:`sensors.mesh.meshing.rod_mesh` (its first cross-section).
+    The disk's grid is taken from :func:`sensors.mesh.prisms.rod_mesh` (its first cross-section).
     """
     if n_theta % 8:
         raise ValueError(f"n_theta must be a multiple of 8, got {n_theta}")
@@ -61,7 +62,7 @@ def disk_template(n_theta: int, n_wall: int) -> Template:
     x = rod.vertices_m[:, 0]
     first = np.flatnonzero(np.isclose(x, x.min()))
     p = len(first)
-    assert np.array_equal(first, np.arange(p))  # _extrude stores layer 0 first
+    assert np.array_equal(first, np.arange(p))  # extrude_to_tets stores layer 0 first
     points = rod.vertices_m[:p, 1:].copy()
     faces, _ = boundary_faces(rod.tets)
     disk_tris = faces[(faces < p).all(axis=1)]
@@ -79,7 +80,7 @@ def disk_template(n_theta: int, n_wall: int) -> Template:
         rings.append(start + np.arange(n_theta))
     index = np.stack(rings)
     index = np.concatenate([index, index[:, :1]], axis=1)
-    wall_tris = _grid_triangles(n_wall, n_theta, index)
+    wall_tris = grid_triangles(n_wall, n_theta, index)
     points = np.concatenate([points] + new)
     triangles = np.concatenate([disk_tris, wall_tris])
     region = np.concatenate([np.zeros(len(disk_tris), int), np.ones(len(wall_tris), int)])
@@ -93,7 +94,7 @@ def grid_template(u_lines: np.ndarray, v_lines: np.ndarray, region_of_cell) -> T
     uu, vv = np.meshgrid(u, v, indexing="ij")
     points = np.stack([uu.ravel(), vv.ravel()], 1)
     index = np.arange(len(points)).reshape(len(u), len(v))
-    tris = _grid_triangles(len(u) - 1, len(v) - 1, index)
+    tris = grid_triangles(len(u) - 1, len(v) - 1, index)
     centre = points[tris].mean(axis=1)
     region = np.asarray(region_of_cell(centre[:, 0], centre[:, 1]), dtype=int)
     keep = region >= 0
@@ -107,7 +108,7 @@ def _sweep(template: Template, n_layers: int, active, place) -> tuple[np.ndarray
     if callable(active):
         active = np.stack([np.asarray(active(k), bool) for k in range(n_layers)])
     active = np.asarray(active, bool).reshape(n_layers, n_tri)
-    _, tets = _extrude(template.points, template.triangles, 1.0, n_layers)
+    _, tets = extrude_to_tets(template.points, template.triangles, 1.0, n_layers)
     tets = tets[np.tile(active.ravel(), 3)]
     coords = np.concatenate([np.asarray(place(template.points, k), float) for k in range(n_layers + 1)])
     return coords, tets
@@ -116,7 +117,7 @@ def _sweep(template: Template, n_layers: int, active, place) -> tuple[np.ndarray
 def _tet_mesh(coords, tets, kind, dimensions_m, cylinder_radii_m) -> TetMesh:
     used, inverse = np.unique(tets, return_inverse=True)
     vertices = coords[used]
-    tets = _orient(vertices, inverse.reshape(-1, 4))
+    tets = orient_tets(vertices, inverse.reshape(-1, 4))
     return TetMesh(vertices, tets, kind, dict(dimensions_m or {}), tuple(cylinder_radii_m))
 
 
@@ -130,7 +131,7 @@ def layered_mesh(template: Template, n_layers: int, active, place, kind: str = "
         place: callable(points (p, 2), level) -> (p, 3): the 3D position of every template
             point on level ``0 .. n_layers`` (levels bound the layers).
         cylinder_radii_m: exact cylinders about x whose P2 mid-edge nodes
-            :func:`sensors.mesh.meshing.quadratic_mesh` curves onto them.
+            :func:`sensors.mesh.quadratic.quadratic_mesh` curves onto them.
     """
     coords, tets = _sweep(template, n_layers, active, place)
     return _tet_mesh(coords, tets, kind, dimensions_m, cylinder_radii_m)
@@ -191,8 +192,8 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
 
     The handle is itself a layered sweep: its template is the (across, along-path) grid and its
     layers go through the thickness. Conformity at the joints follows from the split rule of
-    :func:`sensors.mesh.meshing._extrude` (a quad's diagonal joins the bottom of the higher template
-    number to the top of the lower): the handle's template numbers rise with the wall's
+    :func:`sensors.mesh.prisms.extrude_to_tets` (a quad's diagonal joins the bottom of the higher
+    template number to the top of the lower): the handle's template numbers rise with the wall's
     along the upper joint and fall along the lower one, where its layers run down the axis.
 
     Args:
@@ -244,7 +245,7 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
     points = np.zeros(((n_across + 1) * (S + 1), 2))
     ii, ss = np.meshgrid(np.arange(n_across + 1), np.arange(S + 1), indexing="ij")
     points[index.ravel()] = np.stack([ii.ravel(), ss.ravel()], 1)
-    handle = Template(points, _grid_triangles(n_across, S, index), np.zeros(2 * n_across * S, int))
+    handle = Template(points, grid_triangles(n_across, S, index), np.zeros(2 * n_across * S, int))
 
     n_t = k3 - k2
     t_m = levels[k3] - levels[k2]
@@ -286,7 +287,7 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
 
 def p2_dof_count(tet_mesh: TetMesh) -> int:
     """Degrees of freedom of the P2 model on ``tet_mesh`` (3 per corner and per edge)."""
-    from .meshing import P2_EDGES, row_codes
+    from .tets import P2_EDGES, row_codes
 
     pairs = np.sort(tet_mesh.tets[:, P2_EDGES].reshape(-1, 2), axis=1)
     codes = row_codes(pairs)

@@ -4,7 +4,7 @@ surface point, face and outward (faceted) normal. Spatial indexes are built on f
 from __future__ import annotations
 
 import numpy as np
-from .meshing import boundary_faces
+from .tets import boundary_faces
 
 __all__ = ["TetLocator", "closest_points_on_triangles"]
 

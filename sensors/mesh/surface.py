@@ -1,7 +1,7 @@
 """User surfaces to tet meshes: checks with errors that say what to do, a size guard, and a
 pytetwild call tuned for speed.
 
-Checks (:func:`check_surface`), each a :class:`~sensors.mesh.meshing.MeshError` subclass:
+Checks (:func:`check_surface`), each a :class:`~sensors.mesh.tets.MeshError` subclass:
 
 * :class:`MeshScaleError` - largest extent above 2 m or below 2 mm (a unit mix-up: pass
   ``scale=``), or larger than the hand can handle (:data:`HAND_MAX_EXTENT_M`).
@@ -27,7 +27,8 @@ import numpy as np
 import trimesh
 
 from .._infra import cache as cache_mod
-from .meshing import MeshError, TetMesh, _orient, _self_intersections, check_tet_quality
+from .intersections import count_self_intersections
+from .tets import MeshError, TetMesh, check_tet_quality, orient_tets
 
 __all__ = [
     "MeshScaleError", "MeshNotWatertightError", "MeshInvertedError", "MeshDegenerateError",
@@ -128,7 +129,7 @@ def check_surface(mesh, scale: float = 1.0, hand_max_extent_m: float = HAND_MAX_
         raise MeshDegenerateError(f"surface mesh encloses no volume ({volume:.3g} m^3): pass a solid, not a sheet")
     if volume < 0:
         raise MeshInvertedError("surface mesh is inside out (faces wound inward, negative volume): call mesh.invert()")
-    n_cross = _self_intersections(np.asarray(surface.vertices), np.asarray(surface.faces))
+    n_cross = count_self_intersections(np.asarray(surface.vertices), np.asarray(surface.faces))
     if n_cross:
         raise MeshSelfIntersectingError(
             f"surface mesh is self-intersecting ({n_cross} pairs of faces cross): merge its parts with a boolean "
@@ -224,7 +225,7 @@ def tetrahedralize_tuned(surface: trimesh.Trimesh, element_size_m: float, kind: 
     tv = np.asarray(tv, dtype=np.float64)
     used, tt = np.unique(np.asarray(tt, dtype=np.int64), return_inverse=True)
     tv = tv[used]
-    tt = _orient(tv, tt.reshape(-1, 4))
+    tt = orient_tets(tv, tt.reshape(-1, 4))
     check_tet_quality(tv, tt)
     if cache:
         for k in {key, given_key} - {None}:

@@ -16,7 +16,8 @@ from .._infra import cache as cache_mod
 from . import io as modal_io
 from ..fem.eigen import solve_modes
 from ..fem.assembly import assemble
-from ..mesh.meshing import DEFAULT_MAX_DOF, check_tet_quality, quadratic_mesh
+from ..mesh.quadratic import quadratic_mesh
+from ..mesh.tets import DEFAULT_MAX_DOF, check_tet_quality
 
 log = logging.getLogger(__name__)
 

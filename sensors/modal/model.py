@@ -20,7 +20,9 @@ from . import build as modal_build, io as modal_io
 from .damping import modal_damping_matrix
 from ..fem.assembly import assemble, shape_functions
 from ..materials.solids import get_material
-from ..mesh.meshing import MeshError, TetMesh, bar_mesh, rod_mesh, tet_volumes, tetrahedralize_surface, tube_mesh, validate_surface
+from ..mesh.prisms import bar_mesh, rod_mesh, tube_mesh
+from ..mesh.tets import MeshError, TetMesh, tet_volumes
+from ..mesh.tetwild import tetrahedralize_surface, validate_surface
 from .basis import band_text, material_scaling
 from ..mesh.locator import TetLocator, closest_points_on_triangles  # noqa: F401  (re-exported)
 
@@ -299,7 +301,7 @@ class ModalModel:
 
     @classmethod
     def from_tet_mesh(cls, tet_mesh: TetMesh, material, **options) -> "ModalModel":
-        """Build from an existing linear :class:`~sensors.mesh.meshing.TetMesh`.
+        """Build from an existing linear :class:`~sensors.mesh.tets.TetMesh`.
 
         Options:
             element: "p2" (default, quadratic tets) or "p1" (linear; locks in bending).
@@ -311,7 +313,7 @@ class ModalModel:
             progress: None (a progress bar appears if the build takes over a second),
                 True (always) or False (never).
             max_dof: refuse, before meshing, a model larger than this many degrees of
-                freedom (default ``sensors.mesh.meshing.DEFAULT_MAX_DOF`` = 300,000; ``None``: no
+                freedom (default ``sensors.mesh.tets.DEFAULT_MAX_DOF`` = 300,000; ``None``: no
                 limit) with a ``MeshError`` that says how to coarsen it.
         """
         opts = modal_build.options(options)

@@ -32,7 +32,7 @@ from .._infra import cache as cache_mod
 from ..modal import build as modal_build
 from ..mesh.layered import grid_template, handled_cup_mesh, layered_mesh, p2_dof_count, revolved_mesh
 from ..materials.solids import Material, get_material
-from ..mesh.meshing import TetMesh, boundary_faces
+from ..mesh.tets import TetMesh, boundary_faces
 from ..modal.model import ModalModel
 from ..mesh.surface import check_dof
 

@@ -44,7 +44,9 @@ def feature_frequencies_hz(
     return f_min_hz + step_hz * np.arange(n)
 
 
-def _validate_waveform(waveform: np.ndarray, name: str = "waveform") -> np.ndarray:
+def validate_waveform(waveform: np.ndarray, name: str = "waveform") -> np.ndarray:
+    """``waveform`` as a 1-D float array; TypeError or ValueError naming ``name`` if it is not real,
+    not one channel, empty or not finite."""
     x = np.asarray(waveform)
     if x.dtype.kind not in "fiu":
         raise TypeError(f"{name} must be a real numeric array, got dtype {x.dtype}")
@@ -76,7 +78,7 @@ def segment(waveform: np.ndarray, sample_rate_hz: float, period_s: float = 0.5, 
     ``start_s`` is where the first excitation period begins in the recording (latency).
     Incomplete trailing windows are dropped.
     """
-    x = _validate_waveform(waveform)
+    x = validate_waveform(waveform)
     if not math.isfinite(period_s) or period_s <= 0:
         raise ValueError(f"period_s must be a positive duration, got {period_s!r}")
     if not math.isfinite(start_s) or start_s < 0:

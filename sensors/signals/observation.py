@@ -13,7 +13,7 @@ import numpy as np
 from .._infra.atomic import atomic_open
 from .excitation import Excitation
 from .._infra.npz import FileFormatError, read_npz
-from .features import _validate_waveform, amplitude_spectrum, spectral_features
+from .features import amplitude_spectrum, spectral_features, validate_waveform
 
 
 _FLOAT32_MAX = float(np.finfo(np.float32).max)
@@ -28,7 +28,7 @@ def recorded_waveform(waveform, name: str = "waveform") -> np.ndarray:
     if w.dtype.kind in "iub":
         raise TypeError(f"{name} has integer dtype {w.dtype}: the project stores float samples at full scale 1 "
                         f"(convert 16-bit PCM with x / 32768)")
-    _validate_waveform(w, name)
+    validate_waveform(w, name)
     if w.size and float(np.max(np.abs(w))) > _FLOAT32_MAX:
         raise ValueError(f"{name} has values beyond float32's range ({float(np.max(np.abs(w))):.3g}): "
                          "they would be stored as inf")
