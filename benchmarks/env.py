@@ -2,7 +2,7 @@
 
     python benchmarks/env.py [--chunks 15] [--repeats 5]
 
-1. Physics: ``aas_gym/AcousticGrasp-v0`` without acoustic observations (``sense_mode="never"``,
+1. Physics: ``aas_gym/AcousticGrasp-v0`` without acoustic observations (``acoustic={"cadence": "never"}``,
    created with ``gymnasium.make``, wrappers included) against the same compiled MuJoCo model
    stepped bare with the same controls from the same states. Timed in interleaved chunks so
    that load from other processes hits both alike; the ratio is the median over chunks
@@ -39,7 +39,7 @@ _clock = time.process_time
 
 
 def physics_ratio(chunks: int, steps: int) -> dict:
-    env = gym.make("aas_gym/AcousticGrasp-v0", sense_mode="never", max_episode_steps=10**9)
+    env = gym.make("aas_gym/AcousticGrasp-v0", acoustic={"cadence": "never"}, max_episode_steps=10**9)
     env.reset(seed=0)
     u = env.unwrapped
     model, skip = u.model, u.frame_skip
@@ -151,7 +151,7 @@ def main() -> None:
         "",
         "## Physics throughput without acoustic observations",
         "",
-        f"`aas_gym/AcousticGrasp-v0`, `sense_mode=\"never\"`, via `gymnasium.make` (wrappers included), "
+        f"`aas_gym/AcousticGrasp-v0`, `acoustic={{\"cadence\": \"never\"}}`, via `gymnasium.make` (wrappers included), "
         f"frame_skip {phys['frame_skip']} (env dt {phys['env_dt_s']:.3f} s); bare = the same compiled model "
         f"stepped with the same controls from the same states; median of {args.chunks} interleaved chunks "
         f"of {args.steps} env steps; process CPU time.",

@@ -53,7 +53,7 @@ def main(argv=None) -> Path:
              "## Fill fraction from sound (water, 0-90 %; KNN k = 3, 3-fold CV)", "",
              "| container | episodes | RMSE [% of full] | RMSE of always guessing the mean [%] |", "|---|---|---|---|"]
     for name in CONTAINERS:
-        env = gym.make("aas_gym/FillLevel-v0", objects=[name], excitation=args.excitation)
+        env = gym.make("aas_gym/FillLevel-v0", objects=[name], acoustic={"excitation": args.excitation})
         X, truth = collect(env, args.episodes, seed=0)
         env.close()
         y = np.array([t["fill_fraction"] for t in truth])
@@ -64,7 +64,7 @@ def main(argv=None) -> Path:
     lines += ["", "## Liquid at 60 % fill of the glass (5-fold CV, accuracy %)", "",
               "| classifier | accuracy [%] | chance [%] |", "|---|---|---|"]
     env = gym.make("aas_gym/FillLevel-v0", objects=["glass"], task="liquid", liquids=LIQUIDS, fill_fraction=0.6,
-                   excitation=args.excitation)
+                   acoustic={"excitation": args.excitation})
     X, y = [], []
     for k in range(len(LIQUIDS)):
         Xk, truth = collect(env, max(5, args.episodes // 2), seed=1000 * (k + 1), liquid_index=k)

@@ -36,9 +36,10 @@ from stable_baselines3.common.monitor import Monitor
 ACOUSTIC = {"feature_scale": "db"}
 
 
-def train(env_id: str, steps: int, seed: int, **env_kwargs) -> tuple[np.ndarray, np.ndarray, float]:
+def train(env_id: str, steps: int, seed: int, acoustic: dict | None = None,
+          **env_kwargs) -> tuple[np.ndarray, np.ndarray, float]:
     """PPO for ``steps`` environment steps; returns (episode end steps, episode returns, wall s)."""
-    env = Monitor(gym.make(env_id, acoustic=ACOUSTIC, **env_kwargs))
+    env = Monitor(gym.make(env_id, acoustic={**ACOUSTIC, **(acoustic or {})}, **env_kwargs))
     model = PPO("MultiInputPolicy", env, seed=seed, verbose=0, n_steps=512, batch_size=128,
                 device="cpu")
     t0 = time.perf_counter()
@@ -69,7 +70,7 @@ def main() -> None:
                                                   objects=["aluminium_bar"], max_episode_steps=100),
         "ObjectRecognition-v0 (aluminium vs steel bar)": train(
             "aas_gym/ObjectRecognition-v0", args.recognition_steps, args.seed,
-            objects=["aluminium_bar", "steel_bar"], duration_s=0.5, max_episode_steps=10),
+            objects=["aluminium_bar", "steel_bar"], acoustic={"duration_s": 0.5}, max_episode_steps=10),
     }
     fig, axes = plt.subplots(1, len(runs), figsize=(11, 3.8), constrained_layout=True)
     for ax, (name, (x, y, wall)) in zip(axes, runs.items()):

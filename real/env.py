@@ -1,7 +1,7 @@
 """``RealGraspEnv``: the ``aas_gym/AcousticGrasp-v0`` task on a real robot and rig.
 
-Same action and observation spaces as the simulated environment (both built from
-``sensors.task.grasp``), so a policy or classifier moves between them unchanged. The robot
+Same action and observation spaces, reward and success as the simulated environment (all
+from ``sensors.task``), so a policy or classifier moves between them unchanged. The robot
 comes in through :class:`RobotInterface`, which a user implements for their driver (e.g.
 franka_ros / libfranka); ``aas_gym.robot.MujocoRobot`` implements it on the simulated scene,
 to test the env's logic end to end. This package does not import ``aas_gym``.
@@ -9,7 +9,6 @@ to test the env's logic end to end. This package does not import ``aas_gym``.
 
 from __future__ import annotations
 
-import math
 from typing import Any, Protocol, runtime_checkable
 
 import gymnasium as gym
@@ -17,8 +16,10 @@ import numpy as np
 from gymnasium import spaces
 
 from sensors import AcousticSensor, Excitation
-from sensors.task.grasp import (HOME_TCP, MAX_DELTA, AcousticConfig, RobotState, check_action, check_grip_force,
-                                proprio_spaces)
+from sensors._infra.deprecation import warn_deprecated
+from sensors.task import (HOME_TCP, AcousticConfig, GraspHold, RobotState, check_grip_force, decode_grasp_action,
+                          grasp_reward_terms, next_tcp_target, proprio_spaces, records_this_step, reward_total,
+                          step_success, tcp_object_distance_m)
 
 
 @runtime_checkable
@@ -50,12 +51,14 @@ class RobotInterface(Protocol):
 class RealGraspEnv(gym.Env):
     """Reach, grasp and sense one object with a real robot and acoustic sensor.
 
-    Action and observation exactly as ``aas_gym/AcousticGrasp-v0``: Box(6) in [-1, 1] (TCP
-    delta x, y, z, yaw scaled by 10 mm / 0.05 rad, gripper > 0 open / <= 0 grasp with
-    ``grip_force_n``, sense > 0 records); Dict ``tcp``, ``tcp_velocity``, ``gripper``
-    (opening, speed, motor force), ``object`` (pose), ``acoustic`` (140 features of the
-    latest recording), ``waveform`` with ``include_waveform``. Reward: minus the TCP-object
-    distance, +1 while grasped, +10 for a recording while grasped (ends the episode).
+    The task of ``aas_gym/AcousticGrasp-v0``, its rules written once in ``sensors.task``
+    (``action``, ``reward``, ``cadence``): Box(6) in [-1, 1] (TCP delta x, y, z, yaw scaled by
+    10 mm / 0.05 rad, gripper > 0 open / <= 0 grasp with ``grip_force_n``, sense > 0
+    records); Dict ``tcp``, ``tcp_velocity``, ``gripper`` (opening, speed, motor force),
+    ``object`` (pose), ``acoustic`` (140 features of the latest recording), ``waveform`` with
+    ``acoustic.waveform``. Reward (``info["reward_terms"]``: ``reach``, ``grasp``,
+    ``success``): minus the TCP-object distance, +1 while grasped, +10 for a recording while
+    grasped (ends the episode).
 
     ``acoustic={"cadence": "stream"}`` (with a :class:`real.RealAcousticSensor`): the rig
     records without a break while the excitation loops (a :class:`real.RigStream`, started by
@@ -64,43 +67,45 @@ class RealGraspEnv(gym.Env):
     (``info["audio_phase_samples"]`` is their excitation phase; an episode's first step waits
     for phase 0, at most one period, as the simulated stream starts there), ``acoustic`` the
     features of the latest complete excitation period.
-    The sense action then ends the episode with success once the object was grasped through
-    a whole period; ``info["stream_problems"]`` lists xruns and lost alignment so far.
+    The sense action then ends the episode with success once that period was recorded entirely
+    after the grasp was first reported at a step's end; ``info["stream_problems"]`` lists
+    xruns and lost alignment so far.
 
-    Args:
-        robot: a :class:`RobotInterface`.
-        sensor: a ``sensors.AcousticSensor`` (:class:`real.RealAcousticSensor`, or any other).
-        excitation: ``sensors.Excitation`` or name.
-        acoustic: ``sensors.task.grasp.AcousticConfig`` (or a dict of its fields): when to
-            record (``cadence``), recording length, waveform in the observation, feature
-            scale; the same configuration as the simulated envs'.
-        grip_force_n: grasp force.
-        duration_s, include_waveform, sense_mode: older spellings of ``acoustic.duration_s``,
-            ``acoustic.waveform`` and ``acoustic.cadence``.
-        control_period_s: time each step lets the robot move (the simulated env's 0.05 s).
-        max_episode_steps: truncation (200 like the simulated env).
-        home_tcp: where ``reset`` moves the TCP if the robot has no ``reset``.
-        reset_duration_s: how long that move may take.
+    ## Arguments
+
+    | Parameter | Type | Default | Description |
+    |---|---|---|---|
+    | `robot` | :class:`RobotInterface` | (required) | the robot driver |
+    | `sensor` | `sensors.AcousticSensor` | (required) | :class:`real.RealAcousticSensor`, or any other |
+    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the same configuration as the simulated envs': `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `enabled`; its simulation-only fields (`noise_std`, `leak`, `fingertip`, `stream_tolerance`) are not used |
+    | `grip_force_n` | float | 40.0 | grasp force [N], in (0, 140] |
+    | `control_period_s` | float | 0.05 | time each step lets the robot move [s] (the simulated env's step) |
+    | `max_episode_steps` | int | 200 | truncation (as the simulated env) |
+    | `home_tcp` | sequence of 4 floats | `HOME_TCP` | where ``reset`` moves the TCP if the robot has no ``reset`` |
+    | `reset_duration_s` | float | 3.0 | how long that move may take [s] |
+
+    Deprecated (one more release, with a `DeprecationWarning`): the keywords `excitation`,
+    `duration_s`, `include_waveform`, `sense_mode` beside `acoustic=`.
     """
 
     metadata = {"render_modes": []}
+    #: The old keywords this env accepted beside ``acoustic=`` (deprecated).
+    _LEGACY = ("excitation", "duration_s", "include_waveform", "sense_mode")
 
-    def __init__(self, robot: RobotInterface, sensor: AcousticSensor, *, excitation="linear",
+    def __init__(self, robot: RobotInterface, sensor: AcousticSensor, *,
                  acoustic: AcousticConfig | dict | None = None, grip_force_n: float = 40.0,
-                 duration_s: float | None = None, include_waveform: bool | None = None,
-                 sense_mode: str | None = None, control_period_s: float = 0.05, max_episode_steps: int = 200,
-                 home_tcp=HOME_TCP, reset_duration_s: float = 3.0) -> None:
+                 control_period_s: float = 0.05, max_episode_steps: int = 200, home_tcp=HOME_TCP,
+                 reset_duration_s: float = 3.0, **deprecated) -> None:
+        unknown = sorted(set(deprecated) - set(self._LEGACY))
+        if unknown:
+            raise TypeError(f"RealGraspEnv() got an unexpected keyword argument {unknown[0]!r}")
         missing = [m for m in ("move", "grasp", "open", "state") if not callable(getattr(robot, m, None))]
         if missing:
             raise TypeError(f"robot does not implement RobotInterface: missing {missing}")
         if not callable(getattr(sensor, "sense", None)):
             raise TypeError("sensor must implement sensors.AcousticSensor (a sense(excitation, duration_s) method)")
         self.robot, self.sensor = robot, sensor
-        self.excitation = excitation if isinstance(excitation, Excitation) else Excitation.by_name(excitation)
-        self.acoustic = AcousticConfig.coerce(acoustic, include_waveform=include_waveform, duration_s=duration_s,
-                                              sense_mode=sense_mode)
-        if not self.acoustic.duration_s >= self.excitation.period_s:
-            raise ValueError(f"duration_s must be at least one excitation period ({self.excitation.period_s} s)")
+        self.acoustic = AcousticConfig.coerce(acoustic, legacy=deprecated, owner="RealGraspEnv")
         self.grip_force_n = check_grip_force(grip_force_n)
         self.control_period_s = float(control_period_s)
         self.max_episode_steps = int(max_episode_steps)
@@ -118,26 +123,38 @@ class RealGraspEnv(gym.Env):
                 raise ValueError(f"control_period_s={control_period_s} s holds no sample at "
                                  f"{self.excitation.sample_rate_hz} Hz")
         self.observation_space = spaces.Dict({**proprio_spaces(), **self.acoustic.spaces(
-            self.excitation.sample_rate_hz, self.audio_samples if self.acoustic.streaming else None)})
+            self.audio_samples if self.acoustic.streaming else None)})
         self._acoustic = self._empty_acoustic()
         self._target = self.home_tcp.copy()
         self._gripper_closed: bool | None = None
         self._steps = 0
         self.last_recording = None
         self.stream = None  # the RigStream of the episode (cadence "stream")
-        self._grasped_from: int | None = None  # stream index from which the grasp held
+        self._hold = GraspHold(self.excitation.period_samples)
+
+    @property
+    def excitation(self) -> Excitation:
+        """What the actuator plays (``acoustic.excitation``)."""
+        return self.acoustic.excitation
 
     @property
     def duration_s(self) -> float:
+        """Length of one recording [s] (``acoustic.duration_s``)."""
         return self.acoustic.duration_s
 
     @property
+    def cadence(self) -> str:
+        """When the env records: ``acoustic.cadence``, or ``"never"`` when the sensor is off."""
+        return self.acoustic.active_cadence
+
+    @property
     def sense_mode(self) -> str:
-        return self.acoustic.cadence
+        """Deprecated: :attr:`cadence`."""
+        warn_deprecated("RealGraspEnv.sense_mode", "cadence")
+        return self.cadence
 
     def _empty_acoustic(self) -> dict[str, np.ndarray]:
-        return self.acoustic.empty(self.excitation.sample_rate_hz,
-                                   self.audio_samples if self.acoustic.streaming else None)
+        return self.acoustic.empty(self.audio_samples if self.acoustic.streaming else None)
 
     def _obs(self, s: RobotState) -> dict[str, np.ndarray]:
         obs = {
@@ -161,6 +178,7 @@ class RealGraspEnv(gym.Env):
         self._gripper_closed = False
         self._steps = 0
         self._acoustic = self._empty_acoustic()
+        self._hold.reset()
         if self.acoustic.streaming:
             self._start_stream()
         s = self.robot.state()
@@ -169,11 +187,11 @@ class RealGraspEnv(gym.Env):
 
     def step(self, action):
         # NaN or inf must never reach a real robot: refuse before any command is sent.
-        a = np.clip(check_action(action, (6,)), -1.0, 1.0)
+        act = decode_grasp_action(action)
         if self.acoustic.streaming and self.stream is None:
             raise RuntimeError("reset() starts the acoustic stream: call it before step()")
-        self._target = self._target + a[:4] * np.asarray(MAX_DELTA)
-        close = not a[4] > 0
+        self._target = np.array(next_tcp_target(self._target.tolist(), act.tcp_delta))
+        close = not act.open_gripper
         if close != self._gripper_closed:  # command changes only: a real gripper re-grasps otherwise
             self.robot.grasp(self.grip_force_n) if close else self.robot.open()
             self._gripper_closed = close
@@ -184,41 +202,33 @@ class RealGraspEnv(gym.Env):
         self.robot.move(self._target, self.control_period_s)
         s = self.robot.state()
         self._steps += 1
-        tcp, obj = np.asarray(s.tcp, float), np.asarray(s.object_pose, float)
-        dist = math.sqrt(float(np.sum((tcp[:3] - obj[:3]) ** 2)))
+        distance_m = tcp_object_distance_m(s.tcp, s.object_pose)
         grasped = bool(s.grasped)
-        reward = -dist + (1.0 if grasped else 0.0)
-        terminated = False
         info: dict[str, Any] = {"grasped": grasped, "is_success": False}
-        cadence = self.acoustic.cadence if self.acoustic.enabled else "never"
+        cadence = self.cadence
+        success = False
         if cadence == "stream":
             audio = self.stream.read(self.audio_samples)
             self._acoustic = self.acoustic.stream_entries(self.stream.latest_features(), audio)
             info["audio_phase_samples"] = audio_start % self.excitation.period_samples
             info["stream_problems"] = self.stream.problems
-            # Success: asked to stop while grasping, after a whole period recorded through the grasp.
-            if not grasped:
-                self._grasped_from = None
-            elif self._grasped_from is None:
-                self._grasped_from = audio_start
-            k = self.stream.latest_features_period
-            if a[5] > 0 and grasped and k >= 0 and k * self.excitation.period_samples >= self._grasped_from:
-                reward += 10.0
-                terminated = True
-                info["is_success"] = True
-        elif cadence == "every_step" or (cadence == "action" and a[5] > 0):
+            self._hold.update(grasped, self.stream.position)
+            success = step_success(cadence, sense=act.sense, grasped=grasped,
+                                   heard_whole_period=self._hold.heard_whole_period(self.stream.latest_features_period))
+        elif records_this_step(cadence, act.sense):
             rec = self.sensor.sense(self.excitation, self.duration_s)
             self.last_recording = rec
             self._acoustic = self.acoustic.entries(rec)
             info["recording_metadata"] = rec.metadata
             s = self.robot.state()  # the grasp may have changed while recording
-            info["recording_grasped"] = grasped = grasped and bool(s.grasped)
-            if grasped and cadence == "action":
-                reward += 10.0
-                terminated = True
-                info["is_success"] = True
-        truncated = not terminated and self._steps >= self.max_episode_steps
-        return self._obs(s), float(reward), terminated, truncated, info
+            info["recording_grasped"] = grasped and bool(s.grasped)
+            success = step_success(cadence, sense=act.sense, grasped=grasped,
+                                   recording_grasped=info["recording_grasped"])
+        terms = grasp_reward_terms(distance_m, grasped, success)
+        info["is_success"] = success
+        info["reward_terms"] = terms
+        truncated = not success and self._steps >= self.max_episode_steps
+        return self._obs(s), reward_total(terms), success, truncated, info
 
     def _start_stream(self) -> None:
         """A new stream for the episode (nothing of the last one carries over), aligned."""
@@ -227,7 +237,7 @@ class RealGraspEnv(gym.Env):
         self.close()
         self.stream = RigStream(self.sensor.rig, self.excitation).start()
         self.stream.catch_up()
-        self._grasped_from = None
+        self._hold.reset()
 
     def close(self) -> None:
         """Close the stream (cadence ``"stream"``) and release the rig's devices."""

@@ -41,7 +41,7 @@ def test_a_foreign_mesh_goes_through_get_object_into_gym_make_and_passes_check_e
     # The scene describes it by its stored surface: a fresh lookup finds the same object.
     assert object_specs_from_model(build_scene([spec]))["aluminium_post"] == spec
     env = gym.make("aas_gym/GraspPosition-v0", objects=[f"{post_file}:aluminium"], n_positions=4, spacing_m=0.005,
-                   duration_s=0.5)
+                   acoustic={"duration_s": 0.5})
     check_env(env.unwrapped, skip_render_check=True)
     obs, info = env.reset(seed=3)
     assert info["grasp_success"] and info["recording_grasped"]

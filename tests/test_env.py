@@ -12,7 +12,7 @@ from scripted_policy import reach_until_grasped
 ENV_IDS = ["aas_gym/AcousticGrasp-v0", "aas_gym/GraspPosition-v0", "aas_gym/ObjectRecognition-v0",
            "aas_gym/ContactFormation-v0"]
 # Smallest settings that still exercise everything: 0.5 s recordings (one excitation period).
-FAST = {"duration_s": 0.5}
+FAST = {"acoustic": {"duration_s": 0.5}}
 
 
 def test_envs_are_registered_on_import():
@@ -31,7 +31,7 @@ def test_check_env(env_id):
 
 
 def test_acoustic_grasp_control_only_passes_check_env_and_is_deterministic():
-    env = gym.make("aas_gym/AcousticGrasp-v0", sense_mode="never", scene="multi")
+    env = gym.make("aas_gym/AcousticGrasp-v0", acoustic={"cadence": "never"}, scene="multi")
     check_env(env.unwrapped)
     a = env.reset(seed=7)[0]
     b = env.reset(seed=7)[0]
@@ -39,8 +39,29 @@ def test_acoustic_grasp_control_only_passes_check_env_and_is_deterministic():
         np.testing.assert_array_equal(a[key], b[key])
 
 
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_reward_terms_have_fixed_keys_and_sum_to_the_reward(env_id):
+    """As Gymnasium's MuJoCo envs: info["reward_terms"], the same keys every step, floats."""
+    kwargs = dict(FAST, disable_env_checker=True)
+    if env_id == "aas_gym/ObjectRecognition-v0":
+        kwargs["objects"] = ["aluminium_bar", "wood_bar"]
+    env = gym.make(env_id, **kwargs)
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    keys = None
+    for _ in range(4):
+        _, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        terms = info["reward_terms"]
+        keys = keys or tuple(terms)
+        assert tuple(terms) == keys and all(type(v) is float for v in terms.values())
+        assert reward == pytest.approx(sum(terms.values()), abs=1e-12)
+        if terminated or truncated:
+            env.reset()
+    env.close()
+
+
 def test_make_vec_async():
-    envs = gym.make_vec("aas_gym/AcousticGrasp-v0", num_envs=2, vectorization_mode="async", sense_mode="never")
+    envs = gym.make_vec("aas_gym/AcousticGrasp-v0", num_envs=2, vectorization_mode="async", acoustic={"cadence": "never"})
     try:
         obs, info = envs.reset(seed=[1, 2])
         assert obs["tcp"].shape == (2, 4) and obs["acoustic"].shape == (2, 140)
@@ -54,7 +75,7 @@ def test_make_vec_async():
 
 @pytest.mark.parametrize("mode", ["rgb_array", "depth_array"])
 def test_headless_rendering(mode):
-    env = gym.make("aas_gym/AcousticGrasp-v0", sense_mode="never", render_mode=mode, width=96, height=64)
+    env = gym.make("aas_gym/AcousticGrasp-v0", acoustic={"cadence": "never"}, render_mode=mode, width=96, height=64)
     env.reset(seed=0)
     frame = env.render()
     assert frame.shape[:2] == (64, 96)
@@ -65,7 +86,7 @@ def test_headless_rendering(mode):
 
 def test_reach_and_grasp_by_actions_gives_reward_and_grasp():
     """A scripted policy through the public action space: move over the bar, down, close."""
-    env = gym.make("aas_gym/AcousticGrasp-v0", sense_mode="never", randomization=DomainRandomization.off())
+    env = gym.make("aas_gym/AcousticGrasp-v0", acoustic={"cadence": "never"}, randomization=DomainRandomization.off())
     obs, _ = env.reset(seed=0)
     obs, reward, info = reach_until_grasped(env, obs, max_steps=120)  # raises unless grasped
     assert info["grasped"] and reward > 0.9
@@ -78,7 +99,7 @@ def test_unknown_names_raise_clear_errors():
     with pytest.raises(ValueError, match="unknown shape"):
         gym.make("aas_gym/AcousticGrasp-v0", objects=["steel_sphere"])
     with pytest.raises(ValueError, match="unknown excitation"):
-        gym.make("aas_gym/AcousticGrasp-v0", excitation="chirp")
+        gym.make("aas_gym/AcousticGrasp-v0", acoustic={"excitation": "chirp"})
     with pytest.raises(ValueError, match="unknown randomization knobs"):
         gym.make("aas_gym/AcousticGrasp-v0", randomization={"gravity": 1.0})
     with pytest.raises(ValueError, match="scene"):
@@ -86,7 +107,7 @@ def test_unknown_names_raise_clear_errors():
 
 
 def test_same_seed_same_acoustic_observation():
-    env = gym.make("aas_gym/GraspPosition-v0", duration_s=0.5,
+    env = gym.make("aas_gym/GraspPosition-v0", **FAST,
                    randomization=DomainRandomization(sensor_noise_std=1e-4))
     a, info_a = env.reset(seed=4)
     b, info_b = env.reset(seed=4)
@@ -98,7 +119,7 @@ def test_same_seed_same_acoustic_observation():
 
 
 def test_grasp_position_info_and_reward():
-    env = gym.make("aas_gym/GraspPosition-v0", duration_s=0.5, randomization=DomainRandomization.off(),
+    env = gym.make("aas_gym/GraspPosition-v0", **FAST, randomization=DomainRandomization.off(),
                    action_format="metres")
     obs, info = env.reset(seed=0, options={"position_index": 4})
     assert info["grasp_position_m"] == pytest.approx(0.02) and info["grasp_success"]
@@ -106,7 +127,7 @@ def test_grasp_position_info_and_reward():
     _, reward, terminated, _, step_info = env.step(np.array([0.025], np.float32))
     assert terminated and reward == pytest.approx(-0.005, abs=1e-6)
     # the default, SB3-friendly action: [-1, 1] onto 0 .. 60 mm, so 0.025 m is -1/6
-    env = gym.make("aas_gym/GraspPosition-v0", duration_s=0.5, randomization=DomainRandomization.off())
+    env = gym.make("aas_gym/GraspPosition-v0", **FAST, randomization=DomainRandomization.off())
     assert env.action_space == gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
     env.reset(seed=0, options={"position_index": 4})
     _, reward, _, _, step_info = env.step(np.array([2 * 0.025 / 0.06 - 1], np.float32))
@@ -114,7 +135,7 @@ def test_grasp_position_info_and_reward():
 
 
 def test_recognition_probe_then_answer():
-    env = gym.make("aas_gym/ObjectRecognition-v0", objects=["aluminium_bar", "aluminium_tube"], duration_s=0.5,
+    env = gym.make("aas_gym/ObjectRecognition-v0", objects=["aluminium_bar", "aluminium_tube"], **FAST,
                    action_format="dict")
     obs, info = env.reset(seed=1)
     assert obs["n_probes"][0] == 0 and not obs["acoustic"].any()
@@ -128,7 +149,7 @@ def test_recognition_probe_then_answer():
 
 
 def test_recognition_box_action_decodes_like_the_dict():
-    env = gym.make("aas_gym/ObjectRecognition-v0", objects=["aluminium_bar", "aluminium_tube"], duration_s=0.5)
+    env = gym.make("aas_gym/ObjectRecognition-v0", objects=["aluminium_bar", "aluminium_tube"], **FAST)
     assert env.action_space == gym.spaces.Box(-1.0, 1.0, (4,), np.float32)
     obs, info = env.reset(seed=1)
     # probe at 0.4 with the exponential sweep (top third of [-1, 1]), then answer the true label
@@ -144,7 +165,7 @@ def test_recognition_box_action_decodes_like_the_dict():
 @pytest.mark.parametrize("bad", [np.nan, np.inf, "shape"])
 def test_nonfinite_or_misshapen_actions_are_refused(env_id, n, bad):
     """max(-1, min(1, nan)) is 1: a NaN would be a full-speed move or NaN in MuJoCo's ctrl."""
-    env = gym.make(env_id, duration_s=0.5, disable_env_checker=True).unwrapped
+    env = gym.make(env_id, **FAST, disable_env_checker=True).unwrapped
     env.reset(seed=0)
     qpos = env.data.qpos.copy()
     action = np.zeros(n + 1 if bad == "shape" else n, np.float32)
@@ -161,7 +182,7 @@ def test_stable_baselines3_accepts_the_default_spaces(env_id):
     import warnings
 
     sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
-    env = gym.make(env_id, duration_s=0.5, acoustic={"feature_scale": "db"}).unwrapped
+    env = gym.make(env_id, acoustic={"duration_s": 0.5, "feature_scale": "db"}).unwrapped
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sb3_checker.check_env(env, warn=True)
@@ -170,7 +191,7 @@ def test_stable_baselines3_accepts_the_default_spaces(env_id):
 def test_every_env_renders_human_on_reset():
     """The reset template renders for render_mode="human" in every env (headless: it warns)."""
     for env_id in ENV_IDS:
-        env = gym.make(env_id, duration_s=0.5, render_mode="human", disable_env_checker=True).unwrapped
+        env = gym.make(env_id, **FAST, render_mode="human", disable_env_checker=True).unwrapped
         env._warned_no_display = False
         with pytest.warns(UserWarning, match="no display"):
             env.reset(seed=0)
@@ -178,8 +199,8 @@ def test_every_env_renders_human_on_reset():
 
 def test_missing_leak_file_fails_at_make(tmp_path):
     with pytest.raises(FileNotFoundError, match="nope.npz"):
-        gym.make("aas_gym/AcousticGrasp-v0", leak=str(tmp_path / "nope.npz"))
+        gym.make("aas_gym/AcousticGrasp-v0", acoustic={"leak": str(tmp_path / "nope.npz")})
     bad = tmp_path / "bad.npz"
     bad.write_bytes(b"not a zip at all")
     with pytest.raises(ValueError, match="bad.npz"):
-        gym.make("aas_gym/AcousticGrasp-v0", leak=str(bad))
+        gym.make("aas_gym/AcousticGrasp-v0", acoustic={"leak": str(bad)})

@@ -134,7 +134,7 @@ def test_feature_scales_read_a_known_tone():
 def test_transformer_and_env_config_scale_alike():
     from sensors import SpectralFeatures
     from sensors.signals.features import scale_features
-    from sensors.task.grasp import AcousticConfig
+    from sensors.task import AcousticConfig
 
     rng = np.random.default_rng(0)
     X = rng.standard_normal((3, 22050)) * 1e-4

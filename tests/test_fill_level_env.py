@@ -12,7 +12,7 @@ import aas_gym  # noqa: F401  (registers the envs)
 
 @pytest.fixture(scope="module")
 def env():
-    e = gym.make("aas_gym/FillLevel-v0", objects=["glass"], liquids=("water", "honey"), duration_s=0.5)
+    e = gym.make("aas_gym/FillLevel-v0", objects=["glass"], liquids=("water", "honey"), acoustic={"duration_s": 0.5})
     yield e
     e.close()
 
@@ -21,7 +21,7 @@ def test_passes_gymnasium_and_sb3_checks():
     from gymnasium.utils.env_checker import check_env
     from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
-    e = gym.make("aas_gym/FillLevel-v0", objects=["glass"], duration_s=0.5)
+    e = gym.make("aas_gym/FillLevel-v0", objects=["glass"], acoustic={"duration_s": 0.5})
     check_env(e.unwrapped, skip_render_check=True)
     sb3_check_env(e.unwrapped, warn=True)
     e.close()
@@ -66,11 +66,12 @@ def test_liquid_task_rewards_the_right_bin(env):
     assert u.task == "fill"  # this fixture estimates the fill: reward is minus the error
     _, reward, terminated, _, step_info = env.step(np.array([0.0], np.float32))
     assert terminated and reward == pytest.approx(-abs(0.5 - info["fill_fraction"]))
+    assert step_info["reward_terms"] == {"error": reward}
     e = gym.make("aas_gym/FillLevel-v0", objects=["glass"], task="liquid", liquids=("water", "honey"),
-                 duration_s=0.5)
+                 acoustic={"duration_s": 0.5})
     _, info = e.reset(seed=0, options={"liquid_index": 1})
-    _, reward, *_ = e.step(np.array([0.9], np.float32))  # upper half: the second liquid
-    assert reward == 1.0
+    _, reward, _, _, step_info = e.step(np.array([0.9], np.float32))  # upper half: the second liquid
+    assert reward == 1.0 and step_info["reward_terms"] == {"answer": 1.0}
     e.close()
 
 

@@ -169,8 +169,8 @@ def test_classifier_trained_on_sim_acoustic_sensor_accepts_real(recordings):
 
     X, y = [], []
     for obj in ("aluminium_bar", "wood_bar"):
-        env = gym.make("aas_gym/GraspPosition-v0", objects=[obj], duration_s=DURATION_S, excitation="linear",
-                       include_waveform=True)
+        env = gym.make("aas_gym/GraspPosition-v0", objects=[obj],
+                       acoustic={"duration_s": DURATION_S, "excitation": "linear", "waveform": True})
         for seed in range(2):
             o, _ = env.reset(seed=seed)  # grasps and senses through aas_gym.SimAcousticSensor
             X.append(o["waveform"])
@@ -423,7 +423,7 @@ def test_grasp_and_sense_through_the_real_audio_path(audio_loopback):
 
     robot = MujocoRobot(randomization=False)
     sensor = real.RealAcousticSensor(real.PyAudioRig(output_gain=0.5, frames_per_buffer=4096))  # see the rig fixture
-    env = RealGraspEnv(robot, sensor, excitation="linear", duration_s=1.0)
+    env = RealGraspEnv(robot, sensor, acoustic={"excitation": "linear", "duration_s": 1.0})
     obs, _ = env.reset(seed=1)
     obs = reach_and_grasp(env, obs)
     obs, reward, terminated, truncated, info = env.step(np.array([0, 0, 0, 0, -1, 1], np.float32))

@@ -12,7 +12,7 @@ import aas_gym  # noqa: E402,F401
 
 from aas_gym.robot import MujocoRobot  # noqa: E402
 from real.env import RealGraspEnv, RobotInterface, RobotState  # noqa: E402
-from scripted_policy import reach_and_grasp  # noqa: E402
+from scripted_policy import reach_and_grasp, reach_until_grasped  # noqa: E402
 
 
 class _Recorder:
@@ -38,9 +38,9 @@ def robot():
 
 def test_spaces_equal_the_simulated_env(robot):
     assert isinstance(robot, RobotInterface)
-    for kwargs in ({}, {"include_waveform": True}):
-        env = RealGraspEnv(robot, _Recorder(), **kwargs)
-        sim = gym.make("aas_gym/AcousticGrasp-v0", sense_mode="never", **kwargs)
+    for acoustic in ({}, {"waveform": True}):
+        env = RealGraspEnv(robot, _Recorder(), acoustic=acoustic)
+        sim = gym.make("aas_gym/AcousticGrasp-v0", acoustic={"cadence": "never", **acoustic})
         assert env.observation_space == sim.observation_space
         assert env.action_space == sim.action_space
         sim.close()
@@ -55,7 +55,7 @@ def test_bad_robot_or_sensor_is_refused():
 
 def test_episode_logic_without_audio(robot):
     sensor = _Recorder()
-    env = RealGraspEnv(robot, sensor, excitation="impulse", duration_s=0.5, include_waveform=True)
+    env = RealGraspEnv(robot, sensor, acoustic={"excitation": "impulse", "duration_s": 0.5, "waveform": True})
     obs, info = env.reset(seed=0)
     assert env.observation_space.contains(obs) and not info["grasped"]
     # sensing while not grasped: features update, no success
@@ -69,6 +69,37 @@ def test_episode_logic_without_audio(robot):
     assert env.observation_space.contains(obs)
 
 
+def test_the_simulated_and_the_real_env_share_the_task_rules(robot):
+    """One episode, the same actions, through aas_gym/AcousticGrasp-v0 and through
+    RealGraspEnv on the MuJoCo robot: the same trajectory, reward terms and success step
+    (the object pose differs by MuJoCo's one-step lag of body positions, micrometres)."""
+    sim = gym.make("aas_gym/AcousticGrasp-v0", randomization=False, acoustic={"duration_s": 0.5})
+    env = RealGraspEnv(robot, _Recorder(), acoustic={"duration_s": 0.5})
+
+    class Log:  # the scripted policy's actions on the simulated env
+        actions = []
+
+        def step(self, a):
+            self.actions.append(np.array(a, np.float32))
+            return sim.step(a)
+
+    obs, _ = sim.reset(seed=0)
+    reach_until_grasped(Log(), obs)
+    actions = Log.actions + [np.array([0, 0, 0, 0, -1, 0], np.float32)] * 10 + [np.array([0, 0, 0, 0, -1, 1], np.float32)]
+    sim.reset(seed=0)
+    env.reset(seed=0)
+    for a in actions:
+        s_obs, s_reward, s_done, _, s_info = sim.step(a)
+        r_obs, r_reward, r_done, _, r_info = env.step(a)
+        np.testing.assert_array_equal(s_obs["tcp"], r_obs["tcp"])
+        assert s_info["grasped"] == r_info["grasped"] and s_done == r_done
+        s_terms, r_terms = s_info["reward_terms"], r_info["reward_terms"]
+        assert s_terms.keys() == r_terms.keys() and s_terms["grasp"] == r_terms["grasp"]
+        assert s_terms["success"] == r_terms["success"] and s_terms["reach"] == pytest.approx(r_terms["reach"], abs=1e-5)
+    assert s_done and r_info["is_success"] and r_reward == pytest.approx(s_reward, abs=1e-5) and r_reward > 10.5
+    sim.close()
+
+
 def test_robot_state_fields(robot):
     robot.reset(seed=3)
     s = robot.state()
@@ -80,7 +111,7 @@ def test_robot_state_fields(robot):
 def test_check_env_control_only(robot):
     from gymnasium.utils.env_checker import check_env
 
-    env = RealGraspEnv(robot, _Recorder(), sense_mode="never")
+    env = RealGraspEnv(robot, _Recorder(), acoustic={"cadence": "never"})
     check_env(env)
 
 
@@ -114,10 +145,10 @@ def test_nonfinite_or_misshapen_action_never_reaches_the_robot(bad):
     assert len(robot.commands) == sent
 
 
-def test_acoustic_config_and_old_keywords_agree():
-    from sensors.task.grasp import AcousticConfig
+def test_acoustic_config_and_its_dict_agree():
+    from sensors.task import AcousticConfig
 
-    a = RealGraspEnv(_CommandLog(), _Recorder(), include_waveform=True, duration_s=0.5, sense_mode="every_step")
+    a = RealGraspEnv(_CommandLog(), _Recorder(), acoustic={"waveform": True, "duration_s": 0.5, "cadence": "every_step"})
     b = RealGraspEnv(_CommandLog(), _Recorder(), acoustic=AcousticConfig(waveform=True, duration_s=0.5,
                                                                          cadence="every_step"))
     assert a.acoustic == b.acoustic and a.observation_space == b.observation_space
@@ -125,7 +156,7 @@ def test_acoustic_config_and_old_keywords_agree():
     obs, _ = c.reset(seed=0)
     obs, *_ = c.step(np.array([0, 0, 0, 0, 1, 1], np.float32))
     assert c.observation_space.contains(obs) and obs["acoustic"].max() > 0  # dB re 1e-6: tens of dB
-    with pytest.raises(ValueError, match="contradicts"):
+    with pytest.warns(DeprecationWarning), pytest.raises(ValueError, match="contradicts"):
         RealGraspEnv(_CommandLog(), _Recorder(), acoustic={"waveform": False}, include_waveform=True)
 
 

@@ -199,7 +199,7 @@ def stream_env(audio_loopback):
 
     robot = MujocoRobot(randomization=False)
     sensor = real.RealAcousticSensor(real.PyAudioRig(output_gain=GAIN, frames_per_buffer=FRAMES_PER_BUFFER))
-    env = RealGraspEnv(robot, sensor, excitation="linear", acoustic={"cadence": "stream"})
+    env = RealGraspEnv(robot, sensor, acoustic={"excitation": "linear", "cadence": "stream"})
     yield env
     env.close()
     robot.close()

@@ -97,7 +97,7 @@ def test_object_contact_changes_the_spectrum():
 
     feats, contacts = {}, {}
     for scene in ("single", "multi"):
-        env = gym.make("aas_gym/GraspPosition-v0", objects=["abs_bar"], scene=scene, duration_s=DURATION_S,
+        env = gym.make("aas_gym/GraspPosition-v0", objects=["abs_bar"], scene=scene, acoustic={"duration_s": DURATION_S},
                        randomization=DomainRandomization.off())
         obs, info = env.reset(seed=3, options={"position_index": 6})
         feats[scene], contacts[scene] = obs["acoustic"], info["contacts"]["abs_bar"]

@@ -131,6 +131,25 @@ def test_acoustic_grasp_streams_each_step_and_succeeds_after_a_period_heard():
     assert terminated and info["is_success"] and reward > 9
 
 
+def test_streamed_success_waits_for_a_period_recorded_after_the_grasp_was_seen():
+    """Asking to stop from the first grasped step on: success comes only once the latest
+    complete period began after the grasp was first seen at a step's end (the rule the real
+    env uses), which the simulator's own per-sample count confirms (heard_fraction 1)."""
+    env = gym.make("aas_gym/AcousticGrasp-v0", acoustic={"cadence": "stream"}, randomization=False)
+    obs, _ = env.reset(seed=0)
+    obs, _, info = reach_until_grasped(env, obs)
+    period_steps = env.unwrapped.excitation.period_samples // STEP        # 10 steps of 2205 samples
+    stop = np.array([0, 0, 0, 0, -1, 1], np.float32)
+    for k in range(1, 2 * period_steps + 1):
+        obs, reward, terminated, _, info = env.step(stop)
+        assert info["grasped"]
+        if terminated:
+            break
+        assert reward == pytest.approx(sum(info["reward_terms"].values())) and info["reward_terms"]["success"] == 0
+    assert terminated and info["is_success"] and info["heard_fraction"] == 1.0
+    assert info["reward_terms"]["success"] == 10.0 and k >= period_steps
+
+
 def test_probe_envs_stream_the_hold_of_each_probe():
     env = gym.make("aas_gym/GraspPosition-v0", acoustic={"cadence": "stream", "duration_s": 1.0})
     obs, info = env.reset(seed=3)

@@ -2,21 +2,24 @@
 
 from __future__ import annotations
 
-import math
-
-import mujoco
 import numpy as np
 from gymnasium import spaces
 
-from aas_gym.envs.base import _OBJECT, _TCP, AasEnv
+from aas_gym.envs.base import AasEnv
 from aas_gym.grasp import SQUEEZE_TARGET_M
 from aas_gym.scenario import position_along_path
-from sensors.task.grasp import HOME_TCP, MAX_DELTA, MAX_OPENING_M, check_action
+from sensors.task import (HOME_TCP, MAX_OPENING_M, STATE_LAYOUT, GraspHold, decode_grasp_action, grasp_reward_terms,
+                          next_tcp_target, records_this_step, reward_total, step_success, tcp_object_distance_m)
+
+# The TCP position and the object's centre in the state vector.
+_TCP = slice(STATE_LAYOUT["tcp"].start, STATE_LAYOUT["tcp"].start + 3)
+_OBJECT = slice(STATE_LAYOUT["object"].start, STATE_LAYOUT["object"].start + 3)
 
 
 class AcousticGraspEnv(AasEnv):
     """Reach, grasp and sense one object (single-object scene) or one object touched by
-    others (``scene="multi"``).
+    others (``scene="multi"``). The task's rules (``sensors.task``: action, reward, cadence)
+    are those of ``real.RealGraspEnv``.
 
     Action (Box, 6, in [-1, 1]): TCP delta x, y, z, yaw (scaled by 10 mm / 0.05 rad), gripper
     (> 0 open, <= 0 close with the grip force), sense (> 0 records ``duration_s`` of the
@@ -28,15 +31,26 @@ class AcousticGraspEnv(AasEnv):
     scaled per ``acoustic.feature_scale``), ``waveform`` (its raw samples, with
     ``acoustic.waveform``).
 
-    Reward: minus the TCP-object distance [m], +1 while both sensor fingertips press the
-    object, +10 for a recording of the grasped object, which ends the episode (success).
-    ``acoustic.cadence`` (or ``sense_mode``) ``"every_step"`` records every step, ``"never"``
-    never (pure control); ``acoustic=False``-like ``{"enabled": False}`` drops the entries.
+    Reward (``info["reward_terms"]``: ``reach``, ``grasp``, ``success``): minus the
+    TCP-object distance [m], +1 while both sensor fingertips press the object, +10 for a
+    recording of the grasped object, which ends the episode (success).
+    ``acoustic.cadence`` ``"every_step"`` records every step, ``"never"`` never (pure
+    control); ``{"enabled": False}`` drops the entries.
     ``"stream"``: the microphone records through every physics step while the excitation
     loops; the observation adds ``audio`` (this step's ``dt`` x 44.1 kHz samples) and
     ``acoustic`` holds the features of the latest complete excitation period. The sense
-    action then ends the episode with success once a whole period was heard through the
-    grasp (``info["heard_fraction"]``).
+    action then ends the episode with success once the latest complete period was recorded
+    entirely after the grasp was first seen at a step's end (``sensors.task.cadence``);
+    ``info["heard_fraction"]`` is the simulator's own count of that period's samples heard
+    through both fingertips.
+
+    ``acoustic`` defaults here: ``cadence="action"``.
+
+    ## Arguments
+
+    | Parameter | Type | Default | Description |
+    |---|---|---|---|
+    | `objects` | sequence of str or `ObjectSpec` | `("aluminium_bar",)` | candidate targets, one drawn per episode (`"<material>_<shape>"`, an everyday object, `"<file>:<material>"`) |
     """
 
     _acoustic_defaults = {"cadence": "action"}
@@ -46,10 +60,7 @@ class AcousticGraspEnv(AasEnv):
         self.action_space = spaces.Box(-1.0, 1.0, (6,), np.float32)
         self.observation_space = spaces.Dict({**self._proprio_spaces(with_object=True), **self._acoustic_spaces()})
         self._last_acoustic = self._empty_acoustic()
-
-    @property
-    def sense_mode(self) -> str:
-        return self.acoustic.cadence if self.acoustic.enabled else "never"
+        self._hold = GraspHold(self.excitation.period_samples)
 
     def _obs_and_values(self):
         obs, values = self._state_obs(True)
@@ -61,36 +72,30 @@ class AcousticGraspEnv(AasEnv):
         self.hand.teleport(self.data, HOME_TCP, MAX_OPENING_M)
         self.hand.set_grip_force(self._episode_grip_force())
         self._last_acoustic = self._empty_acoustic()
+        self._hold.reset()
         info = self._ground_truth(contacts=True)
         info["grip_force_n"] = self.hand.grip_force_n
         return self._obs_and_values()[0], info
 
     def step(self, action):
-        a = check_action(action, (6,)).tolist()
+        act = decode_grasp_action(action)
         sc = self._scene
-        ctrl, low, high = sc.ctrl, sc.tcp_low, sc.tcp_high
-        target = ctrl[sc.tcp_ctrl].tolist()
-        # Per-step code in plain floats: four numbers do not need numpy's call overhead.
-        for i in range(4):
-            v = target[i] + max(-1.0, min(1.0, a[i])) * MAX_DELTA[i]
-            target[i] = min(max(v, low[i]), high[i])
-        ctrl[sc.tcp_ctrl] = target
-        ctrl[sc.gripper] = MAX_OPENING_M if a[4] > 0 else SQUEEZE_TARGET_M
+        ctrl = sc.ctrl
+        ctrl[sc.tcp_ctrl] = next_tcp_target(ctrl[sc.tcp_ctrl].tolist(), act.tcp_delta, sc.tcp_low, sc.tcp_high)
+        ctrl[sc.gripper] = MAX_OPENING_M if act.open_gripper else SQUEEZE_TARGET_M
         self._simulate()
         grasped = self._is_grasped()
-        mode = self.sense_mode
-        sense = mode == "every_step" or (mode == "action" and a[5] > 0)
+        cadence = self.cadence
         info = {"grasped": grasped, "is_success": False}
-        terminated = False
-        bonus = 0.0
-        if mode == "stream":
+        success = False
+        if cadence == "stream":
             self._last_acoustic = self._stream_entries()
-            heard = self._stream.stream.latest_features_heard
-            info["heard_fraction"] = heard
-            # Success: asked to stop while grasping, after a whole period heard through the grasp.
-            if a[5] > 0 and grasped and heard > 0.99:
-                bonus, terminated, info["is_success"] = 10.0, True, True
-        elif sense:
+            stream = self._stream.stream
+            info["heard_fraction"] = stream.latest_features_heard
+            self._hold.update(grasped, stream.sample_index)
+            success = step_success(cadence, sense=act.sense, grasped=grasped,
+                                   heard_whole_period=self._hold.heard_whole_period(stream.latest_features_period))
+        elif records_this_step(cadence, act.sense):
             acoustic, rec = self._sense()
             self._last_acoustic = acoustic
             info.update(self._ground_truth(contacts=True))
@@ -100,15 +105,12 @@ class AcousticGraspEnv(AasEnv):
             local = rot.T @ (sc.site_xpos[sc.tcp_site] - sc.xpos[sc.target_body])
             info["grasp_position_m"] = float(local[0]) if sc.objects[0].is_prism else \
                 float(position_along_path(sc.objects[0], local))
-            if grasped and info["recording_grasped"] and mode == "action":
-                bonus = 10.0
-                terminated = True
-                info["is_success"] = True
+            success = step_success(cadence, sense=act.sense, grasped=grasped,
+                                   recording_grasped=info["recording_grasped"])
         obs, v = self._obs_and_values()
-        # TCP and object centre from the state vector's named entries.
-        dist = math.sqrt((v[_TCP] - v[_OBJECT]) ** 2 + (v[_TCP + 1] - v[_OBJECT + 1]) ** 2
-                         + (v[_TCP + 2] - v[_OBJECT + 2]) ** 2)
-        reward = -dist + (1.0 if grasped else 0.0) + bonus
+        terms = grasp_reward_terms(tcp_object_distance_m(v[_TCP], v[_OBJECT]), grasped, success)
+        info["is_success"] = success
+        info["reward_terms"] = terms
         if self.render_mode == "human":
             self.render()
-        return obs, float(reward), terminated, False, info
+        return obs, reward_total(terms), success, False, info

@@ -9,7 +9,6 @@ imageio). All randomness comes from ``self.np_random``.
 
 from __future__ import annotations
 
-from collections import OrderedDict
 from collections.abc import Sequence
 
 import gymnasium as gym
@@ -26,10 +25,12 @@ from aas_gym.scenario import (DomainRandomization, choose_objects, default_distr
 from aas_gym.sim_sensor import SensorVariation, SimAcousticSensor
 from aas_gym.sim_stream import SimAcousticStream
 from sensors import LeakRecording, load_leak
-from sensors.task.grasp import (HOME_TCP, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT, STATE_SIZE,
-                                AcousticConfig, check_grip_force, proprio_spaces)
+from sensors._infra.deprecation import warn_deprecated
+from sensors._infra.lru import CACHE_SIZES, LRU
+from sensors.task import (HOME_TCP, LEGACY_KEYWORDS, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT,
+                          STATE_SIZE, AcousticConfig, check_grip_force, proprio_spaces)
 
-__all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "N_FEATURES", "resolve_excitation"]
+__all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "N_FEATURES"]
 
 EXCITATION_NAMES = ("impulse", "linear", "exponential")
 # Where the proprioceptive entries sit in the state vector (sensors.task.grasp.STATE_LAYOUT),
@@ -40,33 +41,6 @@ _MOTOR_FORCE = STATE_LAYOUT["gripper"].stop - 1
 
 
 _LAYOUT_ITEMS = tuple(STATE_LAYOUT.items())
-
-
-def _load_leaks(leak):
-    """Leak recordings loaded at construction, so a missing or foreign file fails at
-    ``gym.make`` naming the file, not at the first reset inside numpy."""
-    if leak is None or isinstance(leak, LeakRecording):
-        return leak
-    if isinstance(leak, dict):
-        return {k: _load_leaks(v) for k, v in leak.items()}
-    try:
-        return load_leak(leak)
-    except FileNotFoundError:
-        raise FileNotFoundError(f"leak file {leak!s} does not exist: record one with `aas real leak` "
-                                "or pass leak=None") from None
-
-
-def resolve_excitation(excitation):
-    """A ``sensors.Excitation`` from an Excitation, a name or a ``to_dict`` dict."""
-    from sensors import Excitation
-
-    if isinstance(excitation, Excitation):
-        return excitation
-    if isinstance(excitation, str):
-        return Excitation.by_name(excitation)
-    if isinstance(excitation, dict):
-        return Excitation.from_dict(excitation)
-    raise TypeError(f"excitation must be a sensors.Excitation, a name {EXCITATION_NAMES} or a dict, got {excitation!r}")
 
 
 class _Scene:
@@ -121,27 +95,51 @@ class _Scene:
         self.state = np.empty(nq + nv)
 
 
-class AasEnv(gym.Env):
-    """Base class: not registered. Subclasses define spaces, ``reset`` and ``step``.
+#: The rows every env's argument table ends with (appended to each env's docstring).
+COMMON_ARGUMENTS = """
+    | `scene` | str | `"single"` | `"single"`: the target alone on the table; `"multi"`: one or two `distractors` lean across its ends (random object contacts) |
+    | `distractors` | sequence of str or `ObjectSpec`, or None | None | objects that may lean on the target; None: the bars of the default objects |
+    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `enabled`; None or missing fields: this env's defaults |
+    | `grip_force_n` | float | 40.0 | nominal grip force [N], in (0, 140] |
+    | `randomization` | `DomainRandomization`, dict of its knobs, None or False | None | domain randomization; None: its defaults; False: none |
+    | `frame_skip` | int | 25 | MuJoCo steps (2 ms) per env step |
+    | `render_mode` | str or None | None | `"rgb_array"`, `"depth_array"` or `"human"` |
+    | `width`, `height` | int | 480, 480 | rendered image size [pixels] |
+    | `camera_name` | str | `"closeup"` | `"closeup"` or `"overview"` |
 
-    Common keyword arguments:
-        objects: candidate target objects (names ``<material>_<shape>`` or ``ObjectSpec``).
-        scene: ``"single"`` (the target alone on the table) or ``"multi"`` (one or two
-            ``distractors`` leaning across the target's ends: random object contacts).
-        excitation: ``sensors.Excitation`` or name (impulse / linear / exponential).
-        duration_s: length of each recording (the paper uses 1 s).
-        grip_force_n: nominal grip force (paper: 40 N).
-        include_waveform: add the raw recording under ``waveform``.
-        randomization: ``DomainRandomization`` (or a dict of its knobs, or ``False`` for none).
-        leak, fingertip: passed to ``SimAcousticSensor``.
-        stream_tolerance: with ``acoustic.cadence="stream"``, when the contacts count as
-            unchanged (``sensors.ContactTolerance``; default its defaults).
-        frame_skip, render_mode, width, height, camera_name: as in Gymnasium's MuJoCo envs.
+    Deprecated (one more release, with a `DeprecationWarning`): the keywords `excitation`,
+    `duration_s`, `include_waveform`, `sense_mode`, `leak`, `fingertip`, `stream_tolerance`
+    beside `acoustic=`; write `acoustic={"excitation": ..., "waveform": ..., "cadence": ...}`.
+"""
+
+
+def _load_leaks(leak):
+    """Leak recordings loaded at construction, so a missing or foreign file fails at
+    ``gym.make`` naming the file, not at the first reset inside numpy."""
+    if leak is None or isinstance(leak, LeakRecording):
+        return leak
+    if isinstance(leak, dict):
+        return {k: _load_leaks(v) for k, v in leak.items()}
+    try:
+        return load_leak(leak)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"leak file {leak!s} does not exist: record one with `aas real leak` "
+                                "or leave acoustic.leak None") from None
+
+
+class AasEnv(gym.Env):
+    """Base class: not registered. Subclasses define spaces, ``reset`` and ``step``; their
+    docstrings carry a table of their own arguments, to which :data:`COMMON_ARGUMENTS`
+    (``scene``, ``distractors``, ``acoustic``, ``grip_force_n``, ``randomization``,
+    ``frame_skip``, ``render_mode``, ``width``, ``height``, ``camera_name``) is appended.
+
+    ``frame_skip``, ``dt``, ``render_mode``, ``width``/``height``/``camera_name`` follow
+    Gymnasium's MuJoCo envs. Every env with a reward reports its terms in
+    ``info["reward_terms"]`` (fixed keys, plain floats, summing to the reward).
     """
 
     # 20 Hz control (timestep 2 ms x frame_skip 25), like Gymnasium's Ant and HalfCheetah.
     metadata = {"render_modes": ["human", "rgb_array", "depth_array"], "render_fps": 20}
-    MAX_CACHED_SCENES = 8
     #: Narrowest grasp a surface target may be held by (0: wall pinches allowed).
     _min_grasp_width_m = 0.0
     #: Distractors only at the target's -x end (tasks that grasp on the +x half).
@@ -153,14 +151,21 @@ class AasEnv(gym.Env):
     #: The acoustic observation's defaults for this task (subclasses override ``cadence``).
     _acoustic_defaults: dict = {}
 
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.__doc__ and "| Parameter |" in cls.__doc__ and COMMON_ARGUMENTS.strip() not in cls.__doc__:
+            cls.__doc__ = cls.__doc__.rstrip() + COMMON_ARGUMENTS
+
     def __init__(self, objects: Sequence[str | ObjectSpec] = DEFAULT_OBJECT_NAMES, *,
                  scene: str = "single", distractors: Sequence[str | ObjectSpec] | None = None,
-                 excitation="linear", acoustic: AcousticConfig | dict | None = None,
-                 grip_force_n: float = DEFAULT_GRIP_FORCE_N, duration_s: float | None = None,
-                 include_waveform: bool | None = None, sense_mode: str | None = None,
+                 acoustic: AcousticConfig | dict | None = None, grip_force_n: float = DEFAULT_GRIP_FORCE_N,
                  randomization=None, frame_skip: int = 25, render_mode: str | None = None,
-                 width: int = 480, height: int = 480, camera_name: str = "closeup",
-                 leak=None, fingertip=None, stream_tolerance=None) -> None:
+                 width: int = 480, height: int = 480, camera_name: str = "closeup", **deprecated) -> None:
+        unknown = sorted(set(deprecated) - set(LEGACY_KEYWORDS))
+        if unknown:
+            raise TypeError(f"{type(self).__name__}() got an unexpected keyword argument {unknown[0]!r}")
+        self.acoustic = AcousticConfig.coerce(acoustic, legacy=deprecated, owner=type(self).__name__,
+                                              **self._acoustic_defaults)
         self.objects = [get_object(o) for o in objects]
         if not self.objects:
             raise ValueError("objects must name at least one object")
@@ -169,11 +174,6 @@ class AasEnv(gym.Env):
         self.scene_kind = scene
         self.distractors = ([get_object(o) for o in distractors] if distractors is not None else
                             default_distractors([get_object(n) for n in DEFAULT_OBJECT_NAMES]))
-        self.excitation = resolve_excitation(excitation)
-        self.acoustic = AcousticConfig.coerce(acoustic, include_waveform=include_waveform, duration_s=duration_s,
-                                              sense_mode=sense_mode, **self._acoustic_defaults)
-        if not (self.acoustic.duration_s >= self.excitation.period_s):
-            raise ValueError(f"duration_s must be at least one excitation period ({self.excitation.period_s} s)")
         self.grip_force_n = check_grip_force(grip_force_n)
         self.randomization = DomainRandomization.coerce(randomization)
         self.frame_skip = int(frame_skip)
@@ -181,11 +181,10 @@ class AasEnv(gym.Env):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
         self.width, self.height, self.camera_name = int(width), int(height), camera_name
-        self.leak, self.fingertip = _load_leaks(leak), fingertip
-        self.stream_tolerance = stream_tolerance
+        self._leaks = _load_leaks(self.acoustic.leak)
         self._variation = SensorVariation()
         self._stream: SimAcousticStream | None = None
-        self._scenes: OrderedDict[tuple, _Scene] = OrderedDict()
+        self._scenes: LRU[_Scene] = LRU(CACHE_SIZES["env.scenes"])
         self._renderer = None
         self._viewer = None
         self._warned_no_display = False
@@ -199,18 +198,36 @@ class AasEnv(gym.Env):
                                  "that it does (the default 25 gives 2205)")
 
     @property
+    def excitation(self):
+        """What the actuator plays (``acoustic.excitation``, a ``sensors.Excitation``)."""
+        return self.acoustic.excitation
+
+    @property
     def duration_s(self) -> float:
         """Length of one recording [s] (``acoustic.duration_s``)."""
         return self.acoustic.duration_s
 
     @property
+    def cadence(self) -> str:
+        """When the env records: ``acoustic.cadence``, or ``"never"`` when the sensor is off."""
+        return self.acoustic.active_cadence
+
+    @property
+    def sense_mode(self) -> str:
+        """Deprecated: :attr:`cadence`."""
+        warn_deprecated(f"{type(self).__name__}.sense_mode", "cadence")
+        return self.cadence
+
+    @property
     def include_waveform(self) -> bool:
+        """Deprecated: ``acoustic.enabled and acoustic.waveform``."""
+        warn_deprecated(f"{type(self).__name__}.include_waveform", "acoustic.waveform")
         return self.acoustic.enabled and self.acoustic.waveform
 
     @property
     def n_samples(self) -> int:
         """Samples in one recording."""
-        return self.acoustic.n_samples(self.excitation.sample_rate_hz)
+        return self.acoustic.n_samples
 
     @property
     def step_samples(self) -> int:
@@ -246,18 +263,15 @@ class AasEnv(gym.Env):
 
     # --- scenes -----------------------------------------------------------------------------
     def _get_scene(self, objects: tuple[ObjectSpec, ...]) -> _Scene:
-        if objects in self._scenes:
-            self._scenes.move_to_end(objects)
-        else:
-            self._scenes[objects] = _Scene(objects, contact_signature=self.acoustic.streaming)
-            self._scenes[objects].sensor.leak = self.leak
-            self._scenes[objects].sensor.fingertip = self.fingertip
-            while len(self._scenes) > self.MAX_CACHED_SCENES:
-                self._scenes.popitem(last=False)
-        scene = self._scenes[objects]
+        scene = self._scenes.get_or_build(objects, lambda: self._new_scene(objects))
         if scene is not getattr(self, "_scene", None):
             self._close_renderers()  # renderers are bound to one model
         self._scene = scene
+        return scene
+
+    def _new_scene(self, objects: tuple[ObjectSpec, ...]) -> _Scene:
+        scene = _Scene(objects, contact_signature=self.acoustic.streaming)
+        scene.sensor.leak, scene.sensor.fingertip = self._leaks, self.acoustic.fingertip
         return scene
 
     @property
@@ -342,7 +356,7 @@ class AasEnv(gym.Env):
         return proprio_spaces(with_object)
 
     def _acoustic_spaces(self) -> dict:
-        return self.acoustic.spaces(self.excitation.sample_rate_hz, self.audio_samples)
+        return self.acoustic.spaces(self.audio_samples)
 
     def _state_obs(self, with_object: bool) -> tuple[dict, np.ndarray]:
         """Proprioception (``tcp``, ``tcp_velocity``, ``gripper`` = opening [m], opening speed
@@ -374,12 +388,12 @@ class AasEnv(gym.Env):
         return self.acoustic.entries(rec), rec
 
     def _empty_acoustic(self) -> dict:
-        return self.acoustic.empty(self.excitation.sample_rate_hz, self.audio_samples)
+        return self.acoustic.empty(self.audio_samples)
 
     # --- streaming --------------------------------------------------------------------------
     def _new_stream(self, excitation=None) -> SimAcousticStream:
         return SimAcousticStream(self.sensor, self.excitation if excitation is None else excitation,
-                                 variation=self._variation, rng=self.np_random, tolerance=self.stream_tolerance)
+                                 variation=self._variation, rng=self.np_random, tolerance=self.acoustic.stream_tolerance)
 
     def _simulate(self) -> None:
         """One env step of physics (``frame_skip`` MuJoCo steps); streamed, the microphone

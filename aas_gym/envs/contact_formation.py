@@ -18,7 +18,7 @@ from aas_gym.envs.base import AasEnv
 from aas_gym.grasp import planar_grasp
 from aas_gym.scenario import place_beside, settle
 from aas_gym.scene import ObjectSpec
-from sensors.task.grasp import HOME_TCP, MAX_OPENING_M, check_action
+from sensors.task import HOME_TCP, MAX_OPENING_M, check_action
 from sensors.synthesis.stream import ContactTolerance
 
 #: The classes, in action order: held in the air, touching the table, touching the other object.
@@ -74,20 +74,30 @@ class ContactFormationEnv(AasEnv):
     ``acoustic.feature_scale``, zeros during the first period) and ``audio`` (the samples of
     this step); by default the microphone streams (``acoustic.cadence="stream"``). With
     ``acoustic={"enabled": False}`` the observation is proprioception only.
-    Reward: 1 when the report matches the formation after the step, else 0.
+    Reward (``info["reward_terms"]``: ``report``): 1 when the report matches the formation
+    after the step, else 0.
     ``info``: ``formation`` / ``formation_index`` (ground truth from the contact forces of
     the target: table, plinth, or neither), ``segment`` (the script's current kind), the
     external forces ``table_force_n`` and ``object_force_n``, ``grasped``.
+
+    ``scene`` is not accepted (the env builds its own). ``acoustic`` defaults here:
+    ``cadence="stream"``, ``feature_scale="db"``, ``stream_tolerance=MOVING_TOLERANCE``.
+
+    ## Arguments
+
+    | Parameter | Type | Default | Description |
+    |---|---|---|---|
+    | `objects` | sequence of str or `ObjectSpec` | `("aluminium_bar", "steel_bar", "wood_bar")` | candidate held objects, one drawn per episode |
+    | `plinths` | sequence of str or `ObjectSpec` | `("aluminium_bar", "steel_bar", "wood_bar")` | the other object beside it, drawn among those that are not the target |
     """
 
-    _acoustic_defaults = {"cadence": "stream", "feature_scale": "db"}
+    _acoustic_defaults = {"cadence": "stream", "feature_scale": "db", "stream_tolerance": MOVING_TOLERANCE}
 
     def __init__(self, objects=("aluminium_bar", "steel_bar", "wood_bar"), *,
-                 plinths=("aluminium_bar", "steel_bar", "wood_bar"), stream_tolerance=MOVING_TOLERANCE,
-                 **kwargs) -> None:
+                 plinths=("aluminium_bar", "steel_bar", "wood_bar"), **kwargs) -> None:
         if "scene" in kwargs:
             raise ValueError("ContactFormation-v0 builds its own scene (target beside a plinth); drop scene=")
-        super().__init__(objects, scene="multi", distractors=plinths, stream_tolerance=stream_tolerance, **kwargs)
+        super().__init__(objects, scene="multi", distractors=plinths, **kwargs)
         self.action_space = spaces.Discrete(len(FORMATIONS))
         self.observation_space = spaces.Dict({**self._proprio_spaces(), **self._acoustic_spaces()})
 
@@ -181,7 +191,8 @@ class ContactFormationEnv(AasEnv):
             self._last_acoustic = self._stream_entries()
         truth = self._truth()
         reward = 1.0 if report == truth["formation_index"] else 0.0
-        info = dict(truth, segment=self._script[self._segment].kind, grasped=self._is_grasped(), report=report)
+        info = dict(truth, segment=self._script[self._segment].kind, grasped=self._is_grasped(), report=report,
+                    reward_terms={"report": reward})
         if self.render_mode == "human":
             self.render()
         return self._obs(), reward, False, False, info

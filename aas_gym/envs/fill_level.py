@@ -7,7 +7,7 @@ import numpy as np
 from gymnasium import spaces
 
 from aas_gym.envs.base import AasEnv
-from sensors.task.grasp import check_action
+from sensors.task import check_action
 
 TASKS = ("fill", "liquid")
 #: The everyday containers a liquid can fill (``sensors.fluid.model``).
@@ -32,7 +32,20 @@ class FillLevelEnv(AasEnv):
     onto 0 .. 1; reward minus the absolute error. Task ``"liquid"``: the interval cut into
     ``len(liquids)`` equal bins, one per liquid; reward 1 if right, else 0. One step.
     ``info``: ``fill_fraction``, ``liquid``, ``liquid_index``, ``liquid_mass_kg``, label,
-    grasp, contacts.
+    grasp, contacts, ``reward_terms`` (``error`` for task ``"fill"``, ``answer`` for
+    ``"liquid"``).
+
+    ``acoustic``: every episode records once, through its grasp, whatever the cadence.
+
+    ## Arguments
+
+    | Parameter | Type | Default | Description |
+    |---|---|---|---|
+    | `objects` | sequence of str or `ObjectSpec` | `("mug",)` | candidate containers (`mug`, `glass`, `can`, `bottle`, any material) |
+    | `task` | str | `"fill"` | `"fill"`: estimate the fill fraction; `"liquid"`: name the liquid |
+    | `liquids` | sequence of str or float | `("water",)` | candidate liquids (`"water"`, `"oil"`, `"honey"`, `"ethanol"` or a density [kg/m^3]) |
+    | `fill_range` | (float, float) | (0.0, 0.9) | task `"fill"`: the fill fraction is drawn uniformly in it |
+    | `fill_fraction` | float | 0.6 | task `"liquid"`: the fill fraction of every episode |
     """
 
     _step_is_probe = True
@@ -162,7 +175,9 @@ class FillLevelEnv(AasEnv):
         if self.task == "fill":
             error = abs(estimate - self._truth["fill_fraction"])
             info["abs_error"] = error
+            info["reward_terms"] = {"error": -error}
             return obs, -error, True, False, info
         correct = estimate == self._truth["liquid_index"]
         info["is_success"] = correct
+        info["reward_terms"] = {"answer": 1.0 if correct else 0.0}
         return obs, 1.0 if correct else 0.0, True, False, info

@@ -6,7 +6,7 @@ import numpy as np
 from gymnasium import spaces
 
 from aas_gym.envs.base import AasEnv
-from sensors.task.grasp import check_action
+from sensors.task import check_action
 
 ACTION_FORMATS = ("normalized", "metres")
 
@@ -26,9 +26,21 @@ class GraspPositionEnv(AasEnv):
     Action (Box, 1): the estimated grasp position. ``action_format="normalized"`` (default,
     what Stable-Baselines3 expects): -1 .. 1 maps linearly onto 0 .. the last position [m];
     ``"metres"``: the position in metres from the centre, Box(0, last position).
-    Reward: minus the absolute error [m]; the episode ends after the estimate.
+    Reward (``info["reward_terms"]``: ``error``): minus the absolute error [m]; the episode
+    ends after the estimate.
     ``info``: ``grasp_position_m`` (true, including the randomized placement error),
     ``position_index``, label, material, shape, object pose, contacts.
+
+    ``acoustic``: every episode records once, through its grasp, whatever the cadence.
+
+    ## Arguments
+
+    | Parameter | Type | Default | Description |
+    |---|---|---|---|
+    | `objects` | sequence of str or `ObjectSpec` | `("wood_bar",)` | candidate objects, one drawn per episode |
+    | `n_positions` | int | 13 | grasp positions along the +x half of the main axis (paper: 13) |
+    | `spacing_m` | float | 0.005 | distance between neighbouring positions [m] |
+    | `action_format` | str | `"normalized"` | `"normalized"`: Box(1) in [-1, 1] onto 0 .. the last position; `"metres"`: the position [m] |
     """
 
     _far_end_only = True
@@ -84,5 +96,6 @@ class GraspPositionEnv(AasEnv):
         error = abs(estimate - self._true_position)
         obs = self._proprio()
         obs.update(self._empty_acoustic())
-        info = {"grasp_position_m": self._true_position, "estimate_m": estimate, "abs_error_m": error}
+        info = {"grasp_position_m": self._true_position, "estimate_m": estimate, "abs_error_m": error,
+                "reward_terms": {"error": -error}}
         return obs, -error, True, False, info

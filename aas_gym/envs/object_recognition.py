@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 from gymnasium import spaces
 
-from aas_gym.envs.base import EXCITATION_NAMES, AasEnv, resolve_excitation
+from aas_gym.envs.base import EXCITATION_NAMES, AasEnv
 from aas_gym.scene import DEFAULT_OBJECT_NAMES
-from sensors.task.grasp import check_action
+from sensors.task import check_action, resolve_excitation
 
 ACTION_FORMATS = ("box", "dict")
 _DICT_KEYS = ("command", "position", "excitation", "label")
@@ -27,9 +27,22 @@ class ObjectRecognitionEnv(AasEnv):
     Observation (Dict): proprioception, ``acoustic`` (140-d, latest probe), ``waveform``
     (optional), ``probe`` (position fraction and excitation one-hot of the latest probe),
     ``n_probes``.
-    Reward: ``-probe_cost`` per probe; on answer 1 if correct else 0, and the episode ends.
+    Reward (``info["reward_terms"]``: ``probe``, ``answer``): ``-probe_cost`` per probe; on
+    answer 1 if correct else 0, and the episode ends.
     With ``scene="multi"`` other objects lie across one end of the target (random contacts).
     ``info``: true ``label`` / ``label_index``, material, shape, grasp position, contacts.
+
+    ``acoustic`` defaults here: ``cadence="every_step"`` (every probe records, with the
+    excitation the action chooses; ``acoustic.excitation`` is not used).
+
+    ## Arguments
+
+    | Parameter | Type | Default | Description |
+    |---|---|---|---|
+    | `objects` | sequence of str or `ObjectSpec`, or None | None | the candidate objects, one per label; None: the paper's seven |
+    | `probe_cost` | float | 0.01 | reward subtracted per probe |
+    | `max_position_m` | float | 0.05 | a prism's grasp position for the position entry 1 [m] |
+    | `action_format` | str | `"box"` | `"box"`: Box(4) in [-1, 1]; `"dict"`: the Dict action |
     """
 
     _acoustic_defaults = {"cadence": "every_step"}
@@ -105,6 +118,7 @@ class ObjectRecognitionEnv(AasEnv):
             correct = guess == self._label_index
             info = {"label": self.labels[self._label_index], "label_index": self._label_index,
                     "guess": guess, "is_success": correct}
+            info["reward_terms"] = {"probe": 0.0, "answer": 1.0 if correct else 0.0}
             return self._obs(), 1.0 if correct else 0.0, True, False, info
         target = self._scene.objects[0]
         if target.is_prism:
@@ -119,7 +133,8 @@ class ObjectRecognitionEnv(AasEnv):
         self._n_probes += 1
         info = self._ground_truth(contacts=True)
         info.update(grasp, label_index=self._label_index, excitation=EXCITATION_NAMES[e],
-                    recording_grasped=bool(rec.metadata.get("grasped", False)))
+                    recording_grasped=bool(rec.metadata.get("grasped", False)),
+                    reward_terms={"probe": -self.probe_cost, "answer": 0.0})
         if self.render_mode == "human":
             self.render()
         return self._obs(), -self.probe_cost, False, False, info

@@ -15,6 +15,8 @@ import math
 
 import numpy as np
 
+from .._infra.deprecation import renamed_keywords
+
 DEFAULT_F_MIN_HZ = 3000.0
 DEFAULT_F_MAX_HZ = 10000.0
 DEFAULT_STEP_HZ = 50.0
@@ -72,6 +74,7 @@ def _validate_fs(sample_rate_hz: float, f_needed_hz: float) -> float:
     return sample_rate_hz
 
 
+@renamed_keywords({"fs": "sample_rate_hz"})
 def segment(waveform: np.ndarray, sample_rate_hz: float, period_s: float = 0.5, start_s: float = 0.0) -> np.ndarray:
     """Windows of one excitation period, shape ``(n_windows, window_samples)``.
 
@@ -113,6 +116,7 @@ def _amplitude_at(windows: np.ndarray, sample_rate_hz: float, freqs_hz: np.ndarr
     return 2.0 * np.abs(spectrum) / length
 
 
+@renamed_keywords({"fs": "sample_rate_hz"})
 def spectral_features(
     waveform: np.ndarray,
     sample_rate_hz: float = 44100,
@@ -166,6 +170,7 @@ def scale_features(amplitude: np.ndarray, scale: str = "linear") -> np.ndarray:
     raise ValueError(f"feature scale must be one of {FEATURE_SCALES}, got {scale!r}")
 
 
+@renamed_keywords({"fs": "sample_rate_hz"})
 def amplitude_spectrum(
     waveform: np.ndarray, sample_rate_hz: float = 44100, *, period_s: float = 0.5, start_s: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray]:

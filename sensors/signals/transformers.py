@@ -8,6 +8,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from .._infra.deprecation import renamed_keywords
 from .features import (DEFAULT_F_MAX_HZ, DEFAULT_F_MIN_HZ, DEFAULT_STEP_HZ, FEATURE_SCALES, feature_frequencies_hz,
                        scale_features, spectral_features)
 
@@ -31,6 +32,7 @@ class SpectralFeatures(TransformerMixin, BaseEstimator):
             same, so features from a pipeline and from an env agree.
     """
 
+    @renamed_keywords({"fs": "sample_rate_hz"})
     def __init__(self, sample_rate_hz=44100, period_s=0.5, start_s=0.0, f_min_hz=DEFAULT_F_MIN_HZ,
                  f_max_hz=DEFAULT_F_MAX_HZ, step_hz=DEFAULT_STEP_HZ, scale="linear"):
         self.sample_rate_hz = sample_rate_hz

@@ -1,0 +1,262 @@
+"""How an env exposes the acoustic sensor: one :class:`AcousticConfig` for every simulated env
+and for ``real.RealGraspEnv``, and the one place that still reads the old spellings of its
+fields (keywords beside ``acoustic=``), with a deprecation warning each.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .._infra.deprecation import warn_deprecated
+from ..signals.excitation import KINDS, Excitation
+from ..signals.features import FEATURE_SCALES, feature_frequencies_hz, scale_features
+from ..signals.leak import LeakRecording
+from ..synthesis.fingertip import FingertipModel
+from ..synthesis.stream import ContactTolerance
+
+__all__ = ["AcousticConfig", "CADENCES", "LEGACY_KEYWORDS", "N_FEATURES", "resolve_excitation"]
+
+#: Length of the spectral feature vector (3-10 kHz in 50 Hz steps).
+N_FEATURES = int(feature_frequencies_hz().size)
+
+CADENCES = ("action", "every_step", "never", "stream")
+
+#: Keywords the envs took beside ``acoustic=`` before it held them: old keyword -> field.
+#: Accepted for one more release with a ``DeprecationWarning``.
+LEGACY_KEYWORDS = {"excitation": "excitation", "duration_s": "duration_s", "include_waveform": "waveform",
+                   "sense_mode": "cadence", "leak": "leak", "fingertip": "fingertip",
+                   "stream_tolerance": "stream_tolerance"}
+
+
+def resolve_excitation(excitation: Excitation | str | dict) -> Excitation:
+    """A ``sensors.Excitation`` from an Excitation, a name or a ``to_dict`` dict."""
+    if isinstance(excitation, Excitation):
+        return excitation
+    if isinstance(excitation, str):
+        return Excitation.by_name(excitation)
+    if isinstance(excitation, dict):
+        return Excitation.from_dict(excitation)
+    raise TypeError(f"excitation must be a sensors.Excitation, a name {KINDS} or a dict, got {excitation!r}")
+
+
+def _check_leak(leak: Any) -> None:
+    if leak is None or isinstance(leak, (str, os.PathLike, LeakRecording)):
+        return
+    if isinstance(leak, dict):
+        for value in leak.values():
+            _check_leak(value)
+        return
+    raise TypeError(f"leak must be a sensors.LeakRecording, an .npz path, a dict of them by excitation name, "
+                    f"or None, got {type(leak).__name__}")
+
+
+def _leak_key(leak: Any):
+    """What identifies a leak for equality: a path by its text, a recording by identity (its
+    arrays have no single truth value)."""
+    if leak is None or isinstance(leak, (str, os.PathLike)):
+        return None if leak is None else os.fspath(leak)
+    if isinstance(leak, dict):
+        return tuple(sorted((str(k), _leak_key(v)) for k, v in leak.items()))
+    return ("recording", id(leak))
+
+
+@dataclass(frozen=True, eq=False)
+class AcousticConfig:
+    """How an env exposes the acoustic sensor: one configuration for every simulated env and
+    for ``real.RealGraspEnv`` (as dm_control's observables: off until enabled, with noise as a
+    separate corruption of the recording). Pass it, or a dict of its fields, as ``acoustic=``.
+
+    Attributes:
+        enabled: record at all; ``False`` drops the acoustic entries from the observation
+            and costs nothing per step.
+        cadence: ``"action"`` (record when the policy asks), ``"every_step"``, ``"never"`` or
+            ``"stream"``: the microphone records without a break while the robot moves, the
+            excitation looping; each step returns the samples recorded during it under
+            ``audio`` and the features of the latest complete excitation period under
+            ``acoustic`` (zeros until one is complete). Envs whose actions are probes
+            (recognition, grasp position) record every step; streamed, a probe's ``audio`` is
+            the ``duration_s`` the hand holds the grasp.
+        waveform: add the raw recording (``waveform``, padded or cut to ``duration_s``).
+        feature_scale: how the 140 features are scaled: ``"linear"`` (amplitudes, 1e-7 to
+            1e-4), ``"db"`` (level relative to 1e-6, tens of dB) or ``"normalized"`` (unit
+            norm); see :func:`sensors.signals.features.scale_features`. A policy network next to
+            proprioception of order 1 needs ``"db"`` or ``"normalized"``.
+        noise_std: std of additive microphone noise in waveform units (simulation only; the
+            real microphone brings its own).
+        duration_s: length of one recording [s], at least one excitation period.
+        excitation: what the actuator plays: a ``sensors.Excitation``, a name (``"impulse"``,
+            ``"linear"``, ``"exponential"``) or its ``to_dict`` dict; held as an Excitation.
+        leak: simulation only: the rig's actuator-to-microphone leak added to every recording,
+            a ``sensors.LeakRecording``, its ``.npz`` path, or a dict of them by excitation name
+            (``aas real leak`` records them); ``None``: no leak.
+        fingertip: simulation only: the lumped exciter/fingertip drive
+            (``sensors.FingertipModel``); ``None``: its defaults at the env's grip force.
+        stream_tolerance: simulation only, with ``cadence="stream"``: when contacts count as
+            unchanged (``sensors.ContactTolerance``); ``None``: its defaults.
+    """
+
+    enabled: bool = True
+    cadence: str = "action"
+    waveform: bool = False
+    feature_scale: str = "linear"
+    noise_std: float = 0.0
+    duration_s: float = 1.0
+    excitation: Excitation = "linear"  # type: ignore[assignment]  # resolved in __post_init__
+    leak: Any = None
+    fingertip: FingertipModel | None = None
+    stream_tolerance: ContactTolerance | None = None
+
+    def __post_init__(self) -> None:
+        if self.cadence not in CADENCES:
+            raise ValueError(f"cadence must be one of {CADENCES}, got {self.cadence!r}")
+        if self.feature_scale not in FEATURE_SCALES:
+            raise ValueError(f"feature_scale must be one of {FEATURE_SCALES}, got {self.feature_scale!r}")
+        if not (math.isfinite(self.noise_std) and self.noise_std >= 0):
+            raise ValueError(f"noise_std must be >= 0, got {self.noise_std!r}")
+        if not (math.isfinite(self.duration_s) and self.duration_s > 0):
+            raise ValueError(f"duration_s must be > 0 s, got {self.duration_s!r}")
+        if self.cadence == "stream" and self.waveform:
+            raise ValueError("waveform=True is for per-action recordings; a streamed observation "
+                             "carries its samples under 'audio'")
+        object.__setattr__(self, "excitation", resolve_excitation(self.excitation))
+        if not self.duration_s >= self.excitation.period_s:
+            raise ValueError(f"duration_s must be at least one excitation period ({self.excitation.period_s} s)")
+        _check_leak(self.leak)
+        if self.fingertip is not None and not isinstance(self.fingertip, FingertipModel):
+            raise TypeError(f"fingertip must be a sensors.FingertipModel or None, got {type(self.fingertip).__name__}")
+        if self.stream_tolerance is not None and not isinstance(self.stream_tolerance, ContactTolerance):
+            raise TypeError("stream_tolerance must be a sensors.ContactTolerance or None, "
+                            f"got {type(self.stream_tolerance).__name__}")
+
+    def _key(self) -> tuple:
+        return (self.enabled, self.cadence, self.waveform, self.feature_scale, self.noise_std, self.duration_s,
+                self.excitation, _leak_key(self.leak), self.fingertip, self.stream_tolerance)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, AcousticConfig):
+            return NotImplemented
+        return self._key() == other._key()
+
+    def __hash__(self) -> int:
+        return hash(self._key())
+
+    @classmethod
+    def coerce(cls, value: "AcousticConfig | dict | None" = None, *, legacy: dict[str, Any] | None = None,
+               owner: str = "the env", **defaults: Any) -> "AcousticConfig":
+        """The env's config from ``acoustic=`` (``None``, a dict of fields or a config).
+
+        ``legacy``: the old keywords the caller received beside ``acoustic=`` (names in
+        :data:`LEGACY_KEYWORDS`); each warns (``DeprecationWarning``, naming ``owner``) and
+        sets its field, ``None`` leaving it unset; one that contradicts ``acoustic=`` is a
+        ``ValueError``. ``defaults`` are the env's own defaults for fields nobody set."""
+        if value is None:
+            fields: dict[str, Any] = {}
+        elif isinstance(value, cls):
+            fields = {f: getattr(value, f) for f in cls.__dataclass_fields__}
+        elif isinstance(value, dict):
+            unknown = sorted(set(value) - set(cls.__dataclass_fields__))
+            if unknown:
+                raise TypeError(f"acoustic has no field(s) {unknown}; fields: {list(cls.__dataclass_fields__)}")
+            fields = dict(value)
+        else:
+            raise TypeError(f"acoustic must be an AcousticConfig, a dict or None, got {type(value).__name__}")
+        for old, given in (legacy or {}).items():
+            name = LEGACY_KEYWORDS[old]
+            warn_deprecated(f"{owner}({old}=...)", f"acoustic={{{name!r}: ...}}")
+            if given is None:
+                continue
+            if name in fields and value is not None and not _same(fields[name], given, name):
+                raise ValueError(f"acoustic.{name}={fields[name]!r} contradicts the keyword {old}={given!r}")
+            fields[name] = given
+        return cls(**{**defaults, **fields})
+
+    @property
+    def active_cadence(self) -> str:
+        """The cadence in effect: ``"never"`` when disabled (nothing is recorded), else
+        :attr:`cadence`."""
+        return self.cadence if self.enabled else "never"
+
+    @property
+    def streaming(self) -> bool:
+        """Enabled with cadence ``"stream"``."""
+        return self.enabled and self.cadence == "stream"
+
+    @property
+    def sample_rate_hz(self) -> int:
+        """The excitation's sample rate [Hz]: the recordings'."""
+        return self.excitation.sample_rate_hz
+
+    @property
+    def n_samples(self) -> int:
+        """Samples in one recording."""
+        return int(round(self.duration_s * self.excitation.sample_rate_hz))
+
+    def scale_features(self, features: np.ndarray) -> np.ndarray:
+        """The amplitude features in this config's ``feature_scale`` (float32)."""
+        return scale_features(features, self.feature_scale).astype(np.float32)
+
+    def spaces(self, audio_samples: int | None = None) -> dict:
+        """The acoustic entries of the observation space (empty when disabled);
+        ``audio_samples``: the length of a streamed step's ``audio``."""
+        from gymnasium import spaces  # only env builders need gymnasium
+
+        if not self.enabled:
+            return {}
+        low = -np.inf if self.feature_scale == "db" else 0.0
+        out = {"acoustic": spaces.Box(low, np.inf, (N_FEATURES,), np.float32)}
+        if self.waveform:
+            out["waveform"] = spaces.Box(-np.inf, np.inf, (self.n_samples,), np.float32)
+        if self.streaming:
+            out["audio"] = spaces.Box(-np.inf, np.inf, (self._audio_samples(audio_samples),), np.float32)
+        return out
+
+    def empty(self, audio_samples: int | None = None) -> dict[str, np.ndarray]:
+        """The acoustic entries before the first recording: zeros."""
+        if not self.enabled:
+            return {}
+        out = {"acoustic": self.scale_features(np.zeros(N_FEATURES))}
+        if self.waveform:
+            out["waveform"] = np.zeros(self.n_samples, np.float32)
+        if self.streaming:
+            out["audio"] = np.zeros(self._audio_samples(audio_samples), np.float32)
+        return out
+
+    def stream_entries(self, features: np.ndarray | None, audio: np.ndarray) -> dict[str, np.ndarray]:
+        """The streamed entries: the latest complete period's features (zeros before one)
+        and this step's samples."""
+        f = np.zeros(N_FEATURES) if features is None else features
+        return {"acoustic": self.scale_features(f), "audio": np.asarray(audio, np.float32)}
+
+    @staticmethod
+    def _audio_samples(audio_samples: int | None) -> int:
+        if audio_samples is None or int(audio_samples) < 1:
+            raise ValueError("a streaming env must say how many samples one step records (audio_samples)")
+        return int(audio_samples)
+
+    def entries(self, recording) -> dict[str, np.ndarray]:
+        """The acoustic entries of a ``sensors.AcousticObservation``: its features and, with
+        ``waveform``, its samples zero-padded or cut to ``duration_s``."""
+        if not self.enabled:
+            return {}
+        out = {"acoustic": self.scale_features(recording.features())}
+        if self.waveform:
+            n = int(round(self.duration_s * recording.sample_rate_hz))
+            w = np.zeros(n, np.float32)
+            m = min(n, recording.waveform.size)
+            w[:m] = recording.waveform[:m]
+            out["waveform"] = w
+        return out
+
+
+def _same(a: Any, b: Any, field: str) -> bool:
+    """Whether two values of a field say the same (an excitation by name or object alike)."""
+    if field == "excitation":
+        return resolve_excitation(a) == resolve_excitation(b)
+    if field == "leak":
+        return _leak_key(a) == _leak_key(b)
+    return a == b
