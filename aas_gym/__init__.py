@@ -12,14 +12,14 @@ import os
 import sys
 
 
-def _has_display() -> bool:
+def has_display() -> bool:
     """Whether a window can be opened (macOS/Windows always; Linux needs X11 or Wayland)."""
     if not sys.platform.startswith("linux"):
         return True
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
-if "MUJOCO_GL" not in os.environ and not _has_display():
+if "MUJOCO_GL" not in os.environ and not has_display():
     os.environ["MUJOCO_GL"] = "egl"
 
 import gymnasium as _gym

@@ -93,7 +93,7 @@ def _pactl(runtime_dir: Path, *args: str, check: bool = True, timeout_s: float =
     return proc
 
 
-def _pid(runtime_dir: Path) -> int | None:
+def server_pid(runtime_dir: Path) -> int | None:
     try:
         pid = int((runtime_dir / "pulse" / "pid").read_text().strip())
     except (OSError, ValueError):
@@ -187,7 +187,7 @@ def start_loopback(sink: str = DEFAULT_SINK, sample_rate_hz: int = DEFAULT_FS, c
                                     f"{proc.stderr.strip()} {tail}")
             time.sleep(0.05)
     load_sink(sink, sample_rate_hz, channels, runtime_dir)
-    pid = _pid(runtime_dir)
+    pid = server_pid(runtime_dir)
     lb = Loopback(runtime_dir=runtime_dir, server=f"unix:{runtime_dir / 'pulse' / 'native'}",
                   sink=sink, source=f"{sink}.monitor", pid=pid or -1)
     if set_environ:
@@ -200,12 +200,12 @@ def _clear_stale_server(runtime_dir: Path, timeout_s: float = 5.0) -> None:
     to go, then remove its pid file and socket, which would make the next start fail with
     "Daemon already running"."""
     deadline = time.monotonic() + timeout_s
-    while _pid(runtime_dir) is not None and not is_running(runtime_dir) and time.monotonic() < deadline:
+    while server_pid(runtime_dir) is not None and not is_running(runtime_dir) and time.monotonic() < deadline:
         time.sleep(0.05)  # still shutting down
-    pid = _pid(runtime_dir)
+    pid = server_pid(runtime_dir)
     if pid is not None and not is_running(runtime_dir):
         os.kill(pid, signal.SIGKILL)  # alive but not answering: it will never serve again
-        while _pid(runtime_dir) is not None and time.monotonic() < deadline + timeout_s:
+        while server_pid(runtime_dir) is not None and time.monotonic() < deadline + timeout_s:
             time.sleep(0.05)
     for stale in (runtime_dir / "pulse" / "pid", runtime_dir / "pulse" / "native"):
         with contextlib.suppress(FileNotFoundError):
@@ -215,14 +215,14 @@ def _clear_stale_server(runtime_dir: Path, timeout_s: float = 5.0) -> None:
 def stop_loopback(runtime_dir: str | os.PathLike | None = None, timeout_s: float = 5.0) -> bool:
     """Stop the loopback's server (only that one, by its pid file). Returns True if one ran."""
     runtime_dir = Path(runtime_dir) if runtime_dir else default_runtime_dir()
-    pid = _pid(runtime_dir)
+    pid = server_pid(runtime_dir)
     if pid is None:
         return False
     os.kill(pid, signal.SIGTERM)
     deadline = time.monotonic() + timeout_s
-    while _pid(runtime_dir) is not None and time.monotonic() < deadline:
+    while server_pid(runtime_dir) is not None and time.monotonic() < deadline:
         time.sleep(0.05)
-    if _pid(runtime_dir) is not None:
+    if server_pid(runtime_dir) is not None:
         os.kill(pid, signal.SIGKILL)
     return True
 

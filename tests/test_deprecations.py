@@ -106,22 +106,22 @@ def test_a_legacy_keyword_that_contradicts_acoustic_is_refused_and_an_unknown_on
 
 def test_real_env_keywords_warn_and_equal_the_acoustic_fields():
     from real.env import RealGraspEnv
-    from test_real_env import _CommandLog, _Recorder
+    from test_real_env import CommandLog, Recorder
 
     old = {"excitation": "impulse", "duration_s": 0.5, "include_waveform": True, "sense_mode": "every_step"}
     with pytest.warns(DeprecationWarning) as rec:
-        a = RealGraspEnv(_CommandLog(), _Recorder(), **old)
+        a = RealGraspEnv(CommandLog(), Recorder(), **old)
     assert sorted(str(w.message).split("(")[1].split("=")[0] for w in rec) == sorted(old)
     assert all(w.filename == __file__ for w in rec)
     with warnings.catch_warnings():
         warnings.simplefilter("error", DeprecationWarning)
-        b = RealGraspEnv(_CommandLog(), _Recorder(), acoustic={"excitation": "impulse", "duration_s": 0.5,
+        b = RealGraspEnv(CommandLog(), Recorder(), acoustic={"excitation": "impulse", "duration_s": 0.5,
                                                                  "waveform": True, "cadence": "every_step"})
     assert a.acoustic == b.acoustic and a.observation_space == b.observation_space
     with pytest.warns(DeprecationWarning, match="RealGraspEnv.sense_mode"):
         assert a.sense_mode == "every_step"
     with pytest.raises(TypeError, match="unexpected keyword argument 'leak'"):
-        RealGraspEnv(_CommandLog(), _Recorder(), leak=None)
+        RealGraspEnv(CommandLog(), Recorder(), leak=None)
 
 
 @pytest.mark.parametrize("name", ["spectral_features", "amplitude_spectrum"])

@@ -15,7 +15,7 @@ from real.env import RealGraspEnv, RobotInterface, RobotState  # noqa: E402
 from scripted_policy import reach_and_grasp, reach_until_grasped  # noqa: E402
 
 
-class _Recorder:
+class Recorder:
     """A minimal AcousticSensor for the non-audio tests: it says what it was asked."""
 
     def __init__(self):
@@ -39,7 +39,7 @@ def robot():
 def test_spaces_equal_the_simulated_env(robot):
     assert isinstance(robot, RobotInterface)
     for acoustic in ({}, {"waveform": True}):
-        env = RealGraspEnv(robot, _Recorder(), acoustic=acoustic)
+        env = RealGraspEnv(robot, Recorder(), acoustic=acoustic)
         sim = gym.make("aas_gym/AcousticGrasp-v0", acoustic={"cadence": "never", **acoustic})
         assert env.observation_space == sim.observation_space
         assert env.action_space == sim.action_space
@@ -48,13 +48,13 @@ def test_spaces_equal_the_simulated_env(robot):
 
 def test_bad_robot_or_sensor_is_refused():
     with pytest.raises(TypeError, match="missing \\['grasp', 'open', 'state'\\]"):
-        RealGraspEnv(type("R", (), {"move": lambda self, tcp, d: None})(), _Recorder())
+        RealGraspEnv(type("R", (), {"move": lambda self, tcp, d: None})(), Recorder())
     with pytest.raises(TypeError, match="AcousticSensor"):
         RealGraspEnv(MujocoRobot.__new__(MujocoRobot), object())
 
 
 def test_episode_logic_without_audio(robot):
-    sensor = _Recorder()
+    sensor = Recorder()
     env = RealGraspEnv(robot, sensor, acoustic={"excitation": "impulse", "duration_s": 0.5, "waveform": True})
     obs, info = env.reset(seed=0)
     assert env.observation_space.contains(obs) and not info["grasped"]
@@ -74,7 +74,7 @@ def test_the_simulated_and_the_real_env_share_the_task_rules(robot):
     RealGraspEnv on the MuJoCo robot: the same trajectory, reward terms and success step
     (the object pose differs by MuJoCo's one-step lag of body positions, micrometres)."""
     sim = gym.make("aas_gym/AcousticGrasp-v0", randomization=False, acoustic={"duration_s": 0.5})
-    env = RealGraspEnv(robot, _Recorder(), acoustic={"duration_s": 0.5})
+    env = RealGraspEnv(robot, Recorder(), acoustic={"duration_s": 0.5})
 
     class Log:  # the scripted policy's actions on the simulated env
         actions = []
@@ -111,11 +111,11 @@ def test_robot_state_fields(robot):
 def test_check_env_control_only(robot):
     from gymnasium.utils.env_checker import check_env
 
-    env = RealGraspEnv(robot, _Recorder(), acoustic={"cadence": "never"})
+    env = RealGraspEnv(robot, Recorder(), acoustic={"cadence": "never"})
     check_env(env)
 
 
-class _CommandLog:
+class CommandLog:
     """A user's robot driver as RealGraspEnv sees it: it records every command it receives."""
 
     def __init__(self):
@@ -136,8 +136,8 @@ class _CommandLog:
 
 @pytest.mark.parametrize("bad", [[np.nan, 0, 0, 0, 0, 0], [0, 0, np.inf, 0, 0, 0], [0, 0, 0, 0, 0], [[0] * 6] * 2])
 def test_nonfinite_or_misshapen_action_never_reaches_the_robot(bad):
-    robot = _CommandLog()
-    env = RealGraspEnv(robot, _Recorder())
+    robot = CommandLog()
+    env = RealGraspEnv(robot, Recorder())
     env.reset(seed=0)
     sent = len(robot.commands)
     with pytest.raises(ValueError, match="action"):
@@ -148,18 +148,18 @@ def test_nonfinite_or_misshapen_action_never_reaches_the_robot(bad):
 def test_acoustic_config_and_its_dict_agree():
     from sensors.task import AcousticConfig
 
-    a = RealGraspEnv(_CommandLog(), _Recorder(), acoustic={"waveform": True, "duration_s": 0.5, "cadence": "every_step"})
-    b = RealGraspEnv(_CommandLog(), _Recorder(), acoustic=AcousticConfig(waveform=True, duration_s=0.5,
+    a = RealGraspEnv(CommandLog(), Recorder(), acoustic={"waveform": True, "duration_s": 0.5, "cadence": "every_step"})
+    b = RealGraspEnv(CommandLog(), Recorder(), acoustic=AcousticConfig(waveform=True, duration_s=0.5,
                                                                          cadence="every_step"))
     assert a.acoustic == b.acoustic and a.observation_space == b.observation_space
-    c = RealGraspEnv(_CommandLog(), _Recorder(), acoustic={"feature_scale": "db"})
+    c = RealGraspEnv(CommandLog(), Recorder(), acoustic={"feature_scale": "db"})
     obs, _ = c.reset(seed=0)
     obs, *_ = c.step(np.array([0, 0, 0, 0, 1, 1], np.float32))
     assert c.observation_space.contains(obs) and obs["acoustic"].max() > 0  # dB re 1e-6: tens of dB
     with pytest.warns(DeprecationWarning), pytest.raises(ValueError, match="contradicts"):
-        RealGraspEnv(_CommandLog(), _Recorder(), acoustic={"waveform": False}, include_waveform=True)
+        RealGraspEnv(CommandLog(), Recorder(), acoustic={"waveform": False}, include_waveform=True)
 
 
 def test_streaming_needs_the_rig():
     with pytest.raises(TypeError, match="cadence 'stream' needs a real.RealAcousticSensor"):
-        RealGraspEnv(_CommandLog(), _Recorder(), acoustic={"cadence": "stream"})
+        RealGraspEnv(CommandLog(), Recorder(), acoustic={"cadence": "stream"})

@@ -158,7 +158,7 @@ def test_lost_device_raises_and_keeps_what_was_recorded(rig, audio_loopback, how
     """SIGKILL: the streams die. SIGSTOP: the server freezes and the input stalls, while
     PortAudio's streams stay 'active' (the stall timeout catches it)."""
     lb = audio_loopback
-    pid = loopback._pid(lb.runtime_dir)
+    pid = loopback.server_pid(lb.runtime_dir)
     stream = real.RigStream(rig, "linear").start()
     try:
         err, reads = _read_until_lost(stream, lambda: os.kill(pid, signal.SIGKILL if how == "kill_server"

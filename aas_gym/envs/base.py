@@ -15,7 +15,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
-from aas_gym import _has_display
+from aas_gym import has_display
 from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
 from aas_gym.scene import (DEFAULT_OBJECT_NAMES, ObjectSpec, build_scene, get_object,
@@ -448,7 +448,7 @@ class AasEnv(gym.Env):
             return None
         if self.render_mode == "human":
             if self._viewer is None:
-                if not _has_display():
+                if not has_display():
                     # MuJoCo aborts the process when GLFW cannot open a window: do not try.
                     if not self._warned_no_display:
                         gym.logger.warn("render_mode='human' but no display (DISPLAY/WAYLAND_DISPLAY unset): "
