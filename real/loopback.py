@@ -94,6 +94,7 @@ def _pactl(runtime_dir: Path, *args: str, check: bool = True, timeout_s: float =
 
 
 def server_pid(runtime_dir: Path) -> int | None:
+    """The pid of the loopback's sound server in ``runtime_dir``, or None when none runs."""
     try:
         pid = int((runtime_dir / "pulse" / "pid").read_text().strip())
     except (OSError, ValueError):
