@@ -54,7 +54,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from .._infra.jit import jitted
-from .modal_system import lti_system
+from .lti import lti_system
 
 
 @dataclass(frozen=True)

@@ -50,7 +50,8 @@ from ..signals.features import spectral_features
 from .fingertip import FingertipModel
 from ..signals.leak import LeakRecording, align_leak, excitation_lag, leak_file_identity, load_leak
 from .recording import mic_gain
-from .modal_system import ModalSystem, lti_system
+from .lti import lti_system
+from .modal_system import ModalSystem
 
 __all__ = ["AcousticStream", "ContactTolerance", "GraspState", "SystemCache"]
 
