@@ -38,7 +38,7 @@ sys.path.insert(0, str(ROOT))
 
 import sensors  # noqa: E402
 from sensors import Contact, Excitation  # noqa: E402
-from sensors.synthesis.stream import AcousticStream, GraspState  # noqa: E402
+from sensors import AcousticStream, GraspState  # noqa: E402
 
 FS = 44100
 ENV_STEP = 2205
