@@ -12,12 +12,23 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
 
 #: Contact kinds, from the sensed object's point of view.
 KINDS = ("actuator", "mic", "hand", "object", "environment", "other")
+
+
+class SensorGrasp(NamedTuple):
+    """An object's contacts as the acoustic sensor takes them (``sensors.Contact``, object
+    frame): one merged contact per sensor fingertip (``None`` where that fingertip does not
+    press the object, or presses it on opposite sides), and the other contacts."""
+
+    actuator: Any
+    mic: Any
+    others: list
 
 
 @dataclass(frozen=True)
@@ -76,6 +87,21 @@ class ObjectContacts:
         return [Contact(position_m=p, normal=n, force_n=float(f), friction=float(mu))
                 for p, n, f, mu in zip(self.positions_m, self.normals, self.normal_forces_n, self.friction)
                 if f > min_force_n]
+
+    def sensor_grasp(self, min_force_n: float = 0.0) -> SensorGrasp:
+        """The contacts the acoustic sensor synthesizes from: each fingertip's contacts
+        :meth:`merged` into one, and every other contact carrying more than ``min_force_n``
+        (hand links, table, other objects). The one place MuJoCo contacts become
+        ``sensors.Contact`` for the simulated sensor and its stream."""
+        from sensors.modal.contact import Contact
+
+        tips = []
+        for kind in ("actuator", "mic"):
+            patch = self.merged(kind)
+            tips.append(None if patch is None else Contact(position_m=patch[0], normal=patch[1], force_n=patch[2],
+                                                           friction=patch[3]))
+        others = self.select(~np.isin(self.kinds, ("actuator", "mic"))).to_sensor_contacts(min_force_n)
+        return SensorGrasp(tips[0], tips[1], others)
 
     def merged(self, kind: str) -> tuple[np.ndarray, np.ndarray, float, float] | None:
         """One equivalent contact for all contacts of ``kind`` (a fingertip pad touches a face

@@ -25,9 +25,8 @@ import numpy as np
 import sensors
 from aas_gym.contacts import ContactStream, ObjectContacts
 from aas_gym.scene import ObjectSpec, get_object, object_specs_from_model
-from sensors import Contact, Excitation, LeakRecording, load_leak
+from sensors import Excitation, LeakRecording, SynthesisCache, load_leak
 from sensors.modal.basis import ModalBasis, scaled_material, with_material
-from sensors.synthesis.recording import SynthesisCache
 
 
 class ModalModelStore:
@@ -133,7 +132,7 @@ class SimAcousticSensor:
             ``sensors.ModalModel``. ``None`` reads the model's ``aas_object:`` descriptions.
         actuator_site, mic_site: names of the sensor sites.
         fingertip: ``sensors.FingertipModel`` (lumped exciter/fingertip drive); its grip force
-            and object mass are replaced by the grasp's. ``None``: the synthesis default.
+            is the grasp's. ``None``: the synthesis default (with the object's mass).
         leak: ``sensors.LeakRecording`` or its .npz path, or a mapping excitation name ->
             leak (the rig records one per excitation); added to every recording.
         noise_std: std of additive microphone noise.
@@ -252,17 +251,12 @@ class SimAcousticSensor:
                 "no object is pressed by both the actuator fingertip (site "
                 f"{self.actuator_site!r}) and the microphone fingertip ({self.mic_site!r}); "
                 f"current object contacts by kind: {touching or 'none'}")
-        c = contacts[body]
-        merged = {}
-        for kind in ("actuator", "mic"):
-            patch = c.merged(kind)
-            if patch is None:  # forces on opposite faces cancel: not one fingertip patch
+        grasp = contacts[body].sensor_grasp(self.min_force_n)
+        for kind, tip in (("actuator", grasp.actuator), ("mic", grasp.mic)):
+            if tip is None:  # forces on opposite faces cancel: not one fingertip patch
                 raise NoGraspError(f"the {kind} fingertip touches {body!r} on opposite sides; "
                                    "no single contact to excite or record through")
-            point, normal, force, mu = patch
-            merged[kind] = Contact(position_m=point, normal=normal, force_n=force, friction=mu)
-        others = c.select(~np.isin(c.kinds, ("actuator", "mic"))).to_sensor_contacts(self.min_force_n)
-        return body, merged["actuator"], merged["mic"], others
+        return body, grasp.actuator, grasp.mic, grasp.others
 
     def sense(self, excitation, duration_s: float = 1.0, *, variation: SensorVariation | None = None,
               rng: np.random.Generator | None = None):
@@ -298,15 +292,9 @@ class SimAcousticSensor:
             obs.metadata.update({"grasped": False})
             return obs
         spec = self._specs.get(body)
-        fingertip = self.fingertip
-        if fingertip is not None:
-            changes = {"grip_force_n": act.force_n}
-            if spec is not None:
-                changes["object_mass_kg"] = spec.mass_kg
-            fingertip = fingertip.with_(**changes)
         obs = sensors.simulate_recording(
             self.scaled_model(body, variation), excitation, duration_s, act, mic, other_contacts=others,
-            fingertip=fingertip, leak=leak, noise_std=noise_std, rng=rng, cache=self.cache)
+            fingertip=self.fingertip, leak=leak, noise_std=noise_std, rng=rng, cache=self.cache)
         obs.metadata.update({
             "source": "sim", "grasped": True, "object_body": body,
             "material": spec.material if spec else None, "shape": spec.shape if spec else None,

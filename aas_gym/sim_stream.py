@@ -30,8 +30,7 @@ import numpy as np
 
 from aas_gym.scene import signature_partners, signature_sensor_name
 from aas_gym.sim_sensor import NO_VARIATION, SensorVariation, SimAcousticSensor
-from sensors import Contact, Excitation
-from sensors.synthesis.stream import AcousticStream, ContactTolerance, GraspState
+from sensors import AcousticStream, ContactTolerance, Excitation, GraspState
 
 __all__ = ["SimAcousticStream", "span_bounds"]
 
@@ -138,15 +137,9 @@ class SimAcousticStream:
         body = self.sensor.grasped_body(contacts) or self._heard or self.bodies[0]
         self._heard = body
         self._heard_index = self.bodies.index(body)
-        c = contacts[body]
-        tips = {}
-        for kind in ("actuator", "mic"):
-            patch = c.merged(kind)
-            tips[kind] = None if patch is None else Contact(position_m=patch[0], normal=patch[1],
-                                                            force_n=patch[2], friction=patch[3])
-        others = c.select(~np.isin(c.kinds, ("actuator", "mic"))).to_sensor_contacts(self._min_force_n)
+        grasp = contacts[body].sensor_grasp(self._min_force_n)
         model = self.sensor.scaled_model(body, self.variation)
-        return GraspState(model, tips["actuator"], tips["mic"], tuple(others), object_key=body)
+        return GraspState(model, grasp.actuator, grasp.mic, tuple(grasp.others), object_key=body)
 
     # -- recording ---------------------------------------------------------------------------
     def step_physics(self, n_steps: int, n_samples: int) -> np.ndarray:

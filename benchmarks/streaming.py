@@ -37,8 +37,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import sensors  # noqa: E402
-from sensors import Contact, Excitation  # noqa: E402
-from sensors.synthesis.stream import AcousticStream, GraspState  # noqa: E402
+from sensors import AcousticStream, Contact, Excitation, GraspState  # noqa: E402
 
 FS = 44100
 ENV_STEP = 2205

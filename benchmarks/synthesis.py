@@ -40,7 +40,8 @@ sys.path.insert(0, str(ROOT))
 from sensors import Contact, Excitation, FingertipModel, ModalSystem  # noqa: E402
 from sensors._infra.atomic import atomic_write_text  # noqa: E402
 from sensors.modal.damping import modal_damping_matrix  # noqa: E402
-from sensors.synthesis.modal_system import lti_system, modal_state_matrix  # noqa: E402
+from sensors.synthesis.lti import lti_system  # noqa: E402
+from sensors.synthesis.modal_system import modal_state_matrix  # noqa: E402
 
 FS = 44100
 

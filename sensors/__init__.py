@@ -36,8 +36,10 @@ from .modal.damping import modal_damping_matrix
 from .synthesis.modal_system import ModalSystem, modal_response, modal_state_matrix, periodic_response
 from .synthesis.fingertip import FingertipModel
 from .signals.leak import LeakRecording, align_leak, load_leak, save_leak
-from .synthesis.recording import SynthesisCache, simulate_recording
-from .synthesis.stream import AcousticStream, ContactTolerance, GraspState
+from .synthesis.caches import SynthesisCache
+from .synthesis.grasp_state import ContactTolerance, GraspState
+from .synthesis.recording import simulate_recording
+from .synthesis.stream import AcousticStream
 from .materials.solids import Material, MATERIALS, get_material
 from .modal.basis import MaterialView, ModalBasis, with_material
 from .modal.model import ModalModel

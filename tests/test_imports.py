@@ -54,8 +54,8 @@ exact = np.einsum("aii->a", np.linalg.solve(M + np.eye(k), dM))
 assert np.allclose(fast, slow, rtol=1e-12) and np.allclose(fast, exact, rtol=1e-10)
 p = ft.FingertipModel(grip_force_n=1.0)._params()
 fe = np.sin(np.arange(300) * 0.3) * 5.0
-out, min_f = ft._simulate_one_sided(p, fe, 44100.0, 2)
-ref, ref_min = ft._simulate(p, fe, 44100.0, 2)
+out, min_f, _ = ft._simulate_one_sided(p, fe, 44100.0, 2)
+ref, ref_min, _ = ft._simulate(p, fe, 44100.0, 2, np.zeros(8))
 assert np.allclose(out, ref, rtol=1e-12, atol=1e-12) and np.isclose(min_f, ref_min) and min_f < 1.0
 """
     assert "numba" in _loaded(code)

@@ -11,8 +11,8 @@ import scipy.signal as ss
 
 import sensors
 from sensors import Contact, Excitation, FingertipModel, LeakRecording, align_leak, simulate_recording
-from sensors.synthesis.recording import mic_gain
-from sensors.synthesis.stream import AcousticStream, ContactTolerance, GraspState
+from sensors.synthesis.microphone import mic_gain
+from sensors import AcousticStream, ContactTolerance, GraspState
 from synthesis_fakes import BoxModel
 
 FS = 44100
@@ -189,6 +189,63 @@ def test_static_grasp_chunks_equal_one_recording(bar, kind):
     assert stream.systems.misses == 1
     assert not stream.metadata["fingertip_separated"]
     assert stream.steady_samples > 0.15 * len(ref), stream.steady_samples
+
+
+@pytest.mark.parametrize("settled", [False, True], ids=["from_rest", "settled"])
+@pytest.mark.parametrize("with_table", [False, True], ids=["held", "on_table"])
+def test_batch_recording_is_the_stream_over_one_span(bar, with_table, settled):
+    """The one recording chain: ``sensors.simulate_recording`` and ``sensors.synthesis.AcousticStream``
+    (default fingertip, leak, noise) on the same static grasp, the stream fed in uneven chunks
+    that carry its modal, drive, noise and leak state across every boundary."""
+    exc = Excitation.exponential_sweep()
+    act, mic = fingers(35.0, x=0.03)
+    others = table(force_n=2.0) if with_table else ()
+    leak = make_leak(exc, seed=7)
+    rec = sensors.simulate_recording(bar, exc, 1.2, act, mic, others, leak=leak, noise_std=1e-4,
+                                     rng=np.random.default_rng(4), steady_state=settled)
+    ref = rec.waveform.astype(float)
+    stream = sensors.synthesis.AcousticStream(exc, leak=leak, noise_std=1e-4, rng=np.random.default_rng(4),
+                                              leak_lag_samples=rec.metadata["leak_target_lag"])
+    g = GraspState(bar, act, mic, others)
+    if settled:
+        stream.settle(g)
+    sizes = [1, 4409, 88, 17000, 3, 22049]
+    out, left, i = [], len(ref), 0
+    while left:
+        k = min(sizes[i % len(sizes)], left)
+        out.append(stream.advance(k, g))
+        left -= k
+        i += 1
+    y = np.concatenate(out).astype(float)
+    assert len(y) == len(ref) and np.abs(ref).max() > 1e-3
+    assert np.abs(y - ref).max() <= 1e-9 * np.abs(ref).max()
+    assert stream.systems.misses == 1 and (stream.steady_samples == len(ref)) == settled
+    # and the object is heard: without it the same chain records far less
+    silent = sensors.simulate_recording(bar, exc, 1.2, act, None, others, leak=leak, noise_std=1e-4,
+                                        rng=np.random.default_rng(4))
+    assert np.abs(silent.waveform - ref).max() > 0.1 * np.abs(ref).max()
+
+
+def test_a_separating_fingertip_streams_as_the_one_sided_recording(bar):
+    """Under a weak grip the exciter lifts the fingertip off: the batch recording integrates the
+    one-sided fingertip model from rest, the stream does the same span by span from the state
+    it carries (linear exact spans where both contacts hold)."""
+    exc = Excitation.linear_sweep()
+    act, mic = fingers(0.3)
+    rec = simulate_recording(bar, exc, 0.6, act, mic)
+    assert rec.metadata["fingertip_separated"]
+    stream = AcousticStream(exc)
+    g = GraspState(bar, act, mic)
+    y = np.concatenate([stream.advance(k, g) for k in [2205] * 12]).astype(float)
+    assert stream.fingertip_separated and stream.min_contact_force_n >= 0
+    ref = rec.waveform.astype(float)
+    assert np.abs(y - ref).max() <= 1e-6 * np.abs(ref).max()
+    # the linear drive (what a stream did before it integrated the one-sided model) is far off
+    tip = FingertipModel(grip_force_n=0.3, object_mass_kg=bar.mass_kg)
+    force = tip.discretised(FS).act.response(tip.actuator_force_n * np.resize(exc.signal, len(ref)))
+    linear = sensors.modal_response(bar, force, FS, act.position_m, act.normal, mic.position_m, mic.normal,
+                                    [act, mic])
+    assert np.abs(mic_gain() * linear - ref).max() > 1e-2 * np.abs(ref).max()
 
 
 def test_default_fingertip_follows_the_grasp_as_simulate_recording(bar):

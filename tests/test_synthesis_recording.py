@@ -3,10 +3,11 @@
 import numpy as np
 import pytest
 
-from sensors import AcousticObservation, Contact, Excitation
-from sensors.synthesis.fingertip import FingertipModel, _simulate_one_sided
+from sensors import AcousticObservation, Contact, Excitation, SynthesisCache
+from sensors.synthesis.fingertip import FingertipModel
 from sensors.signals.leak import align_leak, load_leak, save_leak
-from sensors.synthesis.recording import mic_gain, simulate_recording
+from sensors.synthesis.microphone import mic_gain
+from sensors.synthesis.recording import simulate_recording
 from synthesis_fakes import BoxModel, grasp
 
 FS = 44100
@@ -18,7 +19,7 @@ def test_fingertip_linear_equals_one_sided_integrator_while_in_contact():
     fm = FingertipModel()
     f, info = fm.contact_force(e, FS, return_info=True)
     assert not info["separated"] and info["min_contact_force_n"] > 0
-    g, _ = _simulate_one_sided(fm._params(), fm.actuator_force_n * e, float(FS), 8)
+    g, _, _ = fm.one_sided_forces(fm.actuator_force_n * e, FS)
     assert np.max(np.abs(f - g)) <= 1e-6 * np.max(np.abs(f))
 
 
@@ -118,3 +119,22 @@ def test_steady_state_recording_matches_late_time_domain(grasp_setup):
     P = ex.period_samples
     np.testing.assert_allclose(td.waveform[-P:], ss.waveform[:P], rtol=0,
                                atol=1e-5 * np.abs(ss.waveform).max())
+
+
+def test_synthesis_cache_reuses_a_grasp_and_stays_bounded(grasp_setup):
+    """One grasp heard with two excitations builds its system once; ``maxsize`` bounds what
+    is kept; cached and fresh recordings are the same samples."""
+    m, act, mic = grasp_setup
+    cache = SynthesisCache(maxsize=1)
+    lin, imp = Excitation.linear_sweep(), Excitation.impulse()
+    a = simulate_recording(m, lin, 0.3, act, mic, cache=cache)
+    b = simulate_recording(m, imp, 0.3, act, mic, cache=cache)
+    assert cache.systems.misses == 1 and cache.systems.hits == 1
+    moved = Contact(act.position_m, act.normal, 30.0, act.friction)
+    simulate_recording(m, lin, 0.3, moved, mic, cache=cache)
+    assert cache.systems.misses == 2 and cache.systems.size == 1 and len(cache.forces) == 1
+    assert np.array_equal(simulate_recording(m, lin, 0.3, act, mic, cache=cache).waveform, a.waveform)
+    assert cache.systems.misses == 3          # evicted by the other grasp, built again
+    assert np.array_equal(simulate_recording(m, imp, 0.3, act, mic).waveform, b.waveform)
+    with pytest.raises(ValueError):
+        SynthesisCache(maxsize=0)

@@ -18,8 +18,8 @@ from aas_gym.envs.base import AasEnv
 from aas_gym.grasp import planar_grasp
 from aas_gym.scenario import place_beside, settle
 from aas_gym.scene import ObjectSpec
+from sensors import ContactTolerance
 from sensors.task import HOME_TCP, MAX_OPENING_M, check_action
-from sensors.synthesis.stream import ContactTolerance
 
 #: The classes, in action order: held in the air, touching the table, touching the other object.
 FORMATIONS = ("free", "table", "object")

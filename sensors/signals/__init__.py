@@ -8,9 +8,10 @@ not imported here: it pulls in scikit-learn.
 from .excitation import Excitation
 from .features import (amplitude_spectrum, feature_frequencies_hz, scale_features, segment, smooth_spectrum,
                        spectral_features, validate_waveform)
-from .leak import LeakRecording, align_leak, load_leak, save_leak
+from .leak import LeakRecording, align_leak, aligned_leak_cycle, load_leak, save_leak
 from .observation import AcousticObservation, AcousticSensor
 
 __all__ = ["Excitation", "amplitude_spectrum", "feature_frequencies_hz", "scale_features", "segment",
-           "smooth_spectrum", "spectral_features", "validate_waveform", "LeakRecording", "align_leak", "load_leak",
+           "smooth_spectrum", "spectral_features", "validate_waveform", "LeakRecording", "align_leak",
+           "aligned_leak_cycle", "load_leak",
            "save_leak", "AcousticObservation", "AcousticSensor"]

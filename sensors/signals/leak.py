@@ -31,7 +31,7 @@ from .._infra.atomic import atomic_open
 from .._infra.npz import FileFormatError, read_npz
 from .observation import check_sample_rate_hz, recorded_waveform
 
-__all__ = ["LeakRecording", "save_leak", "load_leak", "excitation_lag", "align_leak"]
+__all__ = ["LeakRecording", "save_leak", "load_leak", "excitation_lag", "align_leak", "aligned_leak_cycle"]
 
 
 @dataclass
@@ -104,12 +104,13 @@ def excitation_lag(signal, excitation_period, max_lag: int | None = None) -> int
     return int(np.argmax(np.abs(c)))
 
 
-def align_leak(leak: LeakRecording, excitation, n_samples: int, target_lag: int = 0) -> np.ndarray:
-    """The leak shifted so its excitation peak falls at ``target_lag``, ``n_samples`` long.
+def aligned_leak_cycle(leak: LeakRecording, excitation, target_lag: int = 0) -> np.ndarray:
+    """One cycle of the leak as a recording that starts at loop phase 0 hears it, shifted so
+    its excitation peak falls at ``target_lag``: the recorded span of whole excitation
+    periods, which such a recording repeats (sample k of it is ``cycle[k % len(cycle)]``).
 
     The leak was recorded under the looping excitation, so it is periodic with the
-    excitation period; where the shifted recording does not cover the output it is extended
-    by whole periods.
+    excitation period; the cycle uses as many whole periods as the recording holds.
     """
     if leak.sample_rate_hz != excitation.sample_rate_hz:
         raise ValueError(f"leak recorded at {leak.sample_rate_hz} Hz, excitation at {excitation.sample_rate_hz} Hz")
@@ -122,9 +123,14 @@ def align_leak(leak: LeakRecording, excitation, n_samples: int, target_lag: int 
         raise ValueError(f"leak recording ({len(w)} samples) is shorter than one excitation period ({P})")
     lag = excitation_lag(w, excitation.signal, max_lag=min(P - 1, len(w) - P))
     start = lag - int(target_lag)
-    pos = start + np.arange(int(n_samples))
     # periodic extension inside the recorded span [lo, hi) of whole periods
     lo = lag % P
     span = ((len(w) - lo) // P) * P
-    pos = lo + np.mod(pos - lo, span)
-    return w[pos]
+    return w[lo + np.mod(start + np.arange(span) - lo, span)]
+
+
+def align_leak(leak: LeakRecording, excitation, n_samples: int, target_lag: int = 0) -> np.ndarray:
+    """The leak shifted so its excitation peak falls at ``target_lag``, ``n_samples`` long
+    (:func:`aligned_leak_cycle`, repeated where the recording does not cover the output)."""
+    cycle = aligned_leak_cycle(leak, excitation, target_lag)
+    return cycle[np.arange(int(n_samples)) % len(cycle)]

@@ -1,11 +1,15 @@
-"""Stage 6, synthesis: contacts and an excitation -> the microphone signal. The exact modal
-response, the lumped fingertip drive, batch recordings and streaming across contact changes."""
+"""Stage 6, synthesis: contacts and an excitation -> the microphone signal. The exact LTI
+discretisation and the modal system, the lumped fingertip drive, the microphone, and the one
+recording chain: a stream across contact changes, of which a batch recording is one span."""
 
+from .caches import SynthesisCache, SystemCache
 from .fingertip import FingertipModel
+from .grasp_state import ContactTolerance, GraspState
+from .microphone import MIC_GAIN_PER_M, mic_gain
 from .modal_system import ModalSystem, modal_response, modal_state_matrix, periodic_response
-from .recording import SynthesisCache, simulate_recording
-from .stream import AcousticStream, ContactTolerance, GraspState, SystemCache
+from .recording import simulate_recording
+from .stream import AcousticStream
 
 __all__ = ["FingertipModel", "ModalSystem", "modal_response", "modal_state_matrix", "periodic_response",
            "SynthesisCache", "simulate_recording", "AcousticStream", "ContactTolerance", "GraspState",
-           "SystemCache"]
+           "SystemCache", "MIC_GAIN_PER_M", "mic_gain"]

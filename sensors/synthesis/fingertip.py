@@ -54,7 +54,20 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from .._infra.jit import jitted
-from .modal_system import lti_system
+from .lti import DiscreteSystem, lti_system
+
+__all__ = ["DriveSystems", "FingertipModel"]
+
+
+@dataclass(frozen=True)
+class DriveSystems:
+    """The linear (always in contact) fingertip model discretised at one sample rate: exciter
+    force [N] -> dynamic contact force [N] on the object at the actuator fingertip (``act``,
+    what drives the modal synthesis) and at the microphone fingertip (``mic``, for the
+    separation check).  Both share the state of :meth:`FingertipModel.state_space`."""
+
+    act: DiscreteSystem
+    mic: DiscreteSystem
 
 
 @dataclass(frozen=True)
@@ -125,6 +138,15 @@ class FingertipModel:
         C[2], C[3], C[4], C[5] = kc, cc, -kc, -cc
         return A, B, C
 
+    def discretised(self, sample_rate_hz: float) -> DriveSystems:
+        """The linear model, exactly discretised (first-order hold) at ``sample_rate_hz``."""
+        A, B, C = self.state_space()
+        kc, cc = self.contact_stiffness_n_m, self.contact_damping_n_s_m
+        # mic-side contact force: F_g + k_c (d_o - d_m) + c_c (v_o - v_m)
+        Cm = np.zeros(8)
+        Cm[4], Cm[5], Cm[6], Cm[7] = kc, cc, -kc, -cc
+        return DriveSystems(lti_system(A, B, C, 0.0, sample_rate_hz), lti_system(A, B, Cm, 0.0, sample_rate_hz))
+
     # -- simulation ---------------------------------------------------------------------
     def contact_force(self, excitation_signal, sample_rate_hz: float, return_info: bool = False):
         """Dynamic force [N] the actuator fingertip exerts on the object (grip direction)
@@ -139,7 +161,7 @@ class FingertipModel:
         min_total = self.grip_force_n + min(f_act.min(initial=0.0), f_mic.min(initial=0.0))
         separated = bool(min_total < 0.0)
         if separated:
-            f_act, min_total = _simulate_one_sided(self._params(), fe, float(sample_rate_hz), int(self.substeps))
+            f_act, min_total, _ = self.one_sided_forces(fe, sample_rate_hz)
         if return_info:
             return f_act, {"separated": separated, "min_contact_force_n": float(min_total)}
         return f_act
@@ -155,19 +177,21 @@ class FingertipModel:
             return f_act, {"separated": bool(min_total < 0.0), "min_contact_force_n": float(min_total)}
         return f_act
 
+    def one_sided_forces(self, exciter_force_n, sample_rate_hz: float, initial_state=None):
+        """The one-sided (separating) model integrated by RK4 (``substeps`` per sample) for
+        the exciter force [N] at each sample, linear between samples, from ``initial_state``
+        (the 8-state of :meth:`state_space`, default rest): the dynamic actuator contact force
+        at each sample, the smallest total contact force [N] over both contacts and the state
+        at the last sample."""
+        fe = np.ascontiguousarray(exciter_force_n, dtype=float)
+        x0 = np.zeros(8) if initial_state is None else np.array(initial_state, dtype=float)
+        return _simulate_one_sided(self._params(), fe, float(sample_rate_hz), int(self.substeps), x0)
+
     def _linear_forces(self, fe: np.ndarray, sample_rate_hz: float, periodic: bool):
         """Dynamic contact forces (actuator side, mic side) of the linear model for the
         exciter force ``fe``: from rest, or the periodic steady state."""
-        A, B, C = self.state_space()
-        kc, cc = self.contact_stiffness_n_m, self.contact_damping_n_s_m
-        # mic-side contact force: F_g + k_c (d_o - d_m) + c_c (v_o - v_m)
-        Cm = np.zeros(8)
-        Cm[4], Cm[5], Cm[6], Cm[7] = kc, cc, -kc, -cc
-        out = []
-        for row in (C, Cm):
-            sysm = lti_system(A, B, row, 0.0, sample_rate_hz)
-            out.append(sysm.periodic_response(fe) if periodic else sysm.response(fe))
-        return out
+        drive = self.discretised(sample_rate_hz)
+        return [s.periodic_response(fe) if periodic else s.response(fe) for s in (drive.act, drive.mic)]
 
 
 # compiled by numba on first use (sensors._infra.jit)
@@ -194,10 +218,10 @@ def _rhs(x, fe, p, out):
 
 
 # compiled by numba on first use (sensors._infra.jit), with _rhs
-def _simulate(p, fe, sample_rate_hz, substeps):
+def _simulate(p, fe, sample_rate_hz, substeps, x0):
     n = fe.shape[0]
     out = np.zeros(n)
-    x = np.zeros(8)
+    x = x0.copy()
     k1 = np.zeros(8)
     k2 = np.zeros(8)
     k3 = np.zeros(8)
@@ -232,11 +256,12 @@ def _simulate(p, fe, sample_rate_hz, substeps):
             _rhs(tmp, uc, p, k4)
             for j in range(8):
                 x[j] += h / 6.0 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j])
-    return out, min_f
+    return out, min_f, x
 
 
-def _simulate_one_sided(p, fe, sample_rate_hz, substeps):
-    """Compiled RK4 of the one-sided model: (dynamic actuator contact force, min total force)."""
+def _simulate_one_sided(p, fe, sample_rate_hz, substeps, x0=None):
+    """Compiled RK4 of the one-sided model from the state ``x0`` (default rest): (dynamic
+    actuator contact force, min total force, state at the last sample)."""
     simulate = jitted(globals(), "_simulate", callees=("_rhs",), cache=True)
-    out, min_f = simulate(np.ascontiguousarray(p), np.ascontiguousarray(fe), sample_rate_hz, substeps)
-    return out, min_f
+    x0 = np.zeros(8) if x0 is None else np.ascontiguousarray(x0, dtype=float)
+    return simulate(np.ascontiguousarray(p), np.ascontiguousarray(fe), sample_rate_hz, substeps, x0)
