@@ -25,7 +25,7 @@ Noise and leak
 --------------
 White sensor noise (recorded units) is drawn sample by sample in recording order.  The leak
 through the gripper (``sensors.LeakRecording``, recorded once per excitation with nothing
-grasped) is looped as ``sensors.aligned_leak_cycle`` aligns it for a recording that starts at
+grasped) is looped as ``sensors.signals.aligned_leak_cycle`` aligns it for a recording that starts at
 loop phase 0, its excitation peak at ``leak_lag_samples``.
 """
 
