@@ -30,7 +30,7 @@ import numpy as np  # noqa: E402
 from _pages import parse_args, rows_to_page  # noqa: E402
 
 from sensors.objects.everyday import everyday_object  # noqa: E402
-from sensors.fluid.model import Container  # noqa: E402
+from sensors.fluid import Container, filled  # noqa: E402
 from sensors.modal.model import ModalModel  # noqa: E402
 
 CONTAINERS = ("mug", "glass", "can", "bottle")
@@ -57,10 +57,10 @@ def run(name: str, cache_dir: str) -> dict:
     _, t_load = cpu(Container.of, obj, dry=dry, cache_dir=cache_dir)
     fills = []
     for f in FILLS:
-        wet, t = cpu(container.fill, "water", fill_fraction=float(f))
+        wet, t = cpu(filled, container, float(f))
         fills.append(t)
     full = wet
-    tilts = [cpu(container.fill, "water", fill_fraction=0.5, surface_normal=tilted(a))[1] for a in TILTS_DEG]
+    tilts = [cpu(filled, container, 0.5, surface_normal=tilted(a))[1] for a in TILTS_DEG]
     worst = max(fills + tilts)
     return dict(name=name, material=obj.material.name, dof=dry.metadata["n_dof"], n_dry=dry.n_modes,
                 n_corr=container.n_correction, mesh_s=t_mesh, fem_s=t_fem, prep_s=t_prep, load_s=t_load,

@@ -18,7 +18,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from sensors.objects.everyday import everyday_object
-from sensors.fluid.model import container
+from sensors.fluid import container, filled
 
 CONTAINERS = ("mug", "glass", "can", "bottle")
 FILLS = np.round(np.linspace(0.0, 1.0, 11), 2)
@@ -44,7 +44,7 @@ for ax, name in zip(axes.ravel(), CONTAINERS):
     lines = np.full((len(FILLS), n), np.nan)
     shapes = None
     for i, fill in enumerate(FILLS):
-        wet = c.fill("water", fill_fraction=float(fill))
+        wet = filled(c, float(fill))
         u = wet.mode_shapes_at(points).reshape(-1, wet.n_modes)
         pick = np.arange(n) if shapes is None else track(shapes, u)
         lines[i] = wet.frequencies_hz[pick]

@@ -3,8 +3,9 @@
 This package imports neither MuJoCo nor PyAudio: simulation (``aas_gym``) and the real rig
 (``real``) both build on it.
 
-Modal estimation, calibration and the scikit-learn transformer are exported lazily (PEP 562):
-they pull in scikit-learn and scipy.optimize, which ``import sensors`` should not pay for.
+Modal estimation, calibration, the scikit-learn transformer and ``filled`` (a container holding
+a liquid) are exported lazily (PEP 562): they pull in scikit-learn, scipy.optimize and the sparse
+solvers, which ``import sensors`` should not pay for.
 """
 
 from .signals.excitation import Excitation
@@ -34,6 +35,7 @@ _LAZY = {
     "calibrate": "sensors.calibration",
     "load_material": "sensors.calibration",
     "save_material": "sensors.calibration",
+    "filled": "sensors.fluid",
 }
 
 

@@ -104,7 +104,7 @@ class FillLevelEnv(AasEnv):
 
     def _fill(self, fill_fraction: float, liquid):
         """Put the liquid in: the sensor hears the wet modes, MuJoCo carries its mass."""
-        from sensors.fluid.model import filled
+        from sensors.fluid import filled
 
         sc = self._scene
         target, body = sc.objects[0], sc.bodies[0]
