@@ -26,7 +26,8 @@ import sensors
 from aas_gym.contacts import ContactStream, ObjectContacts
 from aas_gym.scene import ObjectSpec, get_object, object_specs_from_model
 from sensors import Contact, Excitation, LeakRecording, load_leak
-from sensors.modal.basis import ModalBasis, scaled_material, with_material
+from sensors.materials import scaled_material
+from sensors.modal.basis import ModalBasis, with_material
 from sensors.synthesis.recording import SynthesisCache
 
 

@@ -186,7 +186,8 @@ def test_material_scaling_equals_a_new_fem_solve():
     import dataclasses
 
     from aas_gym.sim_sensor import shared_modal_model
-    from sensors.modal.basis import scaled_material, with_material
+    from sensors.materials import scaled_material
+    from sensors.modal.basis import with_material
     from sensors.modal.model import ModalModel
 
     spec = ObjectSpec.bar("steel")
