@@ -24,7 +24,9 @@ from dataclasses import asdict, dataclass
 import mujoco
 import numpy as np
 
-from aas_gym.scene import END_MARGIN_M, ObjectSpec, euler_to_quat
+from aas_gym.object_bodies import euler_to_quat, yaw_rest_quat
+from aas_gym.object_grasps import END_MARGIN_M, grasp_set, rest_height_m, rest_rotation
+from sensors.objects.catalog import ObjectSpec
 
 SCENE_KINDS = ("single", "multi")
 #: A surface target's top edge must reach this far from its centre for a bar to lean on it.
@@ -86,7 +88,8 @@ class DomainRandomization:
 def default_distractors(pool: Sequence[ObjectSpec]) -> list[ObjectSpec]:
     """The objects that may lean on a target: the bars of ``pool`` (a leaning tube or rod
     rolls away before it settles), else its prisms, else the paper's bars."""
-    from aas_gym.scene import DEFAULT_OBJECT_NAMES, get_object
+    from aas_gym.object_names import DEFAULT_OBJECT_NAMES
+    from sensors.objects.catalog import get_object
 
     bars = [o for o in pool if o.shape == "bar"]
     return bars or [o for o in pool if o.is_prism] or [get_object(n) for n in DEFAULT_OBJECT_NAMES
@@ -167,8 +170,6 @@ def _place_on_surface_target(data, objects, free_joints, rng, xy, yaw) -> Layout
     top edge from a random side (two from opposite sides). A top narrower than
     :data:`MIN_LEAN_REACH_M` from the centre (a bottle's neck) leaves no room for the fingers
     beside a bar lying on it: there the bar lies on the table, its end against the base."""
-    from aas_gym.mesh_objects import rest_height_m, rest_rotation, yaw_rest_quat
-
     solid = objects[0].solid()
     height = rest_height_m(solid)
     _set_free_pose(data, free_joints[0], [xy[0], xy[1], height], yaw_rest_quat(solid, yaw))
@@ -240,9 +241,7 @@ def grasp_position(rng: np.random.Generator, target: ObjectSpec, layout: Layout)
 
 
 def _grasps(target: ObjectSpec):
-    from aas_gym.mesh_objects import grasp_set
-
-    return grasp_set(target.shape, target.material, target.mesh_id, target.name)
+    return grasp_set(target)
 
 
 def target_grasp(target: ObjectSpec, position_m: float, layout: Layout | None = None, shift_m: float = 0.0,

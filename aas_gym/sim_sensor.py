@@ -24,10 +24,11 @@ import numpy as np
 
 import sensors
 from aas_gym.contacts import ContactStream, ObjectContacts
-from aas_gym.scene import ObjectSpec, get_object, object_specs_from_model
+from aas_gym.object_bodies import object_specs_from_model
 from sensors import Contact, Excitation, LeakRecording, load_leak
 from sensors.materials import scaled_material
 from sensors.modal.basis import ModalBasis, with_material
+from sensors.objects.catalog import ObjectSpec, get_object
 from sensors.synthesis.recording import SynthesisCache
 
 

@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import numpy as np  # noqa: E402
 from _pages import parse_args, rows_to_page  # noqa: E402
 
-from sensors.objects.everyday import everyday_object  # noqa: E402
+from sensors.objects import get_object  # noqa: E402
 from sensors.fluid import Container, filled  # noqa: E402
 from sensors.modal.model import ModalModel  # noqa: E402
 
@@ -50,7 +50,7 @@ def tilted(angle_deg: float) -> np.ndarray:
 
 
 def run(name: str, cache_dir: str) -> dict:
-    obj = everyday_object(name)
+    obj = get_object(name).solid()
     tm, t_mesh = cpu(obj.tet_mesh)  # the mug's pytetwild mesh is disk-cached separately
     dry, t_fem = cpu(ModalModel.from_tet_mesh, tm, obj.material, cache_dir=cache_dir, progress=False)
     container, t_prep = cpu(Container.of, obj, dry=dry, cache_dir=cache_dir)

@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from sensors.objects.everyday import everyday_object
+from sensors.objects import get_object
 from sensors.fluid import container, filled
 
 CONTAINERS = ("mug", "glass", "can", "bottle")
@@ -36,7 +36,7 @@ def track(previous, current):
 
 fig, axes = plt.subplots(2, 2, figsize=(10, 7.5), sharex=True)
 for ax, name in zip(axes.ravel(), CONTAINERS):
-    obj = everyday_object(name)
+    obj = get_object(name).solid()
     c = container(obj)
     rng = np.random.default_rng(0)  # wall points where mode shapes are compared
     points = obj.surface.vertices[rng.choice(len(obj.surface.vertices), 400, replace=False)]

@@ -34,7 +34,7 @@ import scipy.sparse
 import scipy.sparse.linalg
 import scipy.spatial
 
-from sensors.objects.everyday import everyday_object
+from sensors.objects import get_object
 from sensors.fluid import container, filled
 from sensors.mesh.meshing import rod_mesh
 
@@ -47,7 +47,7 @@ LIQUID_ELEMENT_M = 0.005
 
 @pytest.fixture(scope="module")
 def mug():
-    return everyday_object("mug")
+    return get_object("mug").solid()
 
 
 def _splu(A):

@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from aas_gym.grasp import planar_grasp
-from aas_gym.scene import ObjectSpec, build_scene
+from aas_gym.scene import build_scene
 from aas_gym.sim_sensor import NoGraspError, SensorSitesError, SimAcousticSensor
 from sensors import AcousticSensor, Excitation
+from sensors.objects import ObjectSpec
 
 DURATION_S = 0.5  # one excitation period keeps the suite fast; the paper's 1 s is two
 LINEAR = Excitation.linear_sweep()

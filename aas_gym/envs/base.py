@@ -19,13 +19,15 @@ import numpy as np
 from aas_gym import _has_display
 from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
-from aas_gym.scene import (DEFAULT_OBJECT_NAMES, ObjectSpec, build_scene, get_object,
-                           touch_sensor_name)
+from aas_gym.contact_sensors import touch_sensor_name
+from aas_gym.object_names import DEFAULT_OBJECT_NAMES
+from aas_gym.scene import build_scene
 from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, place_objects, settle,
                               target_grasp)
 from aas_gym.sim_sensor import SensorVariation, SimAcousticSensor
 from aas_gym.sim_stream import SimAcousticStream
 from sensors import LeakRecording, load_leak
+from sensors.objects.catalog import ObjectSpec, get_object
 from sensors.task.grasp import (HOME_TCP, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT, STATE_SIZE,
                                 AcousticConfig, check_grip_force, proprio_spaces)
 

@@ -17,7 +17,7 @@ from gymnasium import spaces
 from aas_gym.envs.base import AasEnv
 from aas_gym.grasp import planar_grasp
 from aas_gym.scenario import place_beside, settle
-from aas_gym.scene import ObjectSpec
+from sensors.objects.catalog import ObjectSpec
 from sensors.task.grasp import HOME_TCP, MAX_OPENING_M, check_action
 from sensors.synthesis.stream import ContactTolerance
 

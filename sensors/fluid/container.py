@@ -103,7 +103,8 @@ class Container:
 
     @classmethod
     def of(cls, obj, dry=None, **options) -> "Container":
-        """The container of an :class:`~sensors.objects.everyday.EverydayObject` (or its name).
+        """The container of an :class:`~sensors.objects.everyday.EverydayObject` (or of a
+        catalog object or name: ``"mug"``, ``get_object("steel_can")``).
 
         Args:
             dry: Its dry modal model if already built (default ``obj.modal_model(...)``, cached).
@@ -111,10 +112,7 @@ class Container:
                 ``obj.modal_model`` (``resolution``, ``max_frequency_hz``, ``cache_dir``,
                 ``progress``, ...).
         """
-        if isinstance(obj, str):
-            from ..objects.everyday import everyday_object  # trimesh-heavy: only when asked by name
-
-            obj = everyday_object(obj)
+        obj = solid_of(obj)
         mine = {k: options.pop(k) for k in list(options) if k in CONTAINER_OPTIONS}
         caching = {k: options[k] for k in ("cache", "cache_dir") if k in options}
         if dry is None:
@@ -244,3 +242,16 @@ def _truncated(model, n: int):
 
     return ModalModel(model.nodes_m, model.elements, model.frequencies_hz[:n], model.mode_shapes[:, :, :n],
                       model.material, element=model.element, metadata=model.metadata)
+
+
+def solid_of(obj):
+    """The solid (:class:`~sensors.objects.everyday.EverydayObject`) of a catalog name or
+    :class:`~sensors.objects.catalog.ObjectSpec`; anything else is returned as is."""
+    from ..objects.catalog import ObjectSpec, get_object  # trimesh-heavy: only when asked by name
+
+    if not isinstance(obj, (str, ObjectSpec)):
+        return obj
+    spec = get_object(obj)
+    if spec.is_prism:
+        raise TypeError(f"a {spec.label} is not a container: it has no cavity to fill")
+    return spec.solid()

@@ -17,7 +17,7 @@ import numpy as np
 
 from .._infra.lru import CACHE_SIZES, LRU
 from .added_mass import liquid_loading
-from .container import Container
+from .container import Container, solid_of
 from .filled_model import FilledModalModel
 from .liquid_body import LiquidBody
 from ..materials.liquids import get_liquid
@@ -32,9 +32,10 @@ def container(obj, *, cavity=None, **options) -> Container:
     """The (memoized) :class:`Container` of ``obj``.
 
     Args:
-        obj: An everyday container's name (``"mug"``, ``"glass"``, ``"can"``, ``"bottle"``,
-            ``"box"``), an :class:`~sensors.objects.everyday.EverydayObject`, a :class:`Container`
-            (returned as is), or a dry :class:`~sensors.ModalModel` together with ``cavity``.
+        obj: A catalog container (a name such as ``"mug"``, ``"glass"``, ``"steel_can"``,
+            ``"bottle"``, ``"box"``, or its :class:`~sensors.objects.catalog.ObjectSpec`), an
+            :class:`~sensors.objects.everyday.EverydayObject`, a :class:`Container` (returned as
+            is), or a dry :class:`~sensors.ModalModel` together with ``cavity``.
         cavity: For a bare modal model: its cavity (an ``AxisymmetricCavity``,
             ``SurfaceCavity``, or an object with ``inner_profile_m`` / ``cavity``).
         options: :class:`Container` options and the dry model's build options (see
@@ -51,10 +52,7 @@ def container(obj, *, cavity=None, **options) -> Container:
         make = lambda: Container(obj, cavity, **options)  # noqa: E731
         keep = (obj, cavity)
     else:
-        if isinstance(obj, str):
-            from ..objects.everyday import everyday_object  # trimesh-heavy: only when asked by name
-
-            obj = everyday_object(obj)
+        obj = solid_of(obj)
         if cavity is not None:
             raise TypeError("an everyday object brings its cavity: do not pass cavity=")
         key = ("object", json.dumps(obj.to_dict(), sort_keys=True, default=repr),
@@ -71,8 +69,9 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
     """A container holding a liquid, as a :class:`~sensors.ModalBasis`.
 
     Args:
-        obj: The container: an everyday name (``"mug"``, ``"glass"``, ``"can"``, ``"bottle"``),
-            an :class:`~sensors.objects.everyday.EverydayObject`, a :class:`Container`, or a dry
+        obj: The container: a catalog name (``"mug"``, ``"glass"``, ``"steel_can"``, ``"bottle"``)
+            or :class:`~sensors.objects.catalog.ObjectSpec`, an
+            :class:`~sensors.objects.everyday.EverydayObject`, a :class:`Container`, or a dry
             :class:`~sensors.ModalModel` with ``cavity=``. Containers are memoized and their
             dry modes and static correction disk-cached, so a new fill costs a small fraction
             of the first.

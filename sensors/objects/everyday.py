@@ -1,5 +1,8 @@
 """A shipped set of everyday objects, made procedurally (no downloads), with their materials.
 
+The catalog names them (``sensors.objects.get_object("mug")``, ``"steel_mug"``); the factories
+here also make other sizes (``mug(outer_radius_m=0.04)``).
+
 Every object is a :class:`EverydayObject`: a closed, consistently wound ``trimesh`` surface
 in metres, its material, a tet mesher and, for containers, the inner cavity a liquid fills.
 
@@ -36,8 +39,7 @@ from ..mesh.meshing import TetMesh, boundary_faces
 from ..modal.model import ModalModel
 from ..mesh.surface import check_dof
 
-__all__ = ["EverydayObject", "EVERYDAY_OBJECTS", "everyday_object", "can", "glass", "bottle", "mug", "box",
-           "spoon", "l_bracket"]
+__all__ = ["EverydayObject", "EVERYDAY_OBJECTS", "can", "glass", "bottle", "mug", "box", "spoon", "l_bracket"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -376,16 +378,8 @@ def spoon(length_m: float = 0.25, handle_width_m: float = 0.016, bowl_width_m: f
                           up_axis=(0.0, 0.0, 1.0), dimensions_m=dims)
 
 
-#: name -> factory of the shipped everyday set (default sizes).
-EVERYDAY_OBJECTS: dict[str, Callable[[], EverydayObject]] = {
-    "mug": mug, "bottle": bottle, "can": can, "box": box, "spoon": spoon, "l_bracket": l_bracket, "glass": glass,
+#: name -> factory of the shipped everyday set (default sizes; each factory's ``material`` default
+#: is what the object is made of). The catalog (:mod:`sensors.objects.catalog`) names them.
+EVERYDAY_OBJECTS: dict[str, Callable[..., EverydayObject]] = {
+    "mug": mug, "bottle": bottle, "can": can, "glass": glass, "box": box, "spoon": spoon, "l_bracket": l_bracket,
 }
-
-
-def everyday_object(name: str, **sizes) -> EverydayObject:
-    """A shipped everyday object by name, optionally with other sizes (keyword arguments)."""
-    try:
-        factory = EVERYDAY_OBJECTS[name]
-    except KeyError:
-        raise KeyError(f"unknown everyday object {name!r}; known: {', '.join(EVERYDAY_OBJECTS)}") from None
-    return factory(**sizes)
