@@ -26,7 +26,8 @@ import numpy as np
 
 from aas_gym.object_bodies import euler_to_quat, yaw_rest_quat
 from aas_gym.object_grasps import END_MARGIN_M, grasp_set, rest_height_m, rest_rotation
-from sensors.objects.catalog import ObjectSpec
+from aas_gym.object_names import DEFAULT_OBJECT_NAMES
+from sensors.objects.catalog import ObjectSpec, get_object
 
 SCENE_KINDS = ("single", "multi")
 #: A surface target's top edge must reach this far from its centre for a bar to lean on it.
@@ -88,9 +89,6 @@ class DomainRandomization:
 def default_distractors(pool: Sequence[ObjectSpec]) -> list[ObjectSpec]:
     """The objects that may lean on a target: the bars of ``pool`` (a leaning tube or rod
     rolls away before it settles), else its prisms, else the paper's bars."""
-    from aas_gym.object_names import DEFAULT_OBJECT_NAMES
-    from sensors.objects.catalog import get_object
-
     bars = [o for o in pool if o.shape == "bar"]
     return bars or [o for o in pool if o.is_prism] or [get_object(n) for n in DEFAULT_OBJECT_NAMES
                                                          if n.endswith("_bar")]
@@ -232,16 +230,12 @@ def grasp_position(rng: np.random.Generator, target: ObjectSpec, layout: Layout)
     along its grasp path of the grasp nearest a uniform draw over the path, among the grasps
     clear of the others' contacts (``target_grasp`` gives that grasp)."""
     if not target.is_prism:
-        lo, hi = _grasps(target).span_m
+        lo, hi = grasp_set(target).span_m
         return target_grasp(target, float(rng.uniform(lo, hi)), layout).position_m
     half = target.length_m / 2 - END_MARGIN_M
     lo = max([x for x in layout.crossings_m if x < 0], default=-half - 1.0) + CROSSING_CLEARANCE_M
     hi = min([x for x in layout.crossings_m if x > 0], default=half + 1.0) - CROSSING_CLEARANCE_M
     return float(rng.uniform(max(lo, -half), min(hi, half)))
-
-
-def _grasps(target: ObjectSpec):
-    return grasp_set(target)
 
 
 def target_grasp(target: ObjectSpec, position_m: float, layout: Layout | None = None, shift_m: float = 0.0,
@@ -252,7 +246,7 @@ def target_grasp(target: ObjectSpec, position_m: float, layout: Layout | None = 
     across its axis at the position)."""
     if target.is_prism:
         return None
-    grasps = _grasps(target)
+    grasps = grasp_set(target)
     avoid = layout.contacts_m if layout is not None else ()
     g = grasps.nearest(position_m, avoid, CROSSING_CLEARANCE_M, min_width_m=min_width_m)
     if shift_m:
@@ -262,7 +256,7 @@ def target_grasp(target: ObjectSpec, position_m: float, layout: Layout | None = 
 
 def position_along_path(target: ObjectSpec, point_m) -> float:
     """Position [m] of an object-frame point along a surface target's grasp path."""
-    grasps = _grasps(target)
+    grasps = grasp_set(target)
     return float((np.asarray(point_m, float) - grasps.path_start_m) @ grasps.path_direction)
 
 

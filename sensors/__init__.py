@@ -3,9 +3,10 @@
 This package imports neither MuJoCo nor PyAudio: simulation (``aas_gym``) and the real rig
 (``real``) both build on it.
 
-Modal estimation, calibration, the scikit-learn transformer and ``filled`` (a container holding
-a liquid) are exported lazily (PEP 562): they pull in scikit-learn, scipy.optimize and the sparse
-solvers, which ``import sensors`` should not pay for.
+Modal estimation, calibration, the scikit-learn transformer, the object catalog (``get_object``,
+``ObjectSpec``) and ``filled`` (a container holding a liquid) are exported lazily (PEP 562): they
+pull in scikit-learn, scipy.optimize, trimesh and the sparse solvers, which ``import sensors``
+should not pay for.
 """
 
 from .signals.excitation import Excitation
@@ -36,6 +37,8 @@ _LAZY = {
     "load_material": "sensors.calibration",
     "save_material": "sensors.calibration",
     "filled": "sensors.fluid",
+    "ObjectSpec": "sensors.objects",
+    "get_object": "sensors.objects",
 }
 
 

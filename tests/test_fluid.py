@@ -184,8 +184,9 @@ def test_other_materials_are_exact_and_plain_views_are_refused(small_can):
     # correction and liquid loading); with_material rescales the wall of the filled model only.
     dry = c.dry
     freq_scale, shape_scale = material_scaling(dry.material, steel)
+    band_hz = dry.metadata["max_frequency_hz"] * freq_scale
     steel_dry = ModalModel(dry.nodes_m, dry.elements, dry.frequencies_hz * freq_scale, dry.mode_shapes * shape_scale,
-                           steel, metadata=dict(dry.metadata, max_frequency_hz=dry.metadata["max_frequency_hz"] * freq_scale))
+                           steel, metadata=dict(dry.metadata, max_frequency_hz=band_hz))
     rebuilt = filled(Container(steel_dry, obj, cache_dir=cache_dir), 0.7)
     np.testing.assert_allclose(fast.frequencies_hz, rebuilt.frequencies_hz, rtol=1e-9)
     p = surface_points(obj, 4)
@@ -214,6 +215,8 @@ def test_filled_memoizes_containers_and_fills(small_can, tmp_path):
         container(c.dry)
     with pytest.raises(TypeError, match="not a container"):
         container(c.dry, cavity=sensors.objects.everyday.spoon())
+    with pytest.raises(TypeError, match="not a container"):
+        filled("steel_bar", 0.5)  # a catalog prism has no cavity
 
 
 def test_liquids():

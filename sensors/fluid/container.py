@@ -138,7 +138,8 @@ class Container:
                   else [np.asarray(cav.mesh.vertices), np.asarray(cav.mesh.faces)])
         key = cache_mod.content_key("fluid static correction", ident, dry.material.to_dict(), self.n_dry,
                                     type(cav).__name__, cav_id, self.correction_degree,
-                                    cache_mod.source_version("sensors.fluid.added_mass", "sensors.fluid.cavity", "sensors.fem.assembly", "sensors.fem.eigen"))
+                                    cache_mod.source_version("sensors.fluid.added_mass", "sensors.fluid.cavity",
+                                                             "sensors.fem.assembly", "sensors.fem.eigen"))
 
         def build():
             dry_n = dry if self.n_dry == dry.n_modes else _truncated(dry, self.n_dry)

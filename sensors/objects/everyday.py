@@ -75,7 +75,8 @@ class EverydayObject:
         return self.tet_mesher(resolution=resolution)
 
     def modal_model(self, resolution: float = 1.0, max_dof: int | None = None, **options):
-        """The object's :class:`~sensors.ModalModel` (cached); options as ``from_tet_mesh``.
+        """This solid's :class:`~sensors.ModalModel` (cached); options as ``from_tet_mesh``. A
+        catalog object's model is ``ObjectSpec.modal_model``, which calls this for its solid.
 
         Refuses (:class:`~sensors.mesh.surface.MeshTooLargeError`) a mesh above ``max_dof``
         P2 dofs (default :data:`~sensors.mesh.surface.DEFAULT_MAX_DOF`) before assembling.
