@@ -140,7 +140,7 @@ def grasp_pose(model: mujoco.MjModel, data: mujoco.MjData, body: str, position_m
     main axis (body x), fingers closing across the axis in the horizontal plane; and the
     object's extent along the closing direction [m].
 
-    With ``grasp`` (an ``aas_gym.mesh_objects.ObjectGrasp`` in the body frame), the fingers
+    With ``grasp`` (an ``aas_gym.object_grasps.ObjectGrasp`` in the body frame), the fingers
     close along its axis (turned into the horizontal plane) around its centre, and the width
     is the distance between its contacts; the pads' centre stays at least
     :data:`PAD_CLEARANCE_M` above the table."""
@@ -193,7 +193,7 @@ def planar_grasp(model: mujoco.MjModel, data: mujoco.MjData, body: str, position
                  lift_m: float = 0.0, clearance_m: float = 0.012, max_time_s: float = 1.0,
                  hand: Hand | None = None, stream: ContactStream | None = None, grasp=None) -> GraspResult:
     """Grasp ``body`` across its main axis at ``position_m`` (object frame x) and let it settle;
-    or, with ``grasp`` (an ``aas_gym.mesh_objects.ObjectGrasp``, any object), at that grasp,
+    or, with ``grasp`` (an ``aas_gym.object_grasps.ObjectGrasp``, any object), at that grasp,
     whose ``position_m`` along the object's grasp path is reported.
 
     The hand is placed open (object extent + 2 ``clearance_m``) around the grasp point, closes

@@ -24,7 +24,10 @@ from dataclasses import asdict, dataclass
 import mujoco
 import numpy as np
 
-from aas_gym.scene import END_MARGIN_M, ObjectSpec, euler_to_quat
+from aas_gym.object_bodies import euler_to_quat, yaw_rest_quat
+from aas_gym.object_grasps import END_MARGIN_M, grasp_set, rest_height_m, rest_rotation
+from aas_gym.object_names import DEFAULT_OBJECT_NAMES
+from sensors.objects.catalog import ObjectSpec, get_object
 
 SCENE_KINDS = ("single", "multi")
 #: A surface target's top edge must reach this far from its centre for a bar to lean on it.
@@ -86,8 +89,6 @@ class DomainRandomization:
 def default_distractors(pool: Sequence[ObjectSpec]) -> list[ObjectSpec]:
     """The objects that may lean on a target: the bars of ``pool`` (a leaning tube or rod
     rolls away before it settles), else its prisms, else the paper's bars."""
-    from aas_gym.scene import DEFAULT_OBJECT_NAMES, get_object
-
     bars = [o for o in pool if o.shape == "bar"]
     return bars or [o for o in pool if o.is_prism] or [get_object(n) for n in DEFAULT_OBJECT_NAMES
                                                          if n.endswith("_bar")]
@@ -167,8 +168,6 @@ def _place_on_surface_target(data, objects, free_joints, rng, xy, yaw) -> Layout
     top edge from a random side (two from opposite sides). A top narrower than
     :data:`MIN_LEAN_REACH_M` from the centre (a bottle's neck) leaves no room for the fingers
     beside a bar lying on it: there the bar lies on the table, its end against the base."""
-    from aas_gym.mesh_objects import rest_height_m, rest_rotation, yaw_rest_quat
-
     solid = objects[0].solid()
     height = rest_height_m(solid)
     _set_free_pose(data, free_joints[0], [xy[0], xy[1], height], yaw_rest_quat(solid, yaw))
@@ -231,18 +230,12 @@ def grasp_position(rng: np.random.Generator, target: ObjectSpec, layout: Layout)
     along its grasp path of the grasp nearest a uniform draw over the path, among the grasps
     clear of the others' contacts (``target_grasp`` gives that grasp)."""
     if not target.is_prism:
-        lo, hi = _grasps(target).span_m
+        lo, hi = grasp_set(target).span_m
         return target_grasp(target, float(rng.uniform(lo, hi)), layout).position_m
     half = target.length_m / 2 - END_MARGIN_M
     lo = max([x for x in layout.crossings_m if x < 0], default=-half - 1.0) + CROSSING_CLEARANCE_M
     hi = min([x for x in layout.crossings_m if x > 0], default=half + 1.0) - CROSSING_CLEARANCE_M
     return float(rng.uniform(max(lo, -half), min(hi, half)))
-
-
-def _grasps(target: ObjectSpec):
-    from aas_gym.mesh_objects import grasp_set
-
-    return grasp_set(target.shape, target.material, target.mesh_id, target.name)
 
 
 def target_grasp(target: ObjectSpec, position_m: float, layout: Layout | None = None, shift_m: float = 0.0,
@@ -253,7 +246,7 @@ def target_grasp(target: ObjectSpec, position_m: float, layout: Layout | None = 
     across its axis at the position)."""
     if target.is_prism:
         return None
-    grasps = _grasps(target)
+    grasps = grasp_set(target)
     avoid = layout.contacts_m if layout is not None else ()
     g = grasps.nearest(position_m, avoid, CROSSING_CLEARANCE_M, min_width_m=min_width_m)
     if shift_m:
@@ -263,7 +256,7 @@ def target_grasp(target: ObjectSpec, position_m: float, layout: Layout | None = 
 
 def position_along_path(target: ObjectSpec, point_m) -> float:
     """Position [m] of an object-frame point along a surface target's grasp path."""
-    grasps = _grasps(target)
+    grasps = grasp_set(target)
     return float((np.asarray(point_m, float) - grasps.path_start_m) @ grasps.path_direction)
 
 

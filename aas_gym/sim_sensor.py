@@ -14,7 +14,6 @@ builds or loads its modal model (memory cache here, disk cache in ``sensors``) a
 from __future__ import annotations
 
 import math
-from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -24,54 +23,19 @@ import numpy as np
 
 import sensors
 from aas_gym.contacts import ContactStream, ObjectContacts
-from aas_gym.scene import ObjectSpec, get_object, object_specs_from_model
+from aas_gym.object_bodies import object_specs_from_model
 from sensors import Excitation, LeakRecording, SynthesisCache, load_leak
-from sensors.modal.basis import ModalBasis, scaled_material, with_material
+from sensors._infra.lru import CACHE_SIZES, LRU
+from sensors.materials import scaled_material
+from sensors.modal.basis import ModalBasis, with_material
+from sensors.objects.catalog import ObjectSpec, get_object
 
 
-class ModalModelStore:
-    """Modal models by (object, build options), least recently used dropped beyond
-    ``maxsize``: scenes and envs holding the same object share one model (the disk cache in
-    ``sensors`` serves new processes). ``MODAL_MODELS`` is the process's store; pass your own
-    to a ``SimAcousticSensor`` to control its size and lifetime."""
-
-    def __init__(self, maxsize: int = 32) -> None:
-        self.maxsize = int(maxsize)
-        self._models: OrderedDict[tuple, Any] = OrderedDict()
-        self.hits = 0
-        self.misses = 0
-
-    def __len__(self) -> int:
-        return len(self._models)
-
-    def __repr__(self) -> str:
-        return f"ModalModelStore({len(self)}/{self.maxsize} models, hits={self.hits}, misses={self.misses})"
-
-    def clear(self) -> None:
-        self._models.clear()
-
-    def get(self, spec: ObjectSpec, **options):
-        """``spec.modal_model(**options)``, built once per store."""
-        key = (spec, tuple(sorted(options.items())))
-        model = self._models.get(key)
-        if model is not None:
-            self.hits += 1
-            self._models.move_to_end(key)
-            return model
-        self.misses += 1
-        model = spec.modal_model(**options)
-        self._models[key] = model
-        while len(self._models) > self.maxsize:
-            self._models.popitem(last=False)
-        return model
-
-
-MODAL_MODELS = ModalModelStore()
-
-
-def shared_modal_model(spec: ObjectSpec, **options):
-    """``spec.modal_model(**options)`` from the process's store ``MODAL_MODELS``."""
-    return MODAL_MODELS.get(spec, **options)
+#: Modal models of this process by (object, build options), ``ObjectSpec.modal_model`` built once:
+#: scenes and envs holding the same object share one model (the disk cache in ``sensors`` serves
+#: new processes). Pass your own ``LRU`` as ``SimAcousticSensor(models=...)`` to control its size
+#: and lifetime.
+MODAL_MODELS = LRU(CACHE_SIZES["sim.models"])
 
 
 @dataclass(frozen=True)
@@ -143,8 +107,8 @@ class SimAcousticSensor:
             microphone records with nothing in the hand (leak and noise only).
         modal_options: options for ``sensors.ModalModel.bar/tube/rod`` (e.g.
             ``max_frequency_hz``).
-        models: the :class:`ModalModelStore` models come from (default: the process's
-            ``MODAL_MODELS``, shared between sensors).
+        models: the ``sensors._infra.lru.LRU`` models come from, keyed by (object, build
+            options) (default: the process's ``MODAL_MODELS``, shared between sensors).
 
     Per-episode variation (domain randomization) is passed to :meth:`sense` as a
     :class:`SensorVariation`. ``cache`` (a ``sensors.SynthesisCache``) holds this sensor's
@@ -156,7 +120,7 @@ class SimAcousticSensor:
                  mic_site: str = "aas_mic", fingertip=None, leak=None, noise_std: float = 0.0,
                  seed: int | None = None, rng: np.random.Generator | None = None,
                  min_force_n: float = 1e-3, on_no_grasp: str = "raise",
-                 modal_options: Mapping[str, Any] | None = None, models: ModalModelStore | None = None) -> None:
+                 modal_options: Mapping[str, Any] | None = None, models: LRU | None = None) -> None:
         missing = [s for s in (actuator_site, mic_site)
                    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, s) < 0]
         if missing:
@@ -196,9 +160,9 @@ class SimAcousticSensor:
         self.stream = ContactStream(model, list(self._specs), actuator_site, mic_site)
         self.models = MODAL_MODELS if models is None else models
         self.cache = SynthesisCache()
-        # material views per (body, scales): the same object for the same episode's grasps, so
-        # the synthesis cache recognizes it across excitations
-        self._views: OrderedDict[tuple, Any] = OrderedDict()
+        # material views per (body, scales), with the model they view: the same object for the
+        # same episode's grasps, so the synthesis cache recognizes it across excitations
+        self._views = LRU(CACHE_SIZES["sim.material_views"])
 
     @property
     def bodies(self) -> list[str]:
@@ -215,7 +179,9 @@ class SimAcousticSensor:
             spec = self._specs.get(body)
             if spec is None:
                 raise KeyError(f"{body!r} is not an object of this sensor; known: {self.bodies}")
-            self._modal[body] = self.models.get(spec, **self.modal_options)
+            options = self.modal_options
+            self._modal[body] = self.models.get_or_build((spec, tuple(sorted(options.items()))),
+                                                         lambda: spec.modal_model(**options))
         return self._modal[body]
 
     def set_modal_model(self, body: str, model) -> None:
@@ -328,12 +294,10 @@ class SimAcousticSensor:
         if scales == (1.0, 1.0, 1.0):
             return model
         key = (body, scales)
-        view = self._views.get(key)
-        if view is None:
+        hit = self._views.get(key)
+        if hit is None or hit[0] is not model:  # new, or the body hears another model now
             d, e, rho = scales
             view = with_material(model, scaled_material(model.material, damping_scale=d, modulus_scale=e,
                                                         density_scale=rho))
-            self._views[key] = view
-            while len(self._views) > 16:
-                self._views.popitem(last=False)
-        return view
+            hit = self._views.put(key, (model, view))
+        return hit[1]

@@ -10,7 +10,7 @@ state across changes.
 Reading the contact list costs far more than a physics step, while a steady grasp changes
 nothing the sound depends on. So each step first compares the scene's contact signature, a
 few MuJoCo contact sensors per object and partner (net force and force-weighted point; see
-``aas_gym.scene.add_contact_signature_sensors``), in the object's frame, with the signature
+``aas_gym.contact_sensors.add_contact_signature_sensors``), in the object's frame, with the signature
 of the last contact list it read. Only when a partner starts or stops pressing (net force
 above the tolerance's ``force_atol_n``), an object becomes touched by both fingertips, or a
 net force or point moved beyond the stream's ``ContactTolerance`` does it read the contact
@@ -28,7 +28,7 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
-from aas_gym.scene import signature_partners, signature_sensor_name
+from aas_gym.contact_sensors import signature_partners, signature_sensor_name
 from aas_gym.sim_sensor import NO_VARIATION, SensorVariation, SimAcousticSensor
 from sensors import AcousticStream, ContactTolerance, Excitation, GraspState
 

@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 
 import aas_gym  # noqa: F401  (registers the envs)
-from aas_gym.scene import DEFAULT_OBJECT_NAMES
+from aas_gym.object_names import DEFAULT_OBJECT_NAMES
 import gymnasium as gym
 import mujoco
 import numpy as np

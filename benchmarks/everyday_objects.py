@@ -30,7 +30,7 @@ import numpy as np  # noqa: E402
 
 from _pages import parse_args, rows_to_page  # noqa: E402
 from aas_gym.collision import collision_geometry  # noqa: E402
-from sensors.objects.everyday import EVERYDAY_OBJECTS, everyday_object  # noqa: E402
+from sensors.objects import EVERYDAY_OBJECTS, get_object  # noqa: E402
 
 BAND_HZ = 10000.0
 #: gmsh element size of the reference per object (finer than the model's mesh). The mug's handle
@@ -56,8 +56,8 @@ def reference_in_child(name: str, n_modes: int) -> tuple[np.ndarray, int, str]:
         size = REFERENCE_MESH_M[name] * factor
         code = ("import json, sys; sys.path.insert(0, sys.argv[1]);"
                 "from everyday_reference import reference_frequencies_hz;"
-                "from sensors.objects.everyday import everyday_object;"
-                "f, dof = reference_frequencies_hz(everyday_object(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4]),"
+                "from sensors.objects import get_object;"
+                "f, dof = reference_frequencies_hz(get_object(sys.argv[2]).solid(), int(sys.argv[3]), float(sys.argv[4]),"
                 " high_order_optimize=int(sys.argv[5]));"
                 "print(json.dumps([f.tolist(), dof]))")
         res = subprocess.run([sys.executable, "-c", code, str(ROOT / "tests"), name, str(n_modes), str(size),
@@ -73,7 +73,8 @@ def reference_in_child(name: str, n_modes: int) -> tuple[np.ndarray, int, str]:
 
 
 def run(name: str) -> dict:
-    obj = everyday_object(name)
+    spec = get_object(name)
+    obj = spec.solid()
     t0 = time.perf_counter()
     obj.tet_mesh()  # timed on its own: the modal build below finds it cached or rebuilds it in ms
     t_mesh = time.perf_counter() - t0
@@ -82,10 +83,10 @@ def run(name: str) -> dict:
     t_coacd = time.perf_counter() - t0
     t0 = time.perf_counter()
     # As users build it (the tet mesh, just built, is a cache hit or a few ms of structured meshing).
-    model = obj.modal_model(max_frequency_hz=BAND_HZ, progress=False)
+    model = spec.modal_model(max_frequency_hz=BAND_HZ, progress=False)
     t_modes = time.perf_counter() - t0
     t0 = time.perf_counter()
-    cached = obj.modal_model(max_frequency_hz=BAND_HZ, progress=False)
+    cached = spec.modal_model(max_frequency_hz=BAND_HZ, progress=False)
     t_cached_modes = time.perf_counter() - t0
     t0 = time.perf_counter()
     collision_geometry(obj.surface, obj.material)
@@ -122,7 +123,7 @@ def main(argv=None):
         "`python benchmarks/everyday_objects.py` (fresh cache; wall-clock seconds)",
         "Cold build = structured tet meshing (all seven; the goal is 10 s) + CoACD convex decomposition + P2 "
         "assembly and "
-        "eigensolve to 10 kHz. Cached = the second `EverydayObject.modal_model()` (an alias entry names the "
+        "eigensolve to 10 kHz. Cached = the second `ObjectSpec.modal_model()` (an alias entry names the "
         "model's cache entry: no meshing) and the second "
         "`collision_geometry()`; the goal for a cached load is under 50 ms. Max error: largest |f / f_ref - 1| "
         "over every mode below 10 kHz, against gmsh (curved P2 on the exact geometry) + scikit-fem; the goal "

@@ -29,8 +29,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import numpy as np  # noqa: E402
 from _pages import parse_args, rows_to_page  # noqa: E402
 
-from sensors.objects.everyday import everyday_object  # noqa: E402
-from sensors.fluid.model import Container  # noqa: E402
+from sensors.objects import get_object  # noqa: E402
+from sensors.fluid import Container, filled  # noqa: E402
 from sensors.modal.model import ModalModel  # noqa: E402
 
 CONTAINERS = ("mug", "glass", "can", "bottle")
@@ -50,17 +50,17 @@ def tilted(angle_deg: float) -> np.ndarray:
 
 
 def run(name: str, cache_dir: str) -> dict:
-    obj = everyday_object(name)
+    obj = get_object(name).solid()
     tm, t_mesh = cpu(obj.tet_mesh)  # the mug's pytetwild mesh is disk-cached separately
     dry, t_fem = cpu(ModalModel.from_tet_mesh, tm, obj.material, cache_dir=cache_dir, progress=False)
     container, t_prep = cpu(Container.of, obj, dry=dry, cache_dir=cache_dir)
     _, t_load = cpu(Container.of, obj, dry=dry, cache_dir=cache_dir)
     fills = []
     for f in FILLS:
-        wet, t = cpu(container.fill, "water", fill_fraction=float(f))
+        wet, t = cpu(filled, container, float(f))
         fills.append(t)
     full = wet
-    tilts = [cpu(container.fill, "water", fill_fraction=0.5, surface_normal=tilted(a))[1] for a in TILTS_DEG]
+    tilts = [cpu(filled, container, 0.5, surface_normal=tilted(a))[1] for a in TILTS_DEG]
     worst = max(fills + tilts)
     return dict(name=name, material=obj.material.name, dof=dry.metadata["n_dof"], n_dry=dry.n_modes,
                 n_corr=container.n_correction, mesh_s=t_mesh, fem_s=t_fem, prep_s=t_prep, load_s=t_load,

@@ -47,7 +47,7 @@ def main() -> None:
     large = DatasetConfig(objects=objects, scenes=("single",), single_grasps=args.grasps, shard_size=8)
     n_small, n_large = len(small.tasks()), len(large.tasks())
     # Warm the disk cache in another process: no backend starts with models in memory.
-    subprocess.run([sys.executable, "-c", "from aas_gym.scene import get_object\n"
+    subprocess.run([sys.executable, "-c", "from sensors.objects import get_object\n"
                     f"for o in {objects!r}: get_object(o).modal_model()"], check=True)
     cpus = os.cpu_count() or 1
     backends = [("in-process (1 worker)", dict(workers=1)),
@@ -96,7 +96,7 @@ def cli_rows(workers: list[int]) -> list[str]:
     (this process's children: the CLI and its workers), in one run."""
     from aas_gym.experiments.config import DatasetConfig
 
-    subprocess.run([sys.executable, "-c", "from aas_gym.scene import get_object\n"
+    subprocess.run([sys.executable, "-c", "from sensors.objects import get_object\n"
                     f"for o in {DatasetConfig().objects!r}: get_object(o).modal_model()"], check=True)
     n = len(DatasetConfig().tasks())
     aas = str(Path(sys.executable).with_name("aas"))

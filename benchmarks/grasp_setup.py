@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from aas_gym.scene import ObjectSpec, get_object
+from sensors.objects import ObjectSpec, get_object
 from sensors import Contact, ModalSystem, modal_damping_matrix
 from sensors.synthesis.modal_system import LOW_RANK_MIN_MODES
 from sensors._infra.atomic import atomic_write_text

@@ -17,8 +17,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from sensors.objects.everyday import everyday_object
-from sensors.fluid.model import container
+from sensors.objects import get_object
+from sensors.fluid import container, filled
 
 CONTAINERS = ("mug", "glass", "can", "bottle")
 FILLS = np.round(np.linspace(0.0, 1.0, 11), 2)
@@ -36,7 +36,7 @@ def track(previous, current):
 
 fig, axes = plt.subplots(2, 2, figsize=(10, 7.5), sharex=True)
 for ax, name in zip(axes.ravel(), CONTAINERS):
-    obj = everyday_object(name)
+    obj = get_object(name).solid()
     c = container(obj)
     rng = np.random.default_rng(0)  # wall points where mode shapes are compared
     points = obj.surface.vertices[rng.choice(len(obj.surface.vertices), 400, replace=False)]
@@ -44,7 +44,7 @@ for ax, name in zip(axes.ravel(), CONTAINERS):
     lines = np.full((len(FILLS), n), np.nan)
     shapes = None
     for i, fill in enumerate(FILLS):
-        wet = c.fill("water", fill_fraction=float(fill))
+        wet = filled(c, float(fill))
         u = wet.mode_shapes_at(points).reshape(-1, wet.n_modes)
         pick = np.arange(n) if shapes is None else track(shapes, u)
         lines[i] = wet.frequencies_hz[pick]

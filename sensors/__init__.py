@@ -24,8 +24,10 @@ recording, streaming) < ``objects`` (the catalog) < ``fluid`` (liquids in contai
 ``calibration`` < ``task`` (the grasp task shared by sim and real); ``_infra`` holds the
 infrastructure (atomic files, cache, LRU). docs/ARCHITECTURE.md says where each idea lives.
 
-Modal estimation, calibration and the scikit-learn transformer are exported lazily (PEP 562):
-they pull in scikit-learn and scipy.optimize, which ``import sensors`` should not pay for.
+Modal estimation, calibration, the scikit-learn transformer, the object catalog (``get_object``,
+``ObjectSpec``) and ``filled`` (a container holding a liquid) are exported lazily (PEP 562): they
+pull in scikit-learn, scipy.optimize, trimesh and the sparse solvers, which ``import sensors``
+should not pay for.
 """
 
 from .signals.excitation import Excitation
@@ -58,6 +60,9 @@ _LAZY = {
     "calibrate": "sensors.calibration",
     "load_material": "sensors.calibration",
     "save_material": "sensors.calibration",
+    "filled": "sensors.fluid",
+    "ObjectSpec": "sensors.objects",
+    "get_object": "sensors.objects",
 }
 
 

@@ -7,7 +7,7 @@ import pytest
 import trimesh
 
 from aas_gym.antipodal import grasp_path, sample_antipodal_grasps
-from sensors.objects.everyday import everyday_object
+from sensors.objects import get_object
 from sensors.task.grasp import MAX_OPENING_M
 
 
@@ -36,7 +36,7 @@ def test_box_grasps_only_across_the_side_that_fits_the_hand():
 
 @pytest.mark.parametrize("name", ["mug", "spoon", "l_bracket"])
 def test_everyday_grasps_satisfy_constraints_and_are_reproducible(name):
-    obj = everyday_object(name)
+    obj = get_object(name).solid()
     up = np.asarray(obj.up_axis)
     a = sample_antipodal_grasps(obj.surface, np.random.default_rng(7), n_grasps=10, friction=0.5, up=up)
     b = sample_antipodal_grasps(obj.surface, np.random.default_rng(7), n_grasps=10, friction=0.5, up=up)
@@ -62,7 +62,7 @@ def test_blocked_from_above_is_rejected():
 
 
 def test_grasp_path_spans_the_long_axis_and_measures_positions():
-    obj = everyday_object("spoon")
+    obj = get_object("spoon").solid()
     grasps = sample_antipodal_grasps(obj.surface, np.random.default_rng(3), n_grasps=40, up=obj.up_axis)
     path = grasp_path(obj.surface, grasps)
     assert abs(path.direction[0]) > 0.99, "principal axis of a spoon is its length"

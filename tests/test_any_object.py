@@ -15,8 +15,11 @@ import trimesh
 import aas_gym  # noqa: F401  (registers the envs)
 from aas_gym.grasp import Hand, planar_grasp
 from aas_gym.scenario import DomainRandomization, place_objects, settle, target_grasp
-from aas_gym.scene import ObjectSpec, build_scene, get_object, object_specs_from_model
+from aas_gym.object_bodies import object_specs_from_model
+from aas_gym.object_grasps import grasp_span_m
+from aas_gym.scene import build_scene
 from sensors.mesh.tets import MeshError
+from sensors.objects import ObjectSpec, get_object
 
 
 def _post() -> trimesh.Trimesh:
@@ -69,7 +72,7 @@ def _grasp_and_hold(spec: ObjectSpec, position_m: float, grip_force_n: float = 4
 @pytest.mark.parametrize("name", ["post", "l_bracket"])
 def test_grasp_forces_settle_at_the_grip_force_and_the_object_does_not_slip(post_file, name):
     spec = get_object(f"{post_file}:aluminium") if name == "post" else get_object(name)
-    lo, hi = spec.grasp_span_m
+    lo, hi = grasp_span_m(spec)
     for position in (lo, 0.5 * (lo + hi), hi):
         result, slip_m, _ = _grasp_and_hold(spec, position)
         assert result.success and result.settled
@@ -115,12 +118,17 @@ def test_bad_meshes_give_a_clear_error_and_leave_nothing_in_the_cache(tmp_path, 
     assert not cache.exists() or not any(p.is_file() for p in cache.rglob("*"))
 
 
-def test_a_mesh_the_hand_cannot_grasp_is_refused_before_anything_is_written(tmp_path, monkeypatch):
+def test_a_mesh_the_hand_cannot_grasp_is_refused_before_its_scene_is_built(tmp_path, monkeypatch):
     monkeypatch.setenv("AAS_GYM_CACHE", str(tmp_path / "cache"))
     block = trimesh.creation.box((0.12, 0.12, 0.05))  # 120 mm across both ways: wider than the 80 mm hand
+    spec = ObjectSpec.from_mesh(block, "wood", name="block")  # a sound solid: the catalog keeps it
     with pytest.raises(MeshError, match="no antipodal grasp"):
-        ObjectSpec.from_mesh(block, "wood", name="block")
-    assert not (tmp_path / "cache").exists() or not any(p.is_file() for p in (tmp_path / "cache").rglob("*"))
+        build_scene([spec])
+    with pytest.raises(MeshError, match="no antipodal grasp"):
+        grasp_span_m(spec)
+    # Only its checked surface is stored: no grasps, no collision pieces.
+    written = [p.name for p in (tmp_path / "cache").rglob("*") if p.is_file()]
+    assert len(written) == 1 and written[0].startswith("surface-")
 
 
 def test_a_missing_or_foreign_mesh_file_says_so(tmp_path):

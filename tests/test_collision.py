@@ -5,12 +5,12 @@ import pytest
 import trimesh
 
 from aas_gym.collision import collision_geometry, mass_properties
-from sensors.objects.everyday import everyday_object
+from sensors.objects import get_object
 
 
 @pytest.fixture(scope="module")
 def bracket_geometry(tmp_path_factory):
-    obj = everyday_object("l_bracket")
+    obj = get_object("l_bracket").solid()
     cache = tmp_path_factory.mktemp("cache")
     return obj, cache, collision_geometry(obj.surface, obj.material, cache_dir=cache)
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from everyday_reference import reference_frequencies_hz
-from sensors.objects.everyday import EVERYDAY_OBJECTS, everyday_object
+from sensors.objects import EVERYDAY_OBJECTS, get_object
 from sensors.task.grasp import MAX_OPENING_M
 from sensors.mesh.layered import p2_dof_count
 from sensors.mesh.quadratic import quadratic_mesh
@@ -21,7 +21,7 @@ MATERIAL_OF = {"mug": "ceramic", "bottle": "glass", "can": "steel", "glass": "gl
 
 @pytest.fixture(scope="module")
 def objects():
-    return {name: everyday_object(name) for name in EVERYDAY_OBJECTS}
+    return {name: get_object(name).solid() for name in EVERYDAY_OBJECTS}
 
 
 @pytest.mark.parametrize("name", list(EVERYDAY_OBJECTS))
@@ -74,7 +74,7 @@ def test_non_containers_have_no_cavity(objects):
 
 @pytest.mark.parametrize("name, mesh_size_m", [("l_bracket", 0.002), ("can", 0.004)])
 def test_modes_below_10_khz_within_1_percent_of_independent_reference(tmp_path, name, mesh_size_m):
-    obj = everyday_object(name)
+    obj = get_object(name).solid()
     model = obj.modal_model(max_frequency_hz=10000.0, cache_dir=tmp_path, progress=False)
     n = int((model.frequencies_hz <= 10000.0).sum())
     assert n >= 3
@@ -88,7 +88,7 @@ def test_a_cached_model_loads_without_meshing_and_an_edit_misses(tmp_path, monke
     another geometry or material is a miss that builds its own model."""
     import dataclasses
 
-    obj = everyday_object("l_bracket")
+    obj = get_object("l_bracket").solid()
     built = obj.modal_model(max_frequency_hz=6000.0, cache_dir=tmp_path, progress=False)
     assert not built.metadata.get("cache_hit")
 
@@ -102,7 +102,7 @@ def test_a_cached_model_loads_without_meshing_and_an_edit_misses(tmp_path, monke
     np.testing.assert_array_equal(loaded.frequencies_hz, built.frequencies_hz)
     # Another material, band or resolution is not served the bracket's model.
     with pytest.raises(AssertionError, match="must not mesh"):
-        dataclasses.replace(no_mesher, material=everyday_object("can").material).modal_model(
+        dataclasses.replace(no_mesher, material=get_object("can").solid().material).modal_model(
             max_frequency_hz=6000.0, cache_dir=tmp_path, progress=False)
     with pytest.raises(AssertionError, match="must not mesh"):
         no_mesher.modal_model(max_frequency_hz=5000.0, cache_dir=tmp_path, progress=False)

@@ -1,4 +1,4 @@
-"""sensors.fluid.model on a small aluminium can (built in seconds): the behaviour a filled container
+"""sensors.fluid on a small aluminium can (built in seconds): the behaviour a filled container
 must have, its API for the scene/env side, and that synthesis takes it unchanged.
 
 The physics is checked against references in test_fluid_analytic.py (series solution) and
@@ -18,10 +18,12 @@ from sensors import Contact, Excitation, ModalBasis, simulate_recording, with_ma
 from sensors.fluid.cavity import LiquidSpillError
 from sensors.modal.damping import modal_damping_parts
 from sensors.objects.everyday import can
-from sensors.fluid.model import Container, FilledModalModel, container, filled
+from sensors.fluid import Container, FilledModalModel, container, filled
 from sensors.materials.liquids import LIQUIDS, Liquid, get_liquid
 from sensors.mesh.tets import MeshError
-from sensors.modal.basis import MaterialView, scaled_material
+from sensors.materials import scaled_material
+from sensors.modal.basis import MaterialView, material_scaling
+from sensors.modal.model import ModalModel
 
 SMALL_CAN = dict(outer_radius_m=0.02, wall_m=0.002, height_m=0.04, floor_m=0.003, material="aluminium")
 
@@ -48,7 +50,7 @@ def surface_points(obj, n=12, seed=0):
 def test_empty_container_is_the_dry_model(small_can):
     obj, c, _ = small_can
     dry = c.dry
-    for empty in (c.fill("water", fill_fraction=0.0), c.fill("honey", volume_m3=0.0)):
+    for empty in (filled(c, 0.0), filled(c, liquid="honey", volume_m3=0.0)):
         np.testing.assert_allclose(empty.frequencies_hz, dry.frequencies_hz, rtol=1e-9, atol=0)
         p = surface_points(obj)
         scale = np.abs(dry.mode_shapes_at(p)).max()
@@ -63,7 +65,7 @@ def test_frequencies_decrease_with_fill(small_can):
     n = c.dry.n_modes
     previous = c.dry.frequencies_hz
     for fill in (0.25, 0.5, 0.75, 1.0):
-        f = c.fill("water", fill_fraction=fill).frequencies_hz[:n]
+        f = filled(c, fill).frequencies_hz[:n]
         assert np.all(f < previous * (1 - 1e-4)), (fill, f, previous)
         previous = f
     # The full can's lowest ovalling pair drops by more than 10 %.
@@ -76,19 +78,19 @@ def test_frequencies_decrease_with_liquid_density(small_can):
     by_density = sorted(list(LIQUIDS.values()) + [Liquid("mercury-ish", 3000.0)], key=lambda q: q.density_kg_m3)
     previous = c.dry.frequencies_hz
     for liquid in by_density:
-        f = c.fill(liquid, fill_fraction=0.6).frequencies_hz[:n]
+        f = filled(c, 0.6, liquid=liquid).frequencies_hz[:n]
         assert np.all(f < previous), (liquid.name, f, previous)
         previous = f
     # A bare density is an inviscid liquid of that density.
-    np.testing.assert_allclose(c.fill(998.2, fill_fraction=0.6).frequencies_hz,
-                               c.fill("water", fill_fraction=0.6).frequencies_hz, rtol=1e-12)
+    np.testing.assert_allclose(filled(c, 0.6, liquid=998.2).frequencies_hz,
+                               filled(c, 0.6).frequencies_hz, rtol=1e-12)
 
 
 def test_tilted_container_differs_from_upright_at_the_same_volume(small_can):
     _, c, _ = small_can
-    upright = c.fill("water", fill_fraction=0.5)
-    tilt_y = c.fill("water", fill_fraction=0.5, surface_normal=tilted(20))
-    tilt_z = c.fill("water", fill_fraction=0.5, surface_normal=tilted(20, (0.0, 0.0, 1.0)))
+    upright = filled(c, 0.5)
+    tilt_y = filled(c, 0.5, surface_normal=tilted(20))
+    tilt_z = filled(c, 0.5, surface_normal=tilted(20, (0.0, 0.0, 1.0)))
     assert tilt_y.liquid_volume_m3 == pytest.approx(upright.liquid_volume_m3, rel=1e-12)
     n = c.dry.n_modes
     assert np.max(np.abs(tilt_y.frequencies_hz[:n] / upright.frequencies_hz[:n] - 1)) > 3e-3
@@ -101,7 +103,7 @@ def test_liquid_body_for_the_physics_engine(small_can):
     obj, c, _ = small_can
     d = obj.dimensions_m
     ri, floor = d["inner_radius_m"], d["floor_m"]
-    wet = c.fill("water", fill_fraction=0.5)
+    wet = filled(c, 0.5)
     body = wet.liquid
     volume = 0.5 * math.pi * ri**2 * (d["height_m"] - floor)
     assert body.volume_m3 == pytest.approx(volume, rel=1e-3)
@@ -125,21 +127,21 @@ def test_spilling_and_an_uncovered_floor_are_refused(small_can):
     assert c.max_fill_fraction() == 1.0
     most = c.max_fill_fraction(tilted(30))
     assert 0.5 < most < 1.0
-    c.fill("water", fill_fraction=0.98 * most, surface_normal=tilted(30))
+    filled(c, 0.98 * most, surface_normal=tilted(30))
     with pytest.raises(LiquidSpillError, match="spill"):
-        c.fill("water", fill_fraction=min(1.0, 1.02 * most), surface_normal=tilted(30))
+        filled(c, min(1.0, 1.02 * most), surface_normal=tilted(30))
     with pytest.raises(MeshError, match="bottom"):
-        c.fill("water", fill_fraction=0.05, surface_normal=tilted(60))
+        filled(c, 0.05, surface_normal=tilted(60))
     with pytest.raises(TypeError, match="exactly one"):
-        c.fill("water", fill_fraction=0.5, volume_m3=1e-6)
+        filled(c, 0.5, volume_m3=1e-6)
     with pytest.raises(ValueError):
-        c.fill("water", fill_fraction=1.5)
+        filled(c, 1.5)
 
 
 def test_liquid_damping_is_viscous_and_reaches_synthesis(small_can):
     _, c, _ = small_can
-    water, honey = c.fill("water", fill_fraction=0.6), c.fill("honey", fill_fraction=0.6)
-    inviscid = c.fill(get_liquid(998.2), fill_fraction=0.6)
+    water, honey = filled(c, 0.6), filled(c, 0.6, liquid="honey")
+    inviscid = filled(c, 0.6, liquid=get_liquid(998.2))
     assert np.all(inviscid.added_damping_per_s == 0.0)
     assert np.all(water.added_damping_per_s > 0.0)
     # Stokes layer: sigma ~ sqrt(rho mu); honey's is two orders above water's.
@@ -160,7 +162,7 @@ def test_filled_model_is_a_modal_basis_that_synthesis_takes(small_can):
     exc = Excitation.by_name("impulse")
     spectra = {}
     for fill in (0.0, 0.9):
-        model = c.fill("water", fill_fraction=fill)
+        model = filled(c, fill)
         assert isinstance(model, ModalBasis)
         obs = simulate_recording(model, exc, 0.5, act, mic)
         assert np.all(np.isfinite(obs.waveform)) and np.abs(obs.waveform).max() > 0
@@ -174,11 +176,18 @@ def test_filled_model_is_a_modal_basis_that_synthesis_takes(small_can):
 
 def test_other_materials_are_exact_and_plain_views_are_refused(small_can):
     obj, c, cache_dir = small_can
-    wet = c.fill("water", fill_fraction=0.7)
+    wet = filled(c, 0.7)
     steel = dataclasses.replace(sensors.get_material("steel"), poisson_ratio=c.dry.material.poisson_ratio)
     fast = with_material(wet, steel)
     assert isinstance(fast, FilledModalModel) and fast.material == steel
-    rebuilt = Container(c.dry.with_material(steel), obj, cache_dir=cache_dir).fill("water", fill_fraction=0.7)
+    # The reference: the container rebuilt on the dry modes rescaled to steel (its own static
+    # correction and liquid loading); with_material rescales the wall of the filled model only.
+    dry = c.dry
+    freq_scale, shape_scale = material_scaling(dry.material, steel)
+    band_hz = dry.metadata["max_frequency_hz"] * freq_scale
+    steel_dry = ModalModel(dry.nodes_m, dry.elements, dry.frequencies_hz * freq_scale, dry.mode_shapes * shape_scale,
+                           steel, metadata=dict(dry.metadata, max_frequency_hz=band_hz))
+    rebuilt = filled(Container(steel_dry, obj, cache_dir=cache_dir), 0.7)
     np.testing.assert_allclose(fast.frequencies_hz, rebuilt.frequencies_hz, rtol=1e-9)
     p = surface_points(obj, 4)
     np.testing.assert_allclose(np.abs(fast.mode_shapes_at(p)).sum(axis=(0, 1)),
@@ -198,7 +207,7 @@ def test_filled_memoizes_containers_and_fills(small_can, tmp_path):
     assert filled(obj, 0.4, **options) is a
     assert container(obj, **options) is container(obj, **options)
     assert container(c) is c
-    np.testing.assert_allclose(a.frequencies_hz, c.fill("water", fill_fraction=0.4).frequencies_hz, rtol=1e-12)
+    np.testing.assert_allclose(a.frequencies_hz, filled(c, 0.4).frequencies_hz, rtol=1e-12)
     # The static correction comes from the disk cache the second time (same vectors).
     again = Container(c.dry, obj, cache_dir=cache_dir)
     np.testing.assert_array_equal(again.basis_eigenvalues, c.basis_eigenvalues)
@@ -206,6 +215,8 @@ def test_filled_memoizes_containers_and_fills(small_can, tmp_path):
         container(c.dry)
     with pytest.raises(TypeError, match="not a container"):
         container(c.dry, cavity=sensors.objects.everyday.spoon())
+    with pytest.raises(TypeError, match="not a container"):
+        filled("steel_bar", 0.5)  # a catalog prism has no cavity
 
 
 def test_liquids():

@@ -1,6 +1,6 @@
 """Physics check 1: ovalling modes of a partially filled cylindrical tank against a series solution.
 
-Reference (implemented here, independently of ``sensors.fluid.model``): the Rayleigh-Ritz method of
+Reference (implemented here, independently of ``sensors.fluid``): the Rayleigh-Ritz method of
 Amabili, Paidoussis & Lakis, "Vibrations of partially filled cylindrical tanks with
 ring-stiffeners and flexible bottom", J. Sound Vib. 213 (1998) 259-299 (and, for the wall
 alone, Lindholm, Kana & Abramson, "Breathing vibrations of a circular cylindrical shell with an
@@ -38,7 +38,7 @@ import scipy.linalg
 import scipy.special
 
 from sensors.objects.everyday import can
-from sensors.fluid.model import Container
+from sensors.fluid import Container, filled
 
 FILLS = (0.2, 0.4, 0.6, 0.8, 1.0)
 RHO_WATER = 998.2
@@ -173,7 +173,7 @@ def test_reference_series_converged(cup):
 def test_ovalling_wet_dry_ratios_match_series_solution(cup, fill):
     dry, container, ref = cup
     h = fill * ref.depth
-    wet = container.fill("water", fill_height_m=h)
+    wet = filled(container, fill_height_m=h)
     f_ref, X_ref = _wet(dry.eigenvalues, ref.added_mass(h))
     dry_harm = dominant_harmonic(dry.mode_shapes_at)
     ref_harm = dominant_harmonic(lambda p: dry.mode_shapes_at(p) @ X_ref)

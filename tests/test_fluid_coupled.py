@@ -1,7 +1,7 @@
 """Physics check 2: the project's wet modes against a fully coupled structure-liquid FEM solve,
 for the everyday mug (ceramic, with its handle) at three fill levels.
 
-The reference is written here with scikit-fem, independently of ``sensors.fluid.model`` (no modal
+The reference is written here with scikit-fem, independently of ``sensors.fluid`` (no modal
 reduction, no static correction, no project liquid mesh or quadrature):
 
 * Wall: the mug's own tet mesh (the one its dry model is built on, its P2 nodes curved onto
@@ -34,8 +34,8 @@ import scipy.sparse
 import scipy.sparse.linalg
 import scipy.spatial
 
-from sensors.objects.everyday import everyday_object
-from sensors.fluid.model import container
+from sensors.objects import get_object
+from sensors.fluid import container, filled
 from sensors.mesh.prisms import rod_mesh
 
 RHO_WATER = 998.2
@@ -47,7 +47,7 @@ LIQUID_ELEMENT_M = 0.005
 
 @pytest.fixture(scope="module")
 def mug():
-    return everyday_object("mug")
+    return get_object("mug").solid()
 
 
 def _splu(A):
@@ -236,7 +236,7 @@ def test_reference_wall_is_the_project_dry_model(wall, wet_container):
 @pytest.mark.parametrize("fill", FILLS)
 def test_wet_frequencies_match_coupled_fem(mug, wall, wet_container, fill):
     height = fill * (mug.dimensions_m["height_m"] - mug.dimensions_m["floor_m"])
-    wet = wet_container.fill("water", fill_height_m=height)
+    wet = filled(wet_container, fill_height_m=height)
     got = wet.frequencies_hz[wet.frequencies_hz <= COMPARED_UP_TO_HZ]
     ref = coupled_frequencies_hz(mug, wall, height, RHO_WATER, len(got) + 2)
     dry = wet_container.dry.frequencies_hz[: len(got)]

@@ -68,6 +68,14 @@ def test_aas_help_loads_neither_the_sensor_stack_nor_mujoco():
     assert not [m for m in HEAVY if m in loaded]
 
 
+def test_the_object_catalog_names_objects_without_mujoco():
+    # The real rig names its objects through the same catalog: no MuJoCo, no envs behind it.
+    loaded = _loaded("from sensors.objects import get_object\n"
+                     "assert get_object('mug').solid().material.name == 'ceramic'\n"
+                     "assert get_object('steel_bar').label == 'steel_bar'")
+    assert not [m for m in ("mujoco", "gymnasium", "aas_gym") if m in loaded]
+
+
 def test_lazy_exports_resolve():
     import real
     import sensors

@@ -7,8 +7,11 @@ import numpy as np
 import pytest
 
 from aas_gym.assets import HAND_XML, OBJECTS_DIR, SCENES_DIR
-from aas_gym.scene import (DEFAULT_OBJECT_NAMES, FingertipSpec, ObjectSpec, build_scene, build_scene_spec,
-                           get_object, known_material_names, object_specs_from_model)
+from aas_gym.fingertips import FingertipSpec
+from aas_gym.object_bodies import object_specs_from_model
+from aas_gym.object_names import DEFAULT_OBJECT_NAMES
+from aas_gym.scene import build_scene, build_scene_spec
+from sensors.objects import ObjectSpec, get_object, known_material_names
 
 
 def test_hand_figures_match_the_real_franka_hand():

@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from aas_gym.grasp import planar_grasp
-from aas_gym.scene import ObjectSpec, build_scene
+from aas_gym.scene import build_scene
 from aas_gym.sim_sensor import NoGraspError, SensorSitesError, SimAcousticSensor
 from sensors import AcousticSensor, Excitation
+from sensors.objects import ObjectSpec
 
 DURATION_S = 0.5  # one excitation period keeps the suite fast; the paper's 1 s is two
 LINEAR = Excitation.linear_sweep()
@@ -185,12 +186,12 @@ def test_material_scaling_equals_a_new_fem_solve():
     """Domain randomization rescales modes exactly: compare with a solve of the scaled material."""
     import dataclasses
 
-    from aas_gym.sim_sensor import shared_modal_model
-    from sensors.modal.basis import scaled_material, with_material
+    from sensors.materials import scaled_material
+    from sensors.modal.basis import with_material
     from sensors.modal.model import ModalModel
 
     spec = ObjectSpec.bar("steel")
-    base = shared_modal_model(spec)
+    base = spec.modal_model()
     scaled = with_material(base, scaled_material(base.material, damping_scale=1.2, modulus_scale=1.1,
                                                  density_scale=0.95))
     m = base.material

@@ -18,8 +18,9 @@ import numpy as np
 from aas_gym import has_display
 from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
-from aas_gym.scene import (DEFAULT_OBJECT_NAMES, ObjectSpec, build_scene, get_object,
-                           touch_sensor_name)
+from aas_gym.contact_sensors import touch_sensor_name
+from aas_gym.object_names import DEFAULT_OBJECT_NAMES
+from aas_gym.scene import build_scene
 from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, place_objects, settle,
                               target_grasp)
 from aas_gym.sim_sensor import SensorVariation, SimAcousticSensor
@@ -27,6 +28,7 @@ from aas_gym.sim_stream import SimAcousticStream
 from sensors import LeakRecording, load_leak
 from sensors._infra.deprecation import warn_deprecated
 from sensors._infra.lru import CACHE_SIZES, LRU
+from sensors.objects.catalog import ObjectSpec, get_object
 from sensors.task import (HOME_TCP, LEGACY_KEYWORDS, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT,
                           STATE_SIZE, AcousticConfig, check_grip_force, proprio_spaces)
 

@@ -17,8 +17,8 @@ from gymnasium import spaces
 from aas_gym.envs.base import AasEnv
 from aas_gym.grasp import planar_grasp
 from aas_gym.scenario import place_beside, settle
-from aas_gym.scene import ObjectSpec
 from sensors import ContactTolerance
+from sensors.objects.catalog import ObjectSpec
 from sensors.task import HOME_TCP, MAX_OPENING_M, check_action
 
 #: The classes, in action order: held in the air, touching the table, touching the other object.

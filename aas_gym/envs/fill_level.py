@@ -10,7 +10,7 @@ from aas_gym.envs.base import AasEnv
 from sensors.task import check_action
 
 TASKS = ("fill", "liquid")
-#: The everyday containers a liquid can fill (``sensors.fluid.model``).
+#: The everyday containers a liquid can fill (``sensors.fluid``).
 CONTAINERS = ("mug", "glass", "can", "bottle")
 
 
@@ -22,7 +22,7 @@ class FillLevelEnv(AasEnv):
     ``fill_range`` (task ``"fill"``; ``fill_fraction`` for task ``"liquid"``) and a liquid from
     ``liquids`` (``"water"``, ``"oil"``, ``"honey"``, ``"ethanol"`` or a density in kg/m^3).
     The container stands upright; the liquid's free surface is level. Its modes are the wet
-    modes of ``sensors.fluid.model.filled`` (potential-flow added mass on the dry modes), and
+    modes of ``sensors.fluid.filled`` (potential-flow added mass on the dry modes), and
     MuJoCo carries the liquid's mass at its centre of mass, so the grasp holds it. The hand
     grasps across the container (not pinching the wall: a finger in the liquid is not
     modelled) and records the excitation.
@@ -117,7 +117,7 @@ class FillLevelEnv(AasEnv):
 
     def _fill(self, fill_fraction: float, liquid):
         """Put the liquid in: the sensor hears the wet modes, MuJoCo carries its mass."""
-        from sensors.fluid.model import filled
+        from sensors.fluid import filled
 
         sc = self._scene
         target, body = sc.objects[0], sc.bodies[0]

@@ -19,7 +19,7 @@ class GraspPositionEnv(AasEnv):
     from ``np_random`` (or ``options={"position_index": k}``), and records the excitation.
     Any other object (everyday shapes, user meshes) is grasped at the antipodal grasp nearest
     each point, the points measured along its grasp path from its first grasp
-    (``aas_gym.mesh_objects``); ``grasp_position_m`` is then that grasp's position.
+    (``aas_gym.object_grasps``); ``grasp_position_m`` is then that grasp's position.
 
     Observation (Dict): proprioception (``tcp``, ``tcp_velocity``, ``gripper``), ``acoustic``
     (140-d), ``waveform`` (with ``acoustic.waveform``).

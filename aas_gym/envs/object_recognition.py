@@ -6,7 +6,7 @@ import numpy as np
 from gymnasium import spaces
 
 from aas_gym.envs.base import EXCITATION_NAMES, AasEnv
-from aas_gym.scene import DEFAULT_OBJECT_NAMES
+from aas_gym.object_names import DEFAULT_OBJECT_NAMES
 from sensors.task import check_action, resolve_excitation
 
 ACTION_FORMATS = ("box", "dict")

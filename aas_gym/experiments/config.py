@@ -30,7 +30,7 @@ class DatasetConfig:
     """The paper's data-collection protocol, every number overridable.
 
     Attributes:
-        objects: object names (see ``aas_gym.scene.DEFAULT_OBJECT_NAMES``).
+        objects: object names (see ``aas_gym.object_names.DEFAULT_OBJECT_NAMES``).
         excitations: excitation names recorded at every grasp.
         scenes: which parts to generate: ``single`` (recognition, one object on the table),
             ``multi`` (recognition with other objects touching the target), ``position``
@@ -77,7 +77,7 @@ class DatasetConfig:
             raise ValueError(f"unknown scenes {sorted(unknown)}; known: {SCENES}")
         if not self.objects:
             raise ValueError("objects is empty")
-        from aas_gym.scene import get_object  # imports MuJoCo (~0.1 s): `aas --help` does not pay
+        from sensors.objects import get_object  # imports the sensor stack: `aas --help` does not pay
 
         for name in self.objects:
             get_object(name)  # a misspelt object fails here, before anything is written

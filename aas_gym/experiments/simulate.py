@@ -20,10 +20,11 @@ from aas_gym.experiments.config import DatasetConfig, Task
 from aas_gym.grasp import Hand, planar_grasp
 from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, grasp_position, target_grasp,
                               place_objects, settle)
-from aas_gym.scene import build_scene, get_object
+from aas_gym.scene import build_scene
 from aas_gym.sim_sensor import SimAcousticSensor
 from sensors import Excitation
 from sensors.modal.damping import OffSurfaceError
+from sensors.objects.catalog import get_object
 from sensors.task.grasp import HOME_TCP, MAX_OPENING_M
 
 # Datasets vary the grasp (jitter, position, contacts), not the table pose: the target lies at

@@ -24,8 +24,10 @@ CACHE_SIZES: dict[str, int] = {
     "stream.steady_states": 8,       # periodic steady states per (system, drive)
     "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container
     "fluid.containers": 8,           # containers (dry model + static correction) per object
+    "objects.solids": 64,            # surfaces and meshers of the catalog's surface objects
     "sim.models": 32,                # modal models shared by the scenes of one process
     "sim.material_views": 16,        # randomized material views of those models
+    "sim.grasp_sets": 64,            # antipodal grasps of surface objects the hand can take
     "env.scenes": 8,                 # compiled MuJoCo scenes per env
 }
 

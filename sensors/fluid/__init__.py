@@ -1,6 +1,15 @@
-"""Stage 8, liquids in containers: the added mass of a liquid on the wetted wall, per fill and tilt."""
+"""Stage 8, liquids in containers: the added mass of a liquid on the wetted wall, per fill and tilt.
+
+``filled(obj, fill_fraction, liquid=...)`` is the entry point (:mod:`.filling`); a
+:class:`Container` (:mod:`.container`) holds the per-container work, a
+:class:`FilledModalModel` (:mod:`.filled_model`) the wet modes, a :class:`LiquidBody`
+(:mod:`.liquid_body`) what a physics engine carries.
+"""
 
 from .cavity import LiquidSpillError
-from .model import Container, FilledModalModel, LiquidBody, container, filled
+from .container import Container
+from .filled_model import FilledModalModel
+from .filling import container, filled
+from .liquid_body import LiquidBody
 
 __all__ = ["LiquidSpillError", "Container", "FilledModalModel", "LiquidBody", "container", "filled"]

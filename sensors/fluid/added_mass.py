@@ -1,7 +1,7 @@
 """Numerics of the liquid's added mass: P2 Laplace on the liquid, boundary quadrature, and the
 static correction of the container's dry modal basis.
 
-Used by :mod:`sensors.fluid.model` (the physics and the public API are described there).
+Used by :mod:`sensors.fluid` (the physics is described in :mod:`sensors.fluid.filled_model`).
 
 * :func:`laplace_stiffness` - H = integral grad N_a . grad N_b dV on P2 tets.
 * :func:`boundary_quadrature` - a 7-point rule on selected boundary faces of a P2 tet mesh

@@ -12,7 +12,7 @@ Sources:
         2-20 Pa s at 20 C depending on water content (17-18 % water: ~10 Pa s).
 
 Only the density enters the added mass; the viscosity sets the boundary-layer damping
-(see :mod:`sensors.fluid.model`).
+(see :mod:`sensors.fluid.filled_model`).
 """
 
 from __future__ import annotations

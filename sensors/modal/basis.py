@@ -1,5 +1,5 @@
-"""What synthesis, the simulated sensor and calibration need of a modal model, and the one
-exact view of a model in another material.
+"""What synthesis, the simulated sensor and calibration need of a modal model, and the one way
+to see a model in another material (:func:`with_material`).
 
 ``ModalBasis`` is the interface: a ``sensors.ModalModel``, a :class:`MaterialView` of one,
 or any user object with these members works everywhere a modal model is taken.
@@ -7,7 +7,6 @@ or any user object with these members works everywhere a modal model is taken.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from typing import Protocol, runtime_checkable
 
@@ -29,10 +28,10 @@ class ModalBasis(Protocol):
     Optional members the code uses when present: ``surface_distance_m(points_m)`` (contacts
     off the surface are refused), ``mass_kg`` (the fingertip drive model), ``n_modes``,
     ``decay_rates_per_s`` (decay rates without contacts [1/s]), ``added_damping_per_s`` ((r,)
-    modal damping [1/s] added to the diagonal alpha + beta w^2, e.g. a liquid's), and
-    ``material_scales_modes = False`` with a ``with_material`` method for models whose modes
-    a plain material rescaling does not give (a filled container: the liquid's added mass
-    does not scale with the wall's density).
+    modal damping [1/s] added to the diagonal alpha + beta w^2, e.g. a liquid's), and a
+    ``with_material(material)`` method, which :func:`with_material` calls, for models that know
+    better than a :class:`MaterialView` (a ``ModalModel`` rebuilds on a new Poisson ratio; a
+    filled container, ``material_scales_modes = False``, rescales its wall but not its liquid).
     """
 
     frequencies_hz: np.ndarray
@@ -65,7 +64,8 @@ def material_scaling(old: Material, new: Material) -> tuple[float, float]:
 class MaterialView:
     """A modal model seen in another material of the same Poisson ratio: exact, no new solve
     (:func:`material_scaling`). Damping comes from the new material; shapes, surface and
-    everything not material-dependent are the base model's.
+    everything not material-dependent are the base model's. What :func:`with_material` returns
+    when a rescaling is exact; it shares the base's arrays (no copy per material).
     """
 
     def __init__(self, base: ModalBasis, material: Material) -> None:
@@ -108,46 +108,35 @@ class MaterialView:
         """C_m of the new material (see :func:`sensors.modal_damping_matrix`)."""
         return modal_damping_matrix(self, contacts)
 
-    def with_material(self, material) -> "MaterialView":
-        return MaterialView(self.base, material)
+    def with_material(self, material) -> ModalBasis:
+        """The base model in ``material`` (:func:`with_material`)."""
+        return with_material(self.base, material)
 
     def __repr__(self) -> str:
         return f"MaterialView({self.base!r}, material={self.material.name!r})"
 
     def __getattr__(self, name: str):
-        if name in ("save", "nodes_m", "mode_shapes", "elements"):
+        if name in ("save", "nodes_m", "mode_shapes", "elements", "mode_matrix", "assemble_matrices"):
             # material-dependent data of the base (or a file of it) must not pass as this view's
             raise AttributeError(f"a MaterialView has no {name!r}: build the model in {self.material.name} instead")
         return getattr(self.base, name)
 
 
 def with_material(model: ModalBasis, material) -> ModalBasis:
-    """``model`` in ``material``: exact without a new solve when the Poisson ratio is kept
-    (:class:`MaterialView`, or the model's own ``with_material`` when it declares
-    ``material_scales_modes = False``); otherwise the model's own ``with_material`` rebuilds it (bars,
-    tubes and rods) or ``ValueError``."""
+    """The one way to change a modal model's material: ``model`` in ``material`` (a
+    :class:`~sensors.Material` or a built-in name), exact.
+
+    With the Poisson ratio kept, a :class:`MaterialView` (no new solve, no copy of the shapes).
+    A model with its own ``with_material`` method answers for itself, with that same meaning: a
+    ``ModalModel`` gives the view, or on a new Poisson ratio rebuilds a bar, tube or rod; a filled
+    container rescales its wall but not its liquid. Any other model on a new Poisson ratio:
+    ``ValueError``. The methods are this function; call either.
+    """
     material = get_material(material)
-    if getattr(model, "material_scales_modes", True) is False:
-        return model.with_material(material)
-    try:
-        material_scaling(model.material, material)
-    except ValueError:
-        own = getattr(model, "with_material", None)
-        if callable(own) and not isinstance(model, MaterialView):
-            return own(material)
-        raise
+    if isinstance(model, MaterialView):  # a view of a view is a view of the base
+        model = model.base
+    own = getattr(model, "with_material", None)
+    if callable(own):
+        return own(material)
     return MaterialView(model, material)
 
-
-def scaled_material(material: Material, *, damping_scale: float = 1.0, modulus_scale: float = 1.0,
-                    density_scale: float = 1.0) -> Material:
-    """``material`` with its damping (alpha, beta, gamma), Young's modulus and density scaled
-    (domain randomization); every scale must be > 0."""
-    for name, v in (("damping_scale", damping_scale), ("modulus_scale", modulus_scale),
-                    ("density_scale", density_scale)):
-        if not (math.isfinite(v) and v > 0):
-            raise ValueError(f"{name} must be > 0, got {v!r}")
-    m = material
-    return dataclasses.replace(
-        m, alpha=m.alpha * damping_scale, beta=m.beta * damping_scale, gamma=m.gamma * damping_scale,
-        youngs_modulus_pa=m.youngs_modulus_pa * modulus_scale, density_kg_m3=m.density_kg_m3 * density_scale)

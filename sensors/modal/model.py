@@ -23,7 +23,7 @@ from ..materials.solids import get_material
 from ..mesh.prisms import bar_mesh, rod_mesh, tube_mesh
 from ..mesh.tets import MeshError, TetMesh, tet_volumes
 from ..mesh.tetwild import tetrahedralize_surface, validate_surface
-from .basis import band_text, material_scaling
+from .basis import MaterialView, band_text
 from ..mesh.locator import TetLocator, closest_points_on_triangles  # noqa: F401  (re-exported)
 
 #: Sizes [m] of what a gripper holds: a mesh outside is probably in another unit (``scale=``).
@@ -193,23 +193,18 @@ class ModalModel:
             n[curved] = (radial[curved] / r[curved, None]) * sign[curved, None]
         return n
 
-    def with_material(self, material, **options) -> "ModalModel":
-        """This object in another material.
+    def with_material(self, material, **options):
+        """This object in another material, as :func:`sensors.with_material` (which calls this).
 
         With the same Poisson ratio, K scales with E and M with the density, so the modes are
-        exact without a new solve: frequencies times sqrt((E'/rho') / (E/rho)), mass-normalized
-        shapes times sqrt(rho / rho'); the band limit in the metadata scales with the
-        frequencies. A different Poisson ratio changes the mode shapes: bars, tubes and rods
-        are rebuilt with the stored options (``options`` override them); other meshes raise.
+        exact without a new solve: a :class:`~sensors.MaterialView` (frequencies times
+        sqrt((E'/rho') / (E/rho)), mass-normalized shapes times sqrt(rho / rho')). A different
+        Poisson ratio changes the mode shapes: bars, tubes and rods are rebuilt with the stored
+        options (``options`` override them); other meshes raise.
         """
         material = get_material(material)
         if math.isclose(material.poisson_ratio, self.material.poisson_ratio, rel_tol=0, abs_tol=1e-12):
-            freq_scale, shape_scale = material_scaling(self.material, material)
-            meta = dict(self.metadata, material=material.name, cache_hit=False)
-            if "max_frequency_hz" in meta:
-                meta["max_frequency_hz"] = float(meta["max_frequency_hz"]) * freq_scale
-            return ModalModel(self.nodes_m, self.elements, self.frequencies_hz * freq_scale,
-                              self.mode_shapes * shape_scale, material, element=self.element, metadata=meta)
+            return MaterialView(self, material)
         builders = {"bar": ModalModel.bar, "tube": ModalModel.tube, "rod": ModalModel.rod}
         if self.kind not in builders:
             raise ValueError("a different Poisson ratio needs a new solve; rebuild the model with from_mesh")

@@ -1,5 +1,8 @@
 """A shipped set of everyday objects, made procedurally (no downloads), with their materials.
 
+The catalog names them (``sensors.objects.get_object("mug")``, ``"steel_mug"``); the factories
+here also make other sizes (``mug(outer_radius_m=0.04)``).
+
 Every object is a :class:`EverydayObject`: a closed, consistently wound ``trimesh`` surface
 in metres, its material, a tet mesher and, for containers, the inner cavity a liquid fills.
 
@@ -36,8 +39,7 @@ from ..mesh.tets import TetMesh, boundary_faces
 from ..modal.model import ModalModel
 from ..mesh.surface import check_dof
 
-__all__ = ["EverydayObject", "EVERYDAY_OBJECTS", "everyday_object", "can", "glass", "bottle", "mug", "box",
-           "spoon", "l_bracket"]
+__all__ = ["EverydayObject", "EVERYDAY_OBJECTS", "can", "glass", "bottle", "mug", "box", "spoon", "l_bracket"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,7 +50,7 @@ class EverydayObject:
         name: Short name ("mug", "can", ...).
         material: Its :class:`~sensors.Material`.
         surface: Closed outward-wound surface [m] in the object frame.
-        tet_mesher: callable(resolution=1.0) -> :class:`~sensors.mesh.meshing.TetMesh` of the solid.
+        tet_mesher: callable(resolution=1.0) -> :class:`~sensors.mesh.tets.TetMesh` of the solid.
         main_axis: Unit vector of the main axis in the object frame (+x for all).
         up_axis: Object-frame direction that points up when it rests on a table.
         cavity: For containers, the closed surface of the inside up to the rim (the volume
@@ -73,7 +75,8 @@ class EverydayObject:
         return self.tet_mesher(resolution=resolution)
 
     def modal_model(self, resolution: float = 1.0, max_dof: int | None = None, **options):
-        """The object's :class:`~sensors.ModalModel` (cached); options as ``from_tet_mesh``.
+        """This solid's :class:`~sensors.ModalModel` (cached); options as ``from_tet_mesh``. A
+        catalog object's model is ``ObjectSpec.modal_model``, which calls this for its solid.
 
         Refuses (:class:`~sensors.mesh.surface.MeshTooLargeError`) a mesh above ``max_dof``
         P2 dofs (default :data:`~sensors.mesh.surface.DEFAULT_MAX_DOF`) before assembling.
@@ -376,16 +379,8 @@ def spoon(length_m: float = 0.25, handle_width_m: float = 0.016, bowl_width_m: f
                           up_axis=(0.0, 0.0, 1.0), dimensions_m=dims)
 
 
-#: name -> factory of the shipped everyday set (default sizes).
-EVERYDAY_OBJECTS: dict[str, Callable[[], EverydayObject]] = {
-    "mug": mug, "bottle": bottle, "can": can, "box": box, "spoon": spoon, "l_bracket": l_bracket, "glass": glass,
+#: name -> factory of the shipped everyday set (default sizes; each factory's ``material`` default
+#: is what the object is made of). The catalog (:mod:`sensors.objects.catalog`) names them.
+EVERYDAY_OBJECTS: dict[str, Callable[..., EverydayObject]] = {
+    "mug": mug, "bottle": bottle, "can": can, "glass": glass, "box": box, "spoon": spoon, "l_bracket": l_bracket,
 }
-
-
-def everyday_object(name: str, **sizes) -> EverydayObject:
-    """A shipped everyday object by name, optionally with other sizes (keyword arguments)."""
-    try:
-        factory = EVERYDAY_OBJECTS[name]
-    except KeyError:
-        raise KeyError(f"unknown everyday object {name!r}; known: {', '.join(EVERYDAY_OBJECTS)}") from None
-    return factory(**sizes)

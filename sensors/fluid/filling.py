@@ -1,0 +1,111 @@
+"""The entry point: a container holding a liquid, as a modal basis synthesis takes as is::
+
+    wet = sensors.fluid.filled("mug", fill_fraction=0.5, liquid="water")
+    wet.frequencies_hz, wet.mode_shapes_at(points_m)     # a ModalBasis
+    wet.liquid.mass_kg, wet.liquid.centre_of_mass_m      # what MuJoCo should carry
+
+Containers (dry model and static correction) and their fills are memoized in this process
+(``CACHE_SIZES["fluid.containers"]`` and ``["fluid.fills"]``); the physics is described in
+:mod:`sensors.fluid.filled_model`.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from .._infra.lru import CACHE_SIZES, LRU
+from .added_mass import liquid_loading
+from .container import Container, solid_of
+from .filled_model import FilledModalModel
+from .liquid_body import LiquidBody
+from ..materials.liquids import get_liquid
+
+__all__ = ["container", "filled"]
+
+#: The containers of this process, by object (or model and cavity) and options.
+CONTAINERS = LRU(CACHE_SIZES["fluid.containers"])
+
+
+def container(obj, *, cavity=None, **options) -> Container:
+    """The (memoized) :class:`Container` of ``obj``.
+
+    Args:
+        obj: A catalog container (a name such as ``"mug"``, ``"glass"``, ``"steel_can"``,
+            ``"bottle"``, ``"box"``, or its :class:`~sensors.objects.catalog.ObjectSpec`), an
+            :class:`~sensors.objects.everyday.EverydayObject`, a :class:`Container` (returned as
+            is), or a dry :class:`~sensors.ModalModel` together with ``cavity``.
+        cavity: For a bare modal model: its cavity (an ``AxisymmetricCavity``,
+            ``SurfaceCavity``, or an object with ``inner_profile_m`` / ``cavity``).
+        options: :class:`Container` options and the dry model's build options (see
+            :meth:`Container.of`).
+    """
+    if isinstance(obj, Container):
+        if options or cavity is not None:
+            raise TypeError("a Container is already built: options and cavity do not apply")
+        return obj
+    if hasattr(obj, "mode_shapes_at") and not hasattr(obj, "tet_mesher"):  # a modal model
+        if cavity is None:
+            raise TypeError("a bare modal model does not know its cavity: pass cavity= (or the EverydayObject)")
+        key = ("model", id(obj), id(cavity), json.dumps(options, sort_keys=True, default=repr))
+        make = lambda: Container(obj, cavity, **options)  # noqa: E731
+        keep = (obj, cavity)
+    else:
+        obj = solid_of(obj)
+        if cavity is not None:
+            raise TypeError("an everyday object brings its cavity: do not pass cavity=")
+        key = ("object", json.dumps(obj.to_dict(), sort_keys=True, default=repr),
+               json.dumps(options, sort_keys=True, default=repr))
+        make = lambda: Container.of(obj, **dict(options))  # noqa: E731
+        keep = (obj,)
+    # ``keep`` holds the objects whose id() is in the key alive as long as the entry.
+    return CONTAINERS.get_or_build(key, lambda: (make(), keep))[0]
+
+
+def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_normal=None,
+           fill_height_m: float | None = None, volume_m3: float | None = None, cavity=None,
+           **options) -> FilledModalModel:
+    """A container holding a liquid, as a :class:`~sensors.ModalBasis`.
+
+    Args:
+        obj: The container: a catalog name (``"mug"``, ``"glass"``, ``"steel_can"``, ``"bottle"``)
+            or :class:`~sensors.objects.catalog.ObjectSpec`, an
+            :class:`~sensors.objects.everyday.EverydayObject`, a :class:`Container`, or a dry
+            :class:`~sensors.ModalModel` with ``cavity=``. Containers are memoized and their
+            dry modes and static correction disk-cached, so a new fill costs a small fraction
+            of the first.
+        fill_fraction: Liquid volume as a fraction of the cavity (0 = empty: exactly the dry
+            modes; 1 = full to the rim). Or give ``fill_height_m`` (upright height above the
+            inner floor) or ``volume_m3`` instead.
+        liquid: ``"water"``, ``"oil"``, ``"honey"``, ``"ethanol"``, a
+            :class:`~sensors.materials.liquids.Liquid`, or a density [kg/m^3] (an inviscid liquid).
+        surface_normal: Unit normal of the free surface against gravity, in the object frame:
+            the world's up direction seen from the object, ``R.T @ (0, 0, 1)`` for the object's
+            world rotation R. Default: standing upright (the container's up axis, +x for the
+            everyday containers).
+        options: :class:`Container` and dry-model build options (:func:`container`).
+
+    Returns:
+        :class:`FilledModalModel`: wet modes up to the dry model's band limit; ``.liquid`` is the
+        :class:`LiquidBody` (mass [kg], centre of mass [m] in the object frame, inertia).
+
+    Raises:
+        sensors.fluid.cavity.LiquidSpillError: the liquid does not fit below the rim at this tilt
+            (``container(obj).max_fill_fraction(surface_normal)`` is the most that does).
+        sensors.MeshError: the tilted surface uncovers part of the floor (a revolved cavity's
+            structured liquid mesh cannot represent it).
+    """
+    c = container(obj, cavity=cavity, **options)
+    liquid = get_liquid(liquid)
+    volume = c.liquid_volume_m3(fill_fraction=fill_fraction, fill_height_m=fill_height_m, volume_m3=volume_m3)
+    up = c.surface_normal(surface_normal)
+
+    def wet() -> FilledModalModel:
+        if volume <= 0.0:
+            return FilledModalModel(c, LiquidBody.in_cavity(c.cavity, liquid, 0.0, up, None), None, None)
+        mesh = c.liquid_mesh(volume, up)
+        Ma, S = liquid_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at, liquid.density_kg_m3)
+        return FilledModalModel(c, LiquidBody.in_cavity(c.cavity, liquid, volume, up, mesh), Ma, S)
+
+    return c.fills.get_or_build((liquid, round(volume, 15), tuple(np.round(up, 12))), wet)
