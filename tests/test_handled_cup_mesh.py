@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.integrate
 
-from sensors.objects.everyday import _surface_of, mug
+from sensors.objects.everyday import surface_of, mug
 from sensors.mesh.layered import handled_cup_mesh
 from sensors.mesh.quadratic import quadratic_mesh
 from sensors.mesh.tets import P2_EDGES, boundary_faces, check_tet_quality
@@ -33,7 +33,7 @@ def test_mesh_is_one_conforming_solid_with_a_handle_hole(cup, resolution):
     tm = cup.tet_mesh(resolution)
     check_tet_quality(tm.vertices_m, tm.tets)
     # A joint whose diagonals disagreed would leave its faces on the boundary: not watertight.
-    surface = _surface_of(tm)
+    surface = surface_of(tm)
     assert surface.is_watertight and surface.is_winding_consistent
     assert surface.euler_number == 0, "one hole through the handle: genus one"
     assert len(surface.split(only_watertight=False)) == 1

@@ -6,6 +6,7 @@ import numpy as np
 from gymnasium import spaces
 
 from aas_gym.envs.base import AasEnv
+from aas_gym.object_grasps import grasp_span_m
 from sensors.task import check_action
 
 ACTION_FORMATS = ("normalized", "metres")
@@ -55,7 +56,7 @@ class GraspPositionEnv(AasEnv):
             raise ValueError(f"action_format must be one of {ACTION_FORMATS}, got {action_format!r}")
         self.positions_m = np.arange(n_positions) * float(spacing_m)
         for obj in self.objects:
-            lo, hi = obj.grasp_span_m
+            lo, hi = grasp_span_m(obj)
             if self.positions_m[-1] > hi - max(lo, 0.0):
                 raise ValueError(f"grasp positions up to {self.positions_m[-1] * 1e3:.0f} mm do not fit on the "
                                  f"{obj.label}, grasped over {(hi - max(lo, 0.0)) * 1e3:.0f} mm from its first position: "
@@ -79,7 +80,7 @@ class GraspPositionEnv(AasEnv):
         if not 0 <= k < len(self.positions_m):
             raise ValueError(f"position_index must be in [0, {len(self.positions_m)}), got {k}")
         # Prisms from their centre (the paper's +x half); other objects from their grasp path's start.
-        start = 0.0 if self._scene.objects[0].is_prism else self._scene.objects[0].grasp_span_m[0]
+        start = 0.0 if self._scene.objects[0].is_prism else grasp_span_m(self._scene.objects[0])[0]
         grasp = self._grasp(start + float(self.positions_m[k]), self._episode_grip_force())
         grasp["grasp_position_m"] -= start
         acoustic, rec = self._sense()

@@ -7,6 +7,7 @@ from gymnasium import spaces
 
 from aas_gym.envs.base import EXCITATION_NAMES, AasEnv
 from aas_gym.object_names import DEFAULT_OBJECT_NAMES
+from aas_gym.object_grasps import grasp_span_m
 from sensors.task import check_action, resolve_excitation
 
 ACTION_FORMATS = ("box", "dict")
@@ -124,7 +125,7 @@ class ObjectRecognitionEnv(AasEnv):
         if target.is_prism:
             position = fraction * self.max_position_m
         else:  # the whole grasp path of a surface object
-            lo, hi = target.grasp_span_m
+            lo, hi = grasp_span_m(target)
             position = lo + (fraction + 1.0) / 2.0 * (hi - lo)
         grasp = self._grasp(position, self._grip)
         self._acoustic, rec = self._sense(self.excitations[e])

@@ -10,7 +10,6 @@ two parallel faces with the grip force (opposite normals: force closure for any 
 
 from __future__ import annotations
 
-from functools import lru_cache
 from typing import Any
 
 import mujoco
@@ -26,6 +25,7 @@ from sensors import Excitation
 from sensors.modal.damping import OffSurfaceError
 from sensors.objects.catalog import get_object
 from sensors.task.grasp import HOME_TCP, MAX_OPENING_M
+from sensors._infra.lru import CACHE_SIZES, LRU
 
 # Datasets vary the grasp (jitter, position, contacts), not the table pose: the target lies at
 # the origin, axis along x, as in the paper's recordings.
@@ -34,12 +34,14 @@ DATASET_PLACEMENT = DomainRandomization.off()
 GRASP_ATTEMPTS = 4
 
 
-@lru_cache(maxsize=16)
+#: Compiled scenes by their objects, per process (``SCENES.clear()`` ends their lifetime).
+SCENES = LRU(CACHE_SIZES["dataset.scenes"])
+
+
 def compiled_scene(objects: tuple) -> mujoco.MjModel:
-    """The compiled scene of these objects (``ObjectSpec`` or names), per process
-    (``compiled_scene.cache_info()`` and ``cache_clear()`` show and end its lifetime); poses
-    are set per task."""
-    return build_scene(list(objects))
+    """The compiled scene of these objects (``ObjectSpec`` or names), built once per process
+    (:data:`SCENES`); poses are set per task."""
+    return SCENES.get_or_build(objects, lambda: build_scene(list(objects)))
 
 
 def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:

@@ -159,17 +159,6 @@ class ObjectSpec:
         return obj if obj.material.name == material.name else dataclasses.replace(obj, material=material)
 
     @property
-    def grasp_span_m(self) -> tuple[float, float]:
-        """Grasp positions [m] the simulated hand can take: ``aas_gym.object_grasps.grasp_span_m``.
-
-        Transitional: the envs read it here. What a hand can hold is ``aas_gym``'s question, so
-        this imports ``aas_gym`` on use; it goes once its readers call that function.
-        """
-        from aas_gym.object_grasps import grasp_span_m
-
-        return grasp_span_m(self)
-
-    @property
     def label(self) -> str:
         """Class label used by datasets and the recognition env, e.g. ``aluminium_tube``."""
         return f"{self.material}_{self.name if self.shape == MESH_SHAPE else self.shape}"

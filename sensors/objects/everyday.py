@@ -126,7 +126,7 @@ _MESHER_VERSION = cache_mod.source_version("sensors.objects.everyday", "sensors.
 # ----------------------------------------------------------------------------- helpers
 
 
-def _surface_of(tet_mesh: TetMesh) -> trimesh.Trimesh:
+def surface_of(tet_mesh: TetMesh) -> trimesh.Trimesh:
     """The boundary of a tet mesh as a closed, outward-wound trimesh (its exact FE surface)."""
     faces, _ = boundary_faces(tet_mesh.tets)
     used, inverse = np.unique(faces, return_inverse=True)
@@ -178,7 +178,7 @@ def _revolved_container(name, material, inner, outer, floor_m, height_m, segment
 
     x = np.concatenate([[floor_m], np.linspace(floor_m, height_m, 200)])
     inner_xr = np.column_stack([x, [0.0] + [float(inner(v)) for v in x[1:]]])
-    surface = _surface_of(mesher(2.0))
+    surface = surface_of(mesher(2.0))
     return EverydayObject(name, get_material(material), surface, mesher, cavity=_cavity(inner_xr),
                           inner_profile_m=inner_xr, dimensions_m=dims)
 
@@ -273,7 +273,7 @@ def mug(outer_radius_m: float = 0.038, wall_m: float = 0.0045, height_m: float =
 
     x = np.concatenate([[floor_m], np.linspace(floor_m, height_m, 50)])
     inner_xr = np.column_stack([x, np.r_[0.0, np.full(len(x) - 1, ri)]])
-    return EverydayObject("mug", get_material(material), _surface_of(mesher(2.0)), mesher, cavity=_cavity(inner_xr),
+    return EverydayObject("mug", get_material(material), surface_of(mesher(2.0)), mesher, cavity=_cavity(inner_xr),
                           inner_profile_m=inner_xr, dimensions_m=dims)
 
 
@@ -307,7 +307,7 @@ def box(length_m: float = 0.08, width_m: float = 0.06, height_m: float = 0.045, 
 
     inner = trimesh.creation.box([height_m - t, width_m - 2 * t, length_m - 2 * t])
     inner.apply_translation([0.5 * (height_m + t), 0.0, 0.0])
-    return EverydayObject("box", get_material(material), _surface_of(mesher(1.0)), mesher, cavity=inner,
+    return EverydayObject("box", get_material(material), surface_of(mesher(1.0)), mesher, cavity=inner,
                           dimensions_m=dims)
 
 
@@ -329,7 +329,7 @@ def l_bracket(flange_m: float = 0.04, thickness_m: float = 0.003, width_m: float
         return layered_mesh(tpl, len(levels) - 1, lambda k: np.ones(len(tpl.triangles), bool), place, "l_bracket",
                             dims)
 
-    return EverydayObject("l_bracket", get_material(material), _surface_of(mesher(1.0)), mesher,
+    return EverydayObject("l_bracket", get_material(material), surface_of(mesher(1.0)), mesher,
                           up_axis=(0.0, 0.0, 1.0), dimensions_m=dims)
 
 
@@ -375,7 +375,7 @@ def spoon(length_m: float = 0.25, handle_width_m: float = 0.016, bowl_width_m: f
 
         return layered_mesh(tpl, n_layers, lambda k: np.ones(len(tpl.triangles), bool), place, "spoon", dims)
 
-    return EverydayObject("spoon", get_material(material), _surface_of(mesher(1.0)), mesher,
+    return EverydayObject("spoon", get_material(material), surface_of(mesher(1.0)), mesher,
                           up_axis=(0.0, 0.0, 1.0), dimensions_m=dims)
 
 
