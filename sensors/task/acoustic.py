@@ -154,9 +154,10 @@ class AcousticConfig:
         samples: ``ValueError`` with the estimate, the limit and how to change either."""
         if n_samples > self.max_samples:
             rate = self.excitation.sample_rate_hz
-            gb = n_samples * BYTES_PER_SAMPLE / 1e9
+            size = n_samples * BYTES_PER_SAMPLE
+            size = f"{size / 1e9:.1f} GB" if size >= 1e8 else f"{size / 1e6:.0f} MB"
             raise ValueError(f"{what} would hold {n_samples:,} samples at {rate} Hz (limit {self.max_samples:,}, "
-                             f"{self.max_samples / rate:g} s; simulating it needs about {gb:.1f} GB): shorten it, "
+                             f"{self.max_samples / rate:g} s; simulating it needs about {size}): shorten it, "
                              "or raise the limit with acoustic={'max_samples': ...}")
 
     def _key(self) -> tuple:
