@@ -136,7 +136,8 @@ def test_an_empty_name_list_is_refused_not_read_as_the_defaults(tmp_path, capsys
 
 
 def test_too_many_workers_are_refused_with_their_memory(tmp_path, capsys):
-    code, err = _run(capsys, "generate", tmp_path / "d", "--workers", "100000")
+    # a misspelt object too: were --workers not checked first, this would fail on the object, not start work
+    code, err = _run(capsys, "generate", tmp_path / "d", "--workers", "100000", "--objects", "wood_barr")
     assert code == 2 and "processes of ~350 MB" in err
     code, err = _run(capsys, "report", tmp_path, "--workers", "0")
     assert code == 2 and "--workers must be >= 1" in err
