@@ -79,9 +79,13 @@ def test_frame_skip_is_a_positive_integer(frame_skip, error):
     ("FillLevel-v0", {"fill_fraction": True}, TypeError),
     ("FillLevel-v0", {"fill_range": (0.1, "0.5")}, TypeError),
     ("FillLevel-v0", {"liquids": "water"}, TypeError),
+    ("FillLevel-v0", {"liquids": ("water", True), "task": "liquid"}, TypeError),
+    ("AcousticGrasp-v0", {"randomization": {"damping_rel": float("nan")}}, ValueError),
+    ("AcousticGrasp-v0", {"randomization": {"modulus_rel": True}}, TypeError),
+    ("AcousticGrasp-v0", {"randomization": {"leak_scale": (2.0, 1.0)}}, ValueError),
 ])
 def test_env_arguments_refuse_bools_strings_and_nan(name, kw, error):
-    with pytest.raises(error, match=next(iter(kw))):
+    with pytest.raises(error, match=next(iter(kw)) if "randomization" not in kw else next(iter(kw["randomization"]))):
         _make(name, **kw)
 
 

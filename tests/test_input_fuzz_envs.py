@@ -105,10 +105,17 @@ def test_dataset_config_builds_valid_or_refuses_clearly(fields):
     assert DatasetConfig.from_dict(config.to_dict()) == config
 
 
+def _randomization_fields():
+    return st.one_of(st.none(), st.just(False), _fields({"damping_rel": st.floats(0, 0.5),
+                                                         "position_noise_m": st.floats(0, 1e-3),
+                                                         "leak_scale": st.just((0.5, 1.5))}))
+
+
 COMMON_VALID = {"frame_skip": st.integers(1, 50), "grip_force_n": st.floats(1.0, 140.0),
                 "width": st.integers(1, 480), "height": st.integers(1, 480),
                 "camera_name": st.sampled_from(["closeup", "overview"]),
                 "render_mode": st.sampled_from([None, "rgb_array"]),
+                "randomization": _randomization_fields(),
                 "acoustic": _fields({k: ACOUSTIC_VALID[k] for k in ("enabled", "waveform", "duration_s",
                                                                      "noise_std", "max_samples")})}
 OWN_VALID = {
@@ -125,7 +132,8 @@ OWN_VALID = {
 
 @pytest.mark.parametrize("env_id", sorted(OWN_VALID))
 def test_env_constructor_builds_valid_or_refuses_clearly(env_id):
-    names = set(COMMON_VALID) | set(OWN_VALID[env_id]) | set(ACOUSTIC_VALID) | {"objects", "excitation period"}
+    names = (set(COMMON_VALID) | set(OWN_VALID[env_id]) | set(ACOUSTIC_VALID)
+             | {"objects", "excitation period", "damping_rel", "position_noise_m", "leak_scale"})
 
     @settings(FUZZ, max_examples=10)
     @given(_fields({**COMMON_VALID, **OWN_VALID[env_id]}))

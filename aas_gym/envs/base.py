@@ -30,7 +30,8 @@ from sensors._infra.deprecation import warn_deprecated
 from sensors._infra.lru import CACHE_SIZES, LRU
 from sensors.objects.catalog import ObjectSpec, get_object
 from sensors.task import (HOME_TCP, LEGACY_KEYWORDS, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT,
-                          STATE_SIZE, AcousticConfig, check_choice, check_grip_force, check_integer, proprio_spaces)
+                          STATE_SIZE, AcousticConfig, check_choice, check_grip_force, check_integer, check_number,
+                          proprio_spaces)
 
 __all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "MAX_FRAME_SKIP", "N_FEATURES",
            "object_list"]
@@ -106,12 +107,12 @@ class _Scene:
 COMMON_ARGUMENTS = """
     | `scene` | str | `"single"` | `"single"`: the target alone on the table; `"multi"`: one or two `distractors` lean across its ends (random object contacts) |
     | `distractors` | sequence of str or `ObjectSpec`, or None | None | objects that may lean on the target; None: the bars of the default objects |
-    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `enabled`; None or missing fields: this env's defaults |
+    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `enabled`, `max_samples` (the longest recording or streamed step, default 60 s at 44.1 kHz); None or missing fields: this env's defaults |
     | `grip_force_n` | float | 40.0 | nominal grip force [N], in (0, 140] |
     | `randomization` | `DomainRandomization`, dict of its knobs, None or False | None | domain randomization; None: its defaults; False: none |
-    | `frame_skip` | int | 25 | MuJoCo steps (2 ms) per env step |
+    | `frame_skip` | int | 25 | MuJoCo steps (2 ms) per env step, 1 to `AasEnv.max_frame_skip` (5000) |
     | `render_mode` | str or None | None | `"rgb_array"`, `"depth_array"` or `"human"` |
-    | `width`, `height` | int | 480, 480 | rendered image size [pixels] |
+    | `width`, `height` | int | 480, 480 | rendered image size [pixels], at most the scene's offscreen buffer (640 x 480) |
     | `camera_name` | str | `"closeup"` | `"closeup"` or `"overview"` |
 
     Deprecated (one more release, with a `DeprecationWarning`): the keywords `excitation`,
@@ -129,6 +130,24 @@ def object_list(name: str, value) -> list[ObjectSpec]:
     if not value:
         raise ValueError(f"{name} must name at least one object")
     return [get_object(o) for o in value]
+
+
+def check_randomization(r: DomainRandomization) -> DomainRandomization:
+    """``r`` if every knob is a finite number >= 0 (relative ones below 1: a scale of
+    ``1 - 1`` would zero a modulus or a grip force) and ``leak_scale`` a pair 0 <= low <= high;
+    else ``TypeError``/``ValueError`` naming the knob."""
+    for name in ("grip_force_rel", "position_noise_m", "placement_m", "yaw_rad", "damping_rel", "modulus_rel",
+                 "density_rel", "sensor_noise_std"):
+        value = check_number(f"randomization.{name}", getattr(r, name), 0.0)
+        if name.endswith("_rel") and value >= 1.0:
+            raise ValueError(f"randomization.{name} must be below 1 (a relative spread), got {value!r}")
+    scale = r.leak_scale
+    if isinstance(scale, (str, bytes)) or not hasattr(scale, "__len__") or len(scale) != 2:
+        raise TypeError(f"randomization.leak_scale must be a pair (low, high), got {scale!r}")
+    lo, hi = (check_number("randomization.leak_scale", v, 0.0) for v in scale)
+    if lo > hi:
+        raise ValueError(f"randomization.leak_scale must have low <= high, got {scale!r}")
+    return r
 
 
 def _load_leaks(leak):
@@ -196,7 +215,7 @@ class AasEnv(gym.Env):
         self.distractors = (object_list("distractors", distractors) if distractors is not None else
                             default_distractors([get_object(n) for n in DEFAULT_OBJECT_NAMES]))
         self.grip_force_n = check_grip_force(grip_force_n)
-        self.randomization = DomainRandomization.coerce(randomization)
+        self.randomization = check_randomization(DomainRandomization.coerce(randomization))
         try:
             self.frame_skip = check_integer("frame_skip", frame_skip, 1)
         except TypeError:

@@ -74,6 +74,8 @@ class FillLevelEnv(AasEnv):
         if not self.liquids:
             raise ValueError("liquids is empty")
         for liquid in self.liquids:
+            if isinstance(liquid, bool):
+                raise TypeError(f"liquids holds {liquid!r}: give liquid names or densities [kg/m^3]")
             get_liquid(liquid)  # an unknown name fails here, not at reset
         if task == "liquid" and len(self.liquids) < 2:
             raise ValueError("task 'liquid' needs at least two liquids to tell apart")
