@@ -27,7 +27,7 @@ def _run(capsys, *argv):
     (["run", "--objects", "wood_barr"], "unknown shape 'barr'"),
     (["generate", "{tmp}/d", "--excitations", "chirp"], "unknown excitations ['chirp']"),
     (["generate", "{tmp}/d", "--scenes", "kitchen"], "unknown scenes ['kitchen']"),
-    (["generate", "{tmp}/d", "--single-grasps", "-3"], "single_grasps must be a non-negative integer"),
+    (["generate", "{tmp}/d", "--single-grasps", "-3"], "--single-grasps must be an integer in [0, inf]"),
     (["report", "/nonexistent-aas-dataset"], "is not a dataset folder"),
 ])
 def test_usage_errors_are_one_line_exit_2_and_write_nothing(tmp_path, capsys, argv, says):

@@ -30,9 +30,15 @@ from sensors._infra.deprecation import warn_deprecated
 from sensors._infra.lru import CACHE_SIZES, LRU
 from sensors.objects.catalog import ObjectSpec, get_object
 from sensors.task import (HOME_TCP, LEGACY_KEYWORDS, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT,
-                          STATE_SIZE, AcousticConfig, check_grip_force, proprio_spaces)
+                          STATE_SIZE, AcousticConfig, check_choice, check_grip_force, check_integer, check_number,
+                          proprio_spaces)
 
-__all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "N_FEATURES"]
+__all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "MAX_FRAME_SKIP", "N_FEATURES",
+           "object_list"]
+
+#: Default of ``AasEnv.max_frame_skip``: 5000 MuJoCo steps of 2 ms, 10 s of physics per env
+#: step (a step's cost grows with it; the default 25 is 50 ms).
+MAX_FRAME_SKIP = 5000
 
 EXCITATION_NAMES = ("impulse", "linear", "exponential")
 # Where the proprioceptive entries sit in the state vector (sensors.task.grasp.STATE_LAYOUT),
@@ -101,18 +107,47 @@ class _Scene:
 COMMON_ARGUMENTS = """
     | `scene` | str | `"single"` | `"single"`: the target alone on the table; `"multi"`: one or two `distractors` lean across its ends (random object contacts) |
     | `distractors` | sequence of str or `ObjectSpec`, or None | None | objects that may lean on the target; None: the bars of the default objects |
-    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `enabled`; None or missing fields: this env's defaults |
+    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `enabled`, `max_samples` (the longest recording or streamed step, default 60 s at 44.1 kHz); None or missing fields: this env's defaults |
     | `grip_force_n` | float | 40.0 | nominal grip force [N], in (0, 140] |
     | `randomization` | `DomainRandomization`, dict of its knobs, None or False | None | domain randomization; None: its defaults; False: none |
-    | `frame_skip` | int | 25 | MuJoCo steps (2 ms) per env step |
+    | `frame_skip` | int | 25 | MuJoCo steps (2 ms) per env step, 1 to `AasEnv.max_frame_skip` (5000) |
     | `render_mode` | str or None | None | `"rgb_array"`, `"depth_array"` or `"human"` |
-    | `width`, `height` | int | 480, 480 | rendered image size [pixels] |
+    | `width`, `height` | int | 480, 480 | rendered image size [pixels], at most the scene's offscreen buffer (640 x 480) |
     | `camera_name` | str | `"closeup"` | `"closeup"` or `"overview"` |
 
     Deprecated (one more release, with a `DeprecationWarning`): the keywords `excitation`,
     `duration_s`, `include_waveform`, `sense_mode`, `leak`, `fingertip`, `stream_tolerance`
     beside `acoustic=`; write `acoustic={"excitation": ..., "waveform": ..., "cadence": ...}`.
 """
+
+
+def object_list(name: str, value) -> list[ObjectSpec]:
+    """Objects from a sequence of names or specs: a bare string (its letters would be read
+    as names) and an empty sequence are refused."""
+    if isinstance(value, (str, bytes, ObjectSpec)) or not isinstance(value, Sequence):
+        raise TypeError(f"{name} must be a sequence of object names or ObjectSpecs, e.g. ('wood_bar',), "
+                        f"got {value!r}")
+    if not value:
+        raise ValueError(f"{name} must name at least one object")
+    return [get_object(o) for o in value]
+
+
+def check_randomization(r: DomainRandomization) -> DomainRandomization:
+    """``r`` if every knob is a finite number >= 0 (relative ones below 1: a scale of
+    ``1 - 1`` would zero a modulus or a grip force) and ``leak_scale`` a pair 0 <= low <= high;
+    else ``TypeError``/``ValueError`` naming the knob."""
+    for name in ("grip_force_rel", "position_noise_m", "placement_m", "yaw_rad", "damping_rel", "modulus_rel",
+                 "density_rel", "sensor_noise_std"):
+        value = check_number(f"randomization.{name}", getattr(r, name), 0.0)
+        if name.endswith("_rel") and value >= 1.0:
+            raise ValueError(f"randomization.{name} must be below 1 (a relative spread), got {value!r}")
+    scale = r.leak_scale
+    if isinstance(scale, (str, bytes)) or not hasattr(scale, "__len__") or len(scale) != 2:
+        raise TypeError(f"randomization.leak_scale must be a pair (low, high), got {scale!r}")
+    lo, hi = (check_number("randomization.leak_scale", v, 0.0) for v in scale)
+    if lo > hi:
+        raise ValueError(f"randomization.leak_scale must have low <= high, got {scale!r}")
+    return r
 
 
 def _load_leaks(leak):
@@ -153,6 +188,13 @@ class AasEnv(gym.Env):
     #: The acoustic observation's defaults for this task (subclasses override ``cadence``).
     _acoustic_defaults: dict = {}
 
+    #: The keys ``reset(options=...)`` accepts (any other is refused, naming these).
+    reset_options: tuple[str, ...] = ("object",)
+
+    #: The largest ``frame_skip`` accepted (a limit on the cost of one step, not a setting):
+    #: raise it on the class or a subclass (``AasEnv.max_frame_skip = ...``) for longer steps.
+    max_frame_skip: int = MAX_FRAME_SKIP
+
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
         if cls.__doc__ and "| Parameter |" in cls.__doc__ and COMMON_ARGUMENTS.strip() not in cls.__doc__:
@@ -168,21 +210,25 @@ class AasEnv(gym.Env):
             raise TypeError(f"{type(self).__name__}() got an unexpected keyword argument {unknown[0]!r}")
         self.acoustic = AcousticConfig.coerce(acoustic, legacy=deprecated, owner=type(self).__name__,
                                               **self._acoustic_defaults)
-        self.objects = [get_object(o) for o in objects]
-        if not self.objects:
-            raise ValueError("objects must name at least one object")
-        if scene not in ("single", "multi"):
-            raise ValueError(f"scene must be 'single' or 'multi', got {scene!r}")
-        self.scene_kind = scene
-        self.distractors = ([get_object(o) for o in distractors] if distractors is not None else
+        self.objects = object_list("objects", objects)
+        self.scene_kind = check_choice("scene", scene, ("single", "multi"))
+        self.distractors = (object_list("distractors", distractors) if distractors is not None else
                             default_distractors([get_object(n) for n in DEFAULT_OBJECT_NAMES]))
         self.grip_force_n = check_grip_force(grip_force_n)
-        self.randomization = DomainRandomization.coerce(randomization)
-        self.frame_skip = int(frame_skip)
+        self.randomization = check_randomization(DomainRandomization.coerce(randomization))
+        try:
+            self.frame_skip = check_integer("frame_skip", frame_skip, 1)
+        except TypeError:
+            raise TypeError(f"frame_skip must be a positive integer, got {frame_skip!r}") from None
+        if self.frame_skip > self.max_frame_skip:
+            raise ValueError(f"frame_skip={self.frame_skip:,} would simulate {self.frame_skip * 0.002:g} s of physics "
+                             f"per env step (limit {self.max_frame_skip:,} = {self.max_frame_skip * 0.002:g} s): choose "
+                             "a smaller frame_skip, or raise the limit with aas_gym.envs.AasEnv.max_frame_skip = ...")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
-        self.width, self.height, self.camera_name = int(width), int(height), camera_name
+        self.width, self.height = check_integer("width", width, 1), check_integer("height", height, 1)
+        self.camera_name = check_choice("camera_name", camera_name, ("closeup", "overview"))
         self._leaks = _load_leaks(self.acoustic.leak)
         self._variation = SensorVariation()
         self._stream: SimAcousticStream | None = None
@@ -191,7 +237,14 @@ class AasEnv(gym.Env):
         self._viewer = None
         self._warned_no_display = False
         self._scene: _Scene = self._get_scene((self.objects[0],))
-        self.metadata = dict(self.metadata, render_fps=int(round(1.0 / self.dt)))
+        vis = self.model.vis.global_
+        if self.width > vis.offwidth or self.height > vis.offheight:
+            raise ValueError(f"width x height = {self.width} x {self.height} exceeds the scene's offscreen buffer "
+                             f"{vis.offwidth} x {vis.offheight} pixels (aas_gym.stage): render smaller")
+        self.metadata = dict(self.metadata, render_fps=max(1, int(round(1.0 / self.dt))))
+        if self.acoustic.streaming and not self._step_is_probe:
+            self.acoustic.check_samples(self.step_samples, f"one streamed step (frame_skip={self.frame_skip}, "
+                                                           f"dt = {self.dt:g} s)")
         if self.acoustic.streaming and not self._step_is_probe:
             exact = self.dt * self.excitation.sample_rate_hz
             if abs(exact - round(exact)) > 1e-6:
@@ -248,7 +301,7 @@ class AasEnv(gym.Env):
         (``mj_resetData`` first), draw the sensor's variation, then the task's own
         ``_reset_episode(options)``; renders for ``render_mode="human"``."""
         super().reset(seed=seed)
-        options = dict(options or {})
+        options = self._check_options(options)
         target = self._target_object(options)
         self._get_scene(self._choose_objects(target))
         self._place_objects()
@@ -258,6 +311,19 @@ class AasEnv(gym.Env):
         if self.render_mode == "human":
             self.render()
         return obs, info
+
+    def _check_options(self, options) -> dict:
+        """``options`` as a dict; ``TypeError`` for another type, ``ValueError`` for a key this
+        env does not read (a typo would otherwise be silently ignored)."""
+        if options is None:
+            return {}
+        if not isinstance(options, dict):
+            raise TypeError(f"options must be a dict or None, got {type(options).__name__}")
+        unknown = sorted(map(str, set(options) - set(self.reset_options)))
+        if unknown:
+            raise ValueError(f"{type(self).__name__}.reset got unknown option(s) {unknown}; "
+                             f"valid options: {list(self.reset_options)}")
+        return dict(options)
 
     def _reset_episode(self, options: dict) -> tuple[dict, dict]:
         """The task's part of ``reset`` after placement: returns ``(observation, info)``."""

@@ -19,6 +19,7 @@ from aas_gym.grasp import planar_grasp
 from aas_gym.scenario import place_beside, settle
 from sensors import ContactTolerance
 from sensors.objects.catalog import ObjectSpec
+from aas_gym.envs.base import object_list
 from sensors.task import HOME_TCP, MAX_OPENING_M, check_action
 
 #: The classes, in action order: held in the air, touching the table, touching the other object.
@@ -97,7 +98,7 @@ class ContactFormationEnv(AasEnv):
                  plinths=("aluminium_bar", "steel_bar", "wood_bar"), **kwargs) -> None:
         if "scene" in kwargs:
             raise ValueError("ContactFormation-v0 builds its own scene (target beside a plinth); drop scene=")
-        super().__init__(objects, scene="multi", distractors=plinths, **kwargs)
+        super().__init__(objects, scene="multi", distractors=object_list("plinths", plinths), **kwargs)
         self.action_space = spaces.Discrete(len(FORMATIONS))
         self.observation_space = spaces.Dict({**self._proprio_spaces(), **self._acoustic_spaces()})
 

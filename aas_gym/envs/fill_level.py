@@ -7,7 +7,7 @@ import numpy as np
 from gymnasium import spaces
 
 from aas_gym.envs.base import AasEnv
-from sensors.task import check_action
+from sensors.task import check_action, check_choice, check_integer, check_number
 
 TASKS = ("fill", "liquid")
 #: The everyday containers a liquid can fill (``sensors.fluid``).
@@ -49,28 +49,33 @@ class FillLevelEnv(AasEnv):
     """
 
     _step_is_probe = True
+    reset_options = ("object", "fill_fraction", "liquid_index")
     #: Grasp across the container, never a pinch of its wall.
     _min_grasp_width_m = 0.02
 
     def __init__(self, objects=("mug",), *, task: str = "fill", liquids=("water",),
                  fill_range: tuple[float, float] = (0.0, 0.9), fill_fraction: float = 0.6, **kwargs) -> None:
+        check_choice("task", task, TASKS)
+        if isinstance(fill_range, (str, bytes)) or not hasattr(fill_range, "__len__") or len(fill_range) != 2:
+            raise TypeError(f"fill_range must be a pair (low, high), got {fill_range!r}")
+        lo, hi = (check_number("fill_range", v, 0.0, 1.0) for v in fill_range)
+        fill_fraction = check_number("fill_fraction", fill_fraction, 0.0, 1.0)
+        if isinstance(liquids, (str, bytes)) or not hasattr(liquids, "__iter__"):
+            raise TypeError(f"liquids must be a sequence of liquid names or densities, e.g. ('water',), got {liquids!r}")
         super().__init__(objects, **kwargs)
-        if task not in TASKS:
-            raise ValueError(f"task must be one of {TASKS}, got {task!r}")
         for obj in self.objects:
             if obj.shape not in CONTAINERS:
                 raise ValueError(f"{obj.label} holds no liquid: FillLevel-v0 takes the containers {list(CONTAINERS)}")
-        lo, hi = (float(v) for v in fill_range)
-        if not 0.0 <= lo <= hi <= 1.0:
+        if not lo <= hi:
             raise ValueError(f"fill_range must satisfy 0 <= low <= high <= 1, got {fill_range}")
-        if not 0.0 <= fill_fraction <= 1.0:
-            raise ValueError(f"fill_fraction must be in [0, 1], got {fill_fraction}")
         from sensors.materials.liquids import get_liquid
 
         self.liquids = tuple(liquids)
         if not self.liquids:
             raise ValueError("liquids is empty")
         for liquid in self.liquids:
+            if isinstance(liquid, bool):
+                raise TypeError(f"liquids holds {liquid!r}: give liquid names or densities [kg/m^3]")
             get_liquid(liquid)  # an unknown name fails here, not at reset
         if task == "liquid" and len(self.liquids) < 2:
             raise ValueError("task 'liquid' needs at least two liquids to tell apart")
@@ -82,7 +87,7 @@ class FillLevelEnv(AasEnv):
 
     def reset(self, *, seed=None, options=None):
         """As every env (``options``: ``fill_fraction``, ``liquid_index``, ``object``)."""
-        self._options = dict(options or {})
+        self._options = dict(options) if isinstance(options, dict) else {}
         return super().reset(seed=seed, options=options)
 
     def _place_objects(self, settle_s: float = 0.4) -> None:
@@ -91,10 +96,8 @@ class FillLevelEnv(AasEnv):
         lo, hi = self.fill_range
         fill = float(rng.uniform(lo, hi)) if self.task == "fill" else self.fill_fraction
         k = int(rng.integers(len(self.liquids))) if self.task == "liquid" else 0
-        fill = float(options.get("fill_fraction", fill))
-        k = int(options.get("liquid_index", k))
-        if not 0 <= k < len(self.liquids):
-            raise ValueError(f"liquid_index must be in [0, {len(self.liquids)}), got {k}")
+        fill = check_number("fill_fraction", options.get("fill_fraction", fill), 0.0, 1.0)
+        k = check_integer("liquid_index", options.get("liquid_index", k), 0, len(self.liquids) - 1)
         self._wet = self._fill(fill, self.liquids[k])
         self._truth = {"fill_fraction": fill, "liquid": str(self.liquids[k]), "liquid_index": k,
                        "liquid_mass_kg": float(self._wet.liquid.mass_kg)}

@@ -7,9 +7,12 @@ from gymnasium import spaces
 
 from aas_gym.envs.base import AasEnv
 from aas_gym.object_grasps import grasp_span_m
-from sensors.task import check_action
+from sensors.task import check_action, check_choice, check_integer, check_number
 
 ACTION_FORMATS = ("normalized", "metres")
+#: The most grasp positions an env takes (``n_positions``; more would not fit on any object
+#: at a resolvable spacing).
+MAX_POSITIONS = 10_000
 
 
 class GraspPositionEnv(AasEnv):
@@ -46,15 +49,15 @@ class GraspPositionEnv(AasEnv):
 
     _far_end_only = True
     _step_is_probe = True
+    reset_options = ("object", "position_index")
 
     def __init__(self, objects=("wood_bar",), *, n_positions: int = 13, spacing_m: float = 0.005,
                  action_format: str = "normalized", **kwargs) -> None:
+        n_positions = check_integer("n_positions", n_positions, 1, MAX_POSITIONS)
+        spacing_m = check_number("spacing_m", spacing_m, 0.0, low_open=True, unit="m")
+        check_choice("action_format", action_format, ACTION_FORMATS)
         super().__init__(objects, **kwargs)
-        if n_positions < 1 or spacing_m <= 0:
-            raise ValueError("n_positions must be >= 1 and spacing_m > 0")
-        if action_format not in ACTION_FORMATS:
-            raise ValueError(f"action_format must be one of {ACTION_FORMATS}, got {action_format!r}")
-        self.positions_m = np.arange(n_positions) * float(spacing_m)
+        self.positions_m = np.arange(n_positions) * spacing_m
         for obj in self.objects:
             lo, hi = grasp_span_m(obj)
             if self.positions_m[-1] > hi - max(lo, 0.0):
@@ -76,9 +79,8 @@ class GraspPositionEnv(AasEnv):
         return a
 
     def _reset_episode(self, options: dict):
-        k = int(options.get("position_index", self.np_random.integers(len(self.positions_m))))
-        if not 0 <= k < len(self.positions_m):
-            raise ValueError(f"position_index must be in [0, {len(self.positions_m)}), got {k}")
+        k = check_integer("position_index", options.get("position_index", self.np_random.integers(len(self.positions_m))),
+                          0, len(self.positions_m) - 1)
         # Prisms from their centre (the paper's +x half); other objects from their grasp path's start.
         start = 0.0 if self._scene.objects[0].is_prism else grasp_span_m(self._scene.objects[0])[0]
         grasp = self._grasp(start + float(self.positions_m[k]), self._episode_grip_force())

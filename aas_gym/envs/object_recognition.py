@@ -8,7 +8,7 @@ from gymnasium import spaces
 from aas_gym.envs.base import EXCITATION_NAMES, AasEnv
 from aas_gym.object_names import DEFAULT_OBJECT_NAMES
 from aas_gym.object_grasps import grasp_span_m
-from sensors.task import check_action, resolve_excitation
+from sensors.task import check_action, check_choice, check_integer, check_number, resolve_excitation
 
 ACTION_FORMATS = ("box", "dict")
 _DICT_KEYS = ("command", "position", "excitation", "label")
@@ -48,12 +48,14 @@ class ObjectRecognitionEnv(AasEnv):
 
     _acoustic_defaults = {"cadence": "every_step"}
     _step_is_probe = True
+    reset_options = ("label_index",)
 
     def __init__(self, objects=None, *, probe_cost: float = 0.01, max_position_m: float = 0.05,
                  action_format: str = "box", **kwargs) -> None:
+        check_choice("action_format", action_format, ACTION_FORMATS)
+        probe_cost = check_number("probe_cost", probe_cost)
+        max_position_m = check_number("max_position_m", max_position_m, 0.0, low_open=True, unit="m")
         super().__init__(objects if objects is not None else DEFAULT_OBJECT_NAMES, **kwargs)
-        if action_format not in ACTION_FORMATS:
-            raise ValueError(f"action_format must be one of {ACTION_FORMATS}, got {action_format!r}")
         self.labels = [o.label for o in self.objects]
         if len(set(self.labels)) != len(self.labels):
             raise ValueError(f"object labels must be unique, got {self.labels}")
@@ -98,9 +100,8 @@ class ObjectRecognitionEnv(AasEnv):
 
     def _target_object(self, options: dict):
         """The target by ``options["label_index"]`` or drawn from ``objects``."""
-        k = int(options.get("label_index", self.np_random.integers(len(self.objects))))
-        if not 0 <= k < len(self.objects):
-            raise ValueError(f"label_index must be in [0, {len(self.objects)}), got {k}")
+        k = check_integer("label_index", options.get("label_index", self.np_random.integers(len(self.objects))),
+                          0, len(self.objects) - 1)
         self._label_index = k
         return self.objects[k]
 

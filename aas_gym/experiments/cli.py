@@ -13,6 +13,13 @@ from aas_gym.experiments.config import EXCITATIONS, SCENES, DatasetConfig
 QUICK = dict(single_grasps=6, multi_grasps=3, positions=7, position_repeats=3)
 
 
+#: Memory of one generation worker process [bytes] (``generate.die_with_parent``: ~350 MB),
+#: for the estimate in the ``--workers`` refusal.
+WORKER_BYTES = 350e6
+#: The most workers per core (``--workers``): more only share the cores and add memory.
+MAX_WORKERS_PER_CPU = 4
+
+
 def _config(args: argparse.Namespace) -> DatasetConfig:
     """The whole configuration, checked before anything is written (ValueError: exit 2)."""
     kw = dict(QUICK) if args.quick else {}
@@ -20,13 +27,45 @@ def _config(args: argparse.Namespace) -> DatasetConfig:
         if getattr(args, name) is not None:
             kw[name] = getattr(args, name)
     for name in ("objects", "excitations", "scenes"):
-        if getattr(args, name):
-            kw[name] = tuple(getattr(args, name).split(","))
+        if getattr(args, name) is not None:
+            kw[name] = _split_names(f"--{name}", getattr(args, name))
     if args.waveforms:
         kw["store_waveforms"] = True
-    if args.workers is not None and args.workers < 1:
-        raise ValueError(f"--workers must be >= 1, got {args.workers}")
-    return DatasetConfig(**kw)
+    _check_workers(args.workers)
+    if args.ray_address not in (None, "local"):
+        from aas_gym.experiments.generate import ray_endpoint
+
+        ray_endpoint(args.ray_address)  # a malformed address fails here, before anything is written
+    try:
+        return DatasetConfig(**kw)
+    except (TypeError, ValueError) as exc:  # name the flags, not the fields
+        text = str(exc)
+        for name in kw:
+            text = text.replace(f"{name} ", f"--{name.replace('_', '-')} ", 1) if text.startswith(name) else text
+        raise type(exc)(text) from None
+
+
+def _split_names(flag: str, text: str) -> tuple[str, ...]:
+    """Comma-separated names; an empty list or an empty name (``--objects ''``,
+    ``--objects a,,b``) is refused, never read as "the defaults"."""
+    names = tuple(n.strip() for n in text.split(","))
+    if not all(names):
+        raise ValueError(f"{flag} {text!r} has an empty name: give comma-separated names, or leave {flag} out "
+                         "for the defaults")
+    return names
+
+
+def _check_workers(workers: int | None) -> None:
+    """``--workers`` in [1, MAX_WORKERS_PER_CPU x cores], refused with its memory estimate."""
+    if workers is None:
+        return
+    if workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {workers}")
+    limit = MAX_WORKERS_PER_CPU * (os.cpu_count() or 1)
+    if workers > limit:
+        raise ValueError(f"--workers {workers} would start {workers} processes of ~{WORKER_BYTES / 1e6:.0f} MB "
+                         f"(~{workers * WORKER_BYTES / 1e9:.0f} GB) on {os.cpu_count() or 1} cores (limit {limit}, "
+                         f"{MAX_WORKERS_PER_CPU} per core): pass fewer")
 
 
 def _writable_folder(path: Path) -> Path:
@@ -80,6 +119,7 @@ def _cmd_generate(args: argparse.Namespace) -> int:
 def _cmd_report(args: argparse.Namespace) -> int:
     from aas_gym.experiments.run import report_dataset
 
+    _check_workers(args.workers)
     dataset = Path(args.dataset)
     if not dataset.is_dir():
         raise ValueError(f"{dataset} is not a dataset folder (make one with `aas generate {dataset}`)")

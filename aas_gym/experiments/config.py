@@ -15,7 +15,7 @@ import hashlib
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -23,6 +23,12 @@ from aas_gym.object_names import DEFAULT_OBJECT_NAMES
 
 EXCITATIONS = ("impulse", "linear", "exponential")
 SCENES = ("single", "multi", "position")
+#: Default of ``DatasetConfig.max_tasks``: the most grasps one dataset may hold (the paper's
+#: is 665). A limit on the run's cost, not part of the configuration.
+MAX_TASKS = 100_000
+#: Simulation time of one grasp with its three recordings on one core [s], for the estimate
+#: in the refusal (docs/benchmarks/generation.md: 40.7 grasps/s in one process, warm cache).
+SECONDS_PER_GRASP = 0.025
 
 
 @dataclass(frozen=True)
@@ -66,29 +72,53 @@ class DatasetConfig:
     seed: int = 0
     shard_size: int = 16
 
+    #: The most grasps a configuration may expand to (:data:`MAX_TASKS`); raise it on the class
+    #: (``DatasetConfig.max_tasks = ...``) for a larger dataset. Not a field: not fingerprinted.
+    max_tasks: ClassVar[int] = MAX_TASKS
+
     def __post_init__(self) -> None:
-        for name in ("objects", "excitations", "scenes"):
-            object.__setattr__(self, name, tuple(getattr(self, name)))
-        unknown = set(self.excitations) - set(EXCITATIONS)
-        if unknown:
-            raise ValueError(f"unknown excitations {sorted(unknown)}; known: {EXCITATIONS}")
-        unknown = set(self.scenes) - set(SCENES)
-        if unknown:
-            raise ValueError(f"unknown scenes {sorted(unknown)}; known: {SCENES}")
-        if not self.objects:
-            raise ValueError("objects is empty")
+        # Every value checked here, before anything is written: bools are not counts, strings
+        # are not numbers, and a negative seed would fail only inside a worker.
+        from sensors.task import MAX_SAMPLES, check_flag, check_grip_force, check_integer, check_number
+
+        for name, known in (("objects", None), ("excitations", EXCITATIONS), ("scenes", SCENES)):
+            object.__setattr__(self, name, _names(name, getattr(self, name), known))
+        for name in ("single_grasps", "multi_grasps", "positions", "position_repeats"):
+            object.__setattr__(self, name, check_integer(name, getattr(self, name), 0))
+        object.__setattr__(self, "shard_size", check_integer("shard_size", self.shard_size, 1))
+        object.__setattr__(self, "seed", check_integer("seed", self.seed, 0))
+        object.__setattr__(self, "position_step_m", check_number("position_step_m", self.position_step_m, 0.0,
+                                                                 low_open=True, unit="m"))
+        object.__setattr__(self, "duration_s", check_number("duration_s", self.duration_s, 0.0, low_open=True,
+                                                            unit="s"))
+        object.__setattr__(self, "grip_force_n", check_grip_force(self.grip_force_n))
+        object.__setattr__(self, "grasp_jitter_m", check_number("grasp_jitter_m", self.grasp_jitter_m, 0.0, unit="m"))
+        object.__setattr__(self, "noise_std", check_number("noise_std", self.noise_std, 0.0))
+        object.__setattr__(self, "store_waveforms", check_flag("store_waveforms", self.store_waveforms))
+        samples = self.duration_s * 44_100
+        if samples > MAX_SAMPLES:
+            raise ValueError(f"duration_s={self.duration_s:g} s would record {samples:,.0f} samples per recording "
+                             f"(limit {MAX_SAMPLES:,} = {MAX_SAMPLES / 44_100:g} s at 44.1 kHz): shorten it")
+        n = self.n_tasks
+        if n > self.max_tasks:
+            rows = n * len(self.excitations)
+            disk_gb = rows * (140 * 4 + (samples * 4 if self.store_waveforms else 0)) / 1e9
+            raise ValueError(f"this configuration expands to {n:,} grasps ({rows:,} recordings, about "
+                             f"{n * SECONDS_PER_GRASP / 3600:,.1f} core-hours and {disk_gb:,.1f} GB; limit {self.max_tasks:,}"
+                             " grasps): use fewer objects, grasps, positions or repeats, or raise the limit with "
+                             "DatasetConfig.max_tasks = ...")
         from sensors.objects import get_object  # imports the sensor stack: `aas --help` does not pay
 
         for name in self.objects:
             get_object(name)  # a misspelt object fails here, before anything is written
-        for name in ("single_grasps", "multi_grasps", "positions", "position_repeats", "shard_size"):
-            value = getattr(self, name)
-            if int(value) != value or value < (1 if name == "shard_size" else 0):
-                raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
-        if not self.duration_s > 0 or not self.grip_force_n > 0 or not self.position_step_m > 0:
-            raise ValueError("duration_s, grip_force_n and position_step_m must be positive")
-        if not self.noise_std >= 0:
-            raise ValueError(f"noise_std must be >= 0, got {self.noise_std!r}")
+
+    @property
+    def n_tasks(self) -> int:
+        """How many grasps :meth:`tasks` yields (computed without building them)."""
+        per_object = ((self.single_grasps if "single" in self.scenes else 0)
+                      + (self.multi_grasps if "multi" in self.scenes else 0)
+                      + (self.positions * self.position_repeats if "position" in self.scenes else 0))
+        return len(self.objects) * per_object
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -124,6 +154,25 @@ class DatasetConfig:
         """Tasks grouped into shards of ``shard_size``."""
         tasks = self.tasks()
         return [tasks[i:i + self.shard_size] for i in range(0, len(tasks), self.shard_size)]
+
+
+def _names(field: str, value: Any, known: tuple[str, ...] | None) -> tuple[str, ...]:
+    """A tuple of distinct, non-empty names from a sequence (a bare string is refused: its
+    letters would be read as names)."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple)):
+        raise TypeError(f"{field} must be a list or tuple of names, got {value!r}")
+    names = tuple(value)
+    bad = [v for v in names if not isinstance(v, str) or not v.strip()]
+    if bad or not names:
+        raise ValueError(f"{field} must name at least one, each a non-empty string, got {list(names)!r}")
+    if known is not None:
+        unknown = sorted(set(names) - set(known))
+        if unknown:
+            raise ValueError(f"unknown {field} {unknown}; known: {known}")
+    twice = sorted({v for v in names if names.count(v) > 1})
+    if twice:
+        raise ValueError(f"{field} names {twice} more than once")
+    return names
 
 
 @dataclass(frozen=True)

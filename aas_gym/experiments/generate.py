@@ -59,6 +59,23 @@ class ShardError(ValueError):
     """A shard that is not this dataset's: another configuration's, or corrupt."""
 
 
+class ManifestError(ValueError):
+    """A dataset folder whose manifest (``.dataset.json``) cannot be read."""
+
+
+def read_manifest(path: Path, remedy: str) -> dict[str, Any]:
+    """The manifest at ``path``; ``ManifestError`` naming the file, what is wrong and
+    ``remedy`` if it is not JSON (a truncated write) or lacks what a dataset needs."""
+    try:
+        manifest = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ManifestError(f"{path} is damaged ({exc}): the dataset's configuration cannot be read; {remedy}") from None
+    if not (isinstance(manifest, dict) and isinstance(manifest.get("fingerprint"), str)
+            and isinstance(manifest.get("n_shards"), int) and not isinstance(manifest.get("n_shards"), bool)):
+        raise ManifestError(f"{path} is not an aas-gym dataset manifest (no fingerprint or shard count); {remedy}")
+    return manifest
+
+
 def shard_path(out_dir: Path, index: int) -> Path:
     return out_dir / f"shard-{index:05d}.parquet"
 
@@ -148,7 +165,8 @@ def _prepare(out_dir: Path, config: DatasetConfig, overwrite: bool) -> list[int]
     manifest = {"format": FORMAT, "fingerprint": config.fingerprint(), "n_shards": n_shards,
                 "n_tasks": len(config.tasks()), "config": config.to_dict(), "code_version": code_version()}
     if manifest_path.exists() and not overwrite:
-        old = json.loads(manifest_path.read_text())
+        old = read_manifest(manifest_path, f"regenerate into {out_dir} with overwrite=True (--overwrite), "
+                                           "or choose another folder")
         same_config = old.get("config") == json.loads(json.dumps(manifest["config"]))  # tuples as JSON lists
         if old.get("fingerprint") != manifest["fingerprint"] and same_config:
             raise FileExistsError(
@@ -378,7 +396,8 @@ def load_dataset(out_dir: str | os.PathLike):
     manifest_path = _manifest_path(out)
     if not manifest_path.exists():
         raise FileNotFoundError(f"{out} is not a dataset: it has no {MANIFEST} (make one with `aas generate {out}`)")
-    manifest = json.loads(manifest_path.read_text())
+    manifest = read_manifest(manifest_path, f"regenerate it with `aas generate {out} --overwrite` and its "
+                                            "configuration, or generate into another folder")
     paths = [shard_path(out, i) for i in range(manifest["n_shards"])]
     missing = [p.name for p in paths if not p.exists()]
     if missing:

@@ -5,7 +5,6 @@ fields (keywords beside ``acoustic=``), with a deprecation warning each.
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass
 from typing import Any
@@ -18,13 +17,23 @@ from ..signals.features import FEATURE_SCALES, feature_frequencies_hz, scale_fea
 from ..signals.leak import LeakRecording
 from ..synthesis.fingertip import FingertipModel
 from ..synthesis.stream import ContactTolerance
+from .checks import check_choice, check_flag, check_integer, check_number
 
-__all__ = ["AcousticConfig", "CADENCES", "LEGACY_KEYWORDS", "N_FEATURES", "resolve_excitation"]
+__all__ = ["AcousticConfig", "BYTES_PER_SAMPLE", "CADENCES", "LEGACY_KEYWORDS", "MAX_SAMPLES", "N_FEATURES",
+           "resolve_excitation"]
 
 #: Length of the spectral feature vector (3-10 kHz in 50 Hz steps).
 N_FEATURES = int(feature_frequencies_hz().size)
 
 CADENCES = ("action", "every_step", "never", "stream")
+
+#: Default of ``AcousticConfig.max_samples``: 60 s at 44.1 kHz, the longest recording (or
+#: streamed step) an env accepts unless told otherwise.
+MAX_SAMPLES = 60 * 44_100
+#: Peak memory of simulating one recording, per sample [bytes]: GraspPosition-v0's reset
+#: peaks at 29 MB of Python allocations for a 2 s recording and 102 MB for 20 s (tracemalloc),
+#: ~92 bytes per added sample (the synthesis holds several float64 arrays of its length).
+BYTES_PER_SAMPLE = 100
 
 #: Keywords the envs took beside ``acoustic=`` before it held them: old keyword -> field.
 #: Accepted for one more release with a ``DeprecationWarning``.
@@ -98,6 +107,11 @@ class AcousticConfig:
             (``sensors.FingertipModel``); ``None``: its defaults at the env's grip force.
         stream_tolerance: simulation only, with ``cadence="stream"``: when contacts count as
             unchanged (``sensors.ContactTolerance``); ``None``: its defaults.
+        max_samples: the most samples one recording (``duration_s``) or one streamed step
+            may hold (default :data:`MAX_SAMPLES`, 60 s at 44.1 kHz; each sample costs about
+            :data:`BYTES_PER_SAMPLE` bytes to simulate): a longer one is refused at
+            construction with its memory estimate. A limit, not a setting: it does not
+            change any output and is not part of the config's equality.
     """
 
     enabled: bool = True
@@ -110,28 +124,41 @@ class AcousticConfig:
     leak: Any = None
     fingertip: FingertipModel | None = None
     stream_tolerance: ContactTolerance | None = None
+    max_samples: int = MAX_SAMPLES
 
     def __post_init__(self) -> None:
-        if self.cadence not in CADENCES:
-            raise ValueError(f"cadence must be one of {CADENCES}, got {self.cadence!r}")
-        if self.feature_scale not in FEATURE_SCALES:
-            raise ValueError(f"feature_scale must be one of {FEATURE_SCALES}, got {self.feature_scale!r}")
-        if not (math.isfinite(self.noise_std) and self.noise_std >= 0):
-            raise ValueError(f"noise_std must be >= 0, got {self.noise_std!r}")
-        if not (math.isfinite(self.duration_s) and self.duration_s > 0):
-            raise ValueError(f"duration_s must be > 0 s, got {self.duration_s!r}")
+        for name in ("enabled", "waveform"):  # "no" and "False" are true values: refuse strings
+            object.__setattr__(self, name, check_flag(f"acoustic.{name}", getattr(self, name)))
+        check_choice("acoustic.cadence", self.cadence, CADENCES)
+        check_choice("acoustic.feature_scale", self.feature_scale, FEATURE_SCALES)
+        object.__setattr__(self, "noise_std", check_number("acoustic.noise_std", self.noise_std, 0.0))
+        object.__setattr__(self, "duration_s", check_number("acoustic.duration_s", self.duration_s, 0.0,
+                                                            low_open=True, unit="s"))
+        object.__setattr__(self, "max_samples", check_integer("acoustic.max_samples", self.max_samples, 1))
         if self.cadence == "stream" and self.waveform:
             raise ValueError("waveform=True is for per-action recordings; a streamed observation "
                              "carries its samples under 'audio'")
         object.__setattr__(self, "excitation", resolve_excitation(self.excitation))
         if not self.duration_s >= self.excitation.period_s:
             raise ValueError(f"duration_s must be at least one excitation period ({self.excitation.period_s} s)")
+        self.check_samples(self.n_samples, f"a recording of duration_s={self.duration_s:g} s")
         _check_leak(self.leak)
         if self.fingertip is not None and not isinstance(self.fingertip, FingertipModel):
             raise TypeError(f"fingertip must be a sensors.FingertipModel or None, got {type(self.fingertip).__name__}")
         if self.stream_tolerance is not None and not isinstance(self.stream_tolerance, ContactTolerance):
             raise TypeError("stream_tolerance must be a sensors.ContactTolerance or None, "
                             f"got {type(self.stream_tolerance).__name__}")
+
+    def check_samples(self, n_samples: int, what: str) -> None:
+        """Refuse, before anything is simulated, ``what`` holding more than :attr:`max_samples`
+        samples: ``ValueError`` with the estimate, the limit and how to change either."""
+        if n_samples > self.max_samples:
+            rate = self.excitation.sample_rate_hz
+            size = n_samples * BYTES_PER_SAMPLE
+            size = f"{size / 1e9:.1f} GB" if size >= 1e8 else f"{size / 1e6:.0f} MB"
+            raise ValueError(f"{what} would hold {n_samples:,} samples at {rate} Hz (limit {self.max_samples:,}, "
+                             f"{self.max_samples / rate:g} s; simulating it needs about {size}): shorten it, "
+                             "or raise the limit with acoustic={'max_samples': ...}")
 
     def _key(self) -> tuple:
         return (self.enabled, self.cadence, self.waveform, self.feature_scale, self.noise_std, self.duration_s,
@@ -232,10 +259,10 @@ class AcousticConfig:
         f = np.zeros(N_FEATURES) if features is None else features
         return {"acoustic": self.scale_features(f), "audio": np.asarray(audio, np.float32)}
 
-    @staticmethod
-    def _audio_samples(audio_samples: int | None) -> int:
+    def _audio_samples(self, audio_samples: int | None) -> int:
         if audio_samples is None or int(audio_samples) < 1:
             raise ValueError("a streaming env must say how many samples one step records (audio_samples)")
+        self.check_samples(int(audio_samples), "one streamed step")
         return int(audio_samples)
 
     def entries(self, recording) -> dict[str, np.ndarray]:

@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from .checks import check_number
+
 #: Where an episode starts: TCP x, y, z [m], yaw [rad].
 HOME_TCP = (0.0, 0.0, 0.3, 0.0)
 #: Largest TCP change per env step for action 1: 10 mm, 10 mm, 10 mm, 0.05 rad.
@@ -61,11 +63,9 @@ class RobotState:
 
 
 def check_grip_force(grip_force_n: float) -> float:
-    """``grip_force_n`` as a float, or ``ValueError`` if it is outside (0, 140] N."""
-    f = float(grip_force_n)
-    if not (math.isfinite(f) and 0 < f <= MAX_GRIP_FORCE_N):
-        raise ValueError(f"grip_force_n must be in (0, {MAX_GRIP_FORCE_N:g}] N, got {grip_force_n!r}")
-    return f
+    """``grip_force_n`` as a float; ``TypeError`` for a bool or a string, ``ValueError`` if it
+    is outside (0, 140] N."""
+    return check_number("grip_force_n", grip_force_n, 0.0, MAX_GRIP_FORCE_N, low_open=True, unit="N")
 
 
 def check_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
