@@ -17,9 +17,9 @@ from gymnasium import spaces
 
 from sensors import AcousticSensor, Excitation
 from sensors._infra.deprecation import warn_deprecated
-from sensors.task import (HOME_TCP, AcousticConfig, GraspHold, RobotState, check_grip_force, decode_grasp_action,
-                          grasp_reward_terms, next_tcp_target, proprio_spaces, records_this_step, reward_total,
-                          step_success, tcp_object_distance_m)
+from sensors.task import (HOME_TCP, AcousticConfig, GraspHold, RobotState, check_grip_force, check_integer,
+                          check_number, decode_grasp_action, grasp_reward_terms, next_tcp_target, proprio_spaces,
+                          records_this_step, reward_total, step_success, tcp_object_distance_m)
 
 
 @runtime_checkable
@@ -107,10 +107,13 @@ class RealGraspEnv(gym.Env):
         self.robot, self.sensor = robot, sensor
         self.acoustic = AcousticConfig.coerce(acoustic, legacy=deprecated, owner="RealGraspEnv")
         self.grip_force_n = check_grip_force(grip_force_n)
-        self.control_period_s = float(control_period_s)
-        self.max_episode_steps = int(max_episode_steps)
+        # Checked like the simulated envs' arguments: a bool or a string is no number here.
+        self.control_period_s = check_number("control_period_s", control_period_s, 0.0, 10.0, low_open=True, unit="s")
+        self.max_episode_steps = check_integer("max_episode_steps", max_episode_steps, 1)
         self.home_tcp = np.asarray(home_tcp, dtype=float)
-        self.reset_duration_s = float(reset_duration_s)
+        if self.home_tcp.shape != (4,) or not np.all(np.isfinite(self.home_tcp)):
+            raise ValueError(f"home_tcp must be 4 finite numbers (x, y, z [m], yaw [rad]), got {home_tcp!r}")
+        self.reset_duration_s = check_number("reset_duration_s", reset_duration_s, 0.0, 60.0, unit="s")
         self.action_space = spaces.Box(-1.0, 1.0, (6,), np.float32)
         self.audio_samples = int(round(self.control_period_s * self.excitation.sample_rate_hz))
         if self.acoustic.streaming:

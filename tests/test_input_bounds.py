@@ -161,3 +161,15 @@ def test_a_truncated_manifest_is_named_with_its_remedy(tmp_path, capsys):
     manifest.write_text("[1, 2]")  # JSON, but no dataset's
     with pytest.raises(ValueError, match="not an aas-gym dataset manifest"):
         load_dataset(out)
+
+
+@pytest.mark.parametrize("kw, error", [({"control_period_s": True}, TypeError), ({"control_period_s": 0.0}, ValueError),
+                                       ({"max_episode_steps": True}, TypeError), ({"max_episode_steps": 2.5}, TypeError),
+                                       ({"reset_duration_s": float("nan")}, ValueError),
+                                       ({"home_tcp": [0.0, 0.1, 0.3]}, ValueError)])
+def test_the_real_env_checks_its_numbers_like_the_simulated_ones(kw, error):
+    from real import RealGraspEnv
+    from test_real_env import CommandLog, Recorder
+
+    with pytest.raises(error):
+        RealGraspEnv(CommandLog(), Recorder(), **kw)
