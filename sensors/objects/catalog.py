@@ -119,7 +119,7 @@ class ObjectSpec:
     def from_mesh(cls, mesh, material: str, name: str | None = None, scale: float = 1.0) -> "ObjectSpec":
         """A user's object from a closed surface (``trimesh.Trimesh`` or a mesh file) in metres
         (``scale=1e-3`` for millimetres), made of ``material``; labelled ``<material>_<name>``
-        (``name`` defaults to the file's stem).
+        (``name`` defaults to the file's stem, else ``mesh-<first 8 characters of its content id>``).
 
         The surface is checked first (watertight, outward, not degenerate or self-intersecting,
         2 mm .. 0.5 m, walls at least 0.5 mm): each fault raises a ``sensors.MeshError``
@@ -129,15 +129,21 @@ class ObjectSpec:
         """
         from ..mesh.surface import check_surface
 
+        if name is not None and not isinstance(name, str):
+            raise TypeError(f"name must be a string, got {type(name).__name__}")
+        if not isinstance(material, str):
+            raise TypeError(f"material must be a material name (a string), got {type(material).__name__}")
         if isinstance(mesh, (str, Path)):
             name = name or Path(mesh).stem
             mesh = load_mesh_file(mesh)
-        name = re.sub(r"[^A-Za-z0-9_-]+", "_", name or "mesh").strip("_") or "mesh"
-        if name in ALL_SHAPES:
-            raise ValueError(f"name {name!r} is a built-in shape: choose another name for your mesh")
+        given = re.sub(r"[^A-Za-z0-9_-]+", "_", name or "").strip("_")
+        if given in ALL_SHAPES:
+            raise ValueError(f"name {given!r} is a built-in shape: choose another name for your mesh")
         material = _material(material).name
         surface = check_surface(mesh, scale=scale)
-        return cls(MESH_SHAPE, material, mesh_id=store_surface(surface), name=name)
+        mesh_id = store_surface(surface)
+        # Without a name (a Trimesh has no file stem) the content id names it: "mesh" is a shape.
+        return cls(MESH_SHAPE, material, mesh_id=mesh_id, name=given or f"mesh-{mesh_id[:8]}")
 
     @property
     def is_prism(self) -> bool:
