@@ -19,6 +19,7 @@ from .cavity import MAX_LIQUID_NODES, AxisymmetricCavity, LiquidMesh, cavity_of,
 from .liquid_body import LiquidBody
 from ..fem.assembly import QUADRATURE, shape_functions, shape_gradients_ref
 from ..materials.liquids import get_liquid
+from ..modal.basis import check_points_m
 
 __all__ = ["Container", "CONTAINER_OPTIONS", "check_container_options", "liquid_volume_in"]
 
@@ -215,7 +216,7 @@ class Container:
     def basis_shapes_at(self, points_m) -> np.ndarray:
         """(n, 3, n_basis) mass-normalized basis at points [m / sqrt(kg)]: 3 translations, 3
         rotations about the centre of mass, the dry modes, the correction vectors."""
-        p = np.atleast_2d(np.asarray(points_m, dtype=np.float64))
+        p = check_points_m(points_m)
         r = p - self._centre_m
         cross = np.zeros((len(p), 3, 3))  # [r]_x
         cross[:, 0, 1], cross[:, 0, 2] = -r[:, 2], r[:, 1]
