@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 import numbers
 
-__all__ = ["real_number", "whole_number"]
+__all__ = ["real_number", "whole_number", "holds_bool"]
 
 
 def real_number(value, name: str, *, minimum: float | None = None, maximum: float | None = None,
@@ -46,3 +46,13 @@ def whole_number(value, name: str, *, minimum: int | None = None, maximum: int |
     if (minimum is not None and n < minimum) or (maximum is not None and n > maximum):
         raise ValueError(f"{name} must be in [{minimum}, {maximum if maximum is not None else 'inf'}], got {value!r}")
     return n
+
+
+def holds_bool(value) -> bool:
+    """Whether ``value`` is or (in nested lists and tuples, or a boolean array) holds a boolean:
+    ``np.asarray([False, 0.0, 0.0])`` is a float array, so the dtype alone does not tell."""
+    if isinstance(value, bool) or type(value).__name__ == "bool_":
+        return True
+    if isinstance(value, (list, tuple)):
+        return any(holds_bool(v) for v in value)
+    return getattr(getattr(value, "dtype", None), "kind", "") == "b"

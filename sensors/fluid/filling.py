@@ -15,6 +15,7 @@ import json
 
 import numpy as np
 
+from .._infra.checks import holds_bool
 from .._infra.lru import CACHE_SIZES, LRU
 from .added_mass import liquid_loading
 from .cavity import AxisymmetricCavity, LiquidSpillError, cavity_of, unit
@@ -147,7 +148,7 @@ def _checked_fill(obj, cavity, options, *, surface_normal, **amount):
 def _checked_normal(surface_normal) -> np.ndarray:
     """A finite, non-zero 3-vector of numbers (booleans refused)."""
     v = np.asarray(surface_normal)
-    if v.dtype.kind not in "iuf" or v.shape != (3,):
+    if v.dtype.kind not in "iuf" or v.shape != (3,) or holds_bool(surface_normal):
         raise TypeError(f"surface_normal must be 3 numbers, got {surface_normal!r}")
     v = v.astype(float)
     if not np.all(np.isfinite(v)) or not np.linalg.norm(v) > 0:

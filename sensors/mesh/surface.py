@@ -142,14 +142,6 @@ def check_surface(mesh, scale: float = 1.0, hand_max_extent_m: float = HAND_MAX_
             f"surface mesh is not watertight: {int((counts == 1).sum())} open boundary edges and "
             f"{int((counts > 2).sum())} edges shared by more than two faces; close the holes "
             "(trimesh.repair.fill_holes) or rebuild it as one closed solid")
-    n_bodies = int(surface.body_count)
-    if n_bodies > 1:
-        # One model carries one solid: the grasp meshes one part, MuJoCo and the sound model
-        # would weigh different ones (a shell inside a shell: 1.02 kg against 0.94 kg).
-        raise MeshSeveralBodiesError(
-            f"surface mesh has {n_bodies} separate closed shells (several bodies, or a shell inside another): pass "
-            "one solid; keep the largest part (max(mesh.split(), key=lambda m: m.volume)) or join them with a "
-            "boolean union (trimesh.boolean.union(mesh.split(), engine='manifold'))")
     if not surface.is_winding_consistent:
         raise MeshInvertedError("surface mesh has inconsistently wound faces: call trimesh.repair.fix_winding(mesh)")
     volume = float(surface.volume)
@@ -162,6 +154,14 @@ def check_surface(mesh, scale: float = 1.0, hand_max_extent_m: float = HAND_MAX_
         raise MeshSelfIntersectingError(
             f"surface mesh is self-intersecting ({n_cross} pairs of faces cross): merge its parts with a boolean "
             "union (trimesh.boolean.union(..., engine='manifold'))")
+    n_bodies = int(surface.body_count)
+    if n_bodies > 1:
+        # One model carries one solid: the grasp meshes one part, MuJoCo and the sound model
+        # would weigh different ones (a shell inside a shell: 1.02 kg against 0.94 kg).
+        raise MeshSeveralBodiesError(
+            f"surface mesh has {n_bodies} separate closed shells (several bodies, or a shell inside another): pass "
+            "one solid; keep the largest part (max(mesh.split(), key=lambda m: m.volume)) or join them with a "
+            "boolean union (trimesh.boolean.union(mesh.split(), engine='manifold'))")
     thickness = min_thickness_m(surface)
     if thickness < MIN_THICKNESS_M:
         raise MeshTooThinError(

@@ -12,6 +12,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from .._infra.checks import holds_bool
 from .damping import modal_damping_matrix
 
 #: Object-frame points farther than this from the origin [m] are refused: no object is that
@@ -24,7 +25,7 @@ def check_points_m(points_m) -> np.ndarray:
     non-numbers (booleans, strings), ValueError for another shape, NaN/inf or a coordinate
     beyond :data:`MAX_POINT_COORDINATE_M`."""
     p = np.asarray(points_m)
-    if p.dtype.kind not in "iuf":
+    if p.dtype.kind not in "iuf" or holds_bool(points_m):
         raise TypeError(f"points_m must be numbers [m], got dtype {p.dtype}")
     p = np.atleast_2d(p.astype(np.float64))
     if p.ndim != 2 or p.shape[1] != 3:

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._infra.checks import real_number
+from .._infra.checks import holds_bool, real_number
 
 # Normals coming from MuJoCo are float32 and renormalised upstream; 1e-4 accepts rounding
 # but rejects a vector that was never normalised (or a force vector passed by mistake).
@@ -16,7 +16,7 @@ NORMAL_TOLERANCE = 1e-4
 def _vector3(value, name: str) -> np.ndarray:
     """A copy of ``value`` as a float 3-vector; TypeError for booleans, strings or objects."""
     v = np.array(value)
-    if v.dtype.kind not in "iuf":
+    if v.dtype.kind not in "iuf" or holds_bool(value):
         raise TypeError(f"Contact {name} must be 3 numbers, got {value!r}")
     v = v.astype(float).reshape(-1)
     if v.shape != (3,):

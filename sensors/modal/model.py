@@ -321,7 +321,7 @@ class ModalModel:
     def _build_structured(cls, kind, mesher, dims, material, options) -> "ModalModel":
         lo, hi = STRUCTURED_DIMENSION_RANGE_M
         for name, value in dims.items():
-            if real_number(value, name) != 0 and not lo <= value <= hi:  # 0 and negatives: the mesher's message
+            if not lo <= real_number(value, name) <= hi:
                 raise ValueError(f"{kind} {name}={value!r} is outside {lo:g} .. {hi:g} m (a unit mix-up?); no "
                                  "structured model is built outside it (sensors.modal.model.STRUCTURED_DIMENSION_RANGE_M)")
         opts = modal_build.options(options)

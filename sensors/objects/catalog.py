@@ -133,13 +133,15 @@ class ObjectSpec:
             raise TypeError(f"name must be a string, got {type(name).__name__}")
         if not isinstance(material, str):
             raise TypeError(f"material must be a material name (a string), got {type(material).__name__}")
-        if isinstance(mesh, (str, Path)):
+        material = _material(material).name  # names checked before a file is read
+        from_file = isinstance(mesh, (str, Path))
+        if from_file:
             name = name or Path(mesh).stem
-            mesh = load_mesh_file(mesh)
         given = re.sub(r"[^A-Za-z0-9_-]+", "_", name or "").strip("_")
         if given in ALL_SHAPES:
             raise ValueError(f"name {given!r} is a built-in shape: choose another name for your mesh")
-        material = _material(material).name
+        if from_file:
+            mesh = load_mesh_file(mesh)
         surface = check_surface(mesh, scale=scale)
         mesh_id = store_surface(surface)
         # Without a name (a Trimesh has no file stem) the content id names it: "mesh" is a shape.
