@@ -18,7 +18,7 @@ import numpy as np
 from .._infra.checks import holds_bool
 from .._infra.lru import CACHE_SIZES, LRU
 from .added_mass import liquid_loading
-from .cavity import AxisymmetricCavity, LiquidSpillError, cavity_of, unit
+from .cavity import AxisymmetricCavity, cavity_of, unit
 from .container import CONTAINER_OPTIONS, Container, check_container_options, liquid_volume_in, solid_of
 from .filled_model import FilledModalModel
 from .liquid_body import LiquidBody
@@ -100,9 +100,10 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
     """
     liquid = get_liquid(liquid)
     # Every input checked before the container is built (minutes with an empty cache).
-    volume, up = _checked_fill(obj, cavity, options, fill_fraction=fill_fraction, fill_height_m=fill_height_m,
-                               volume_m3=volume_m3, surface_normal=surface_normal)
+    volume = _checked_fill(obj, cavity, options, fill_fraction=fill_fraction, fill_height_m=fill_height_m,
+                           volume_m3=volume_m3, surface_normal=surface_normal)
     c = container(obj, cavity=cavity, **options)
+    up = c.surface_normal(surface_normal)
 
     def wet() -> FilledModalModel:
         if volume <= 0.0:
@@ -115,7 +116,7 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
 
 
 def _checked_fill(obj, cavity, options, *, surface_normal, **amount):
-    """The liquid volume [m^3] and free-surface normal of a fill, checked against the cavity
+    """The liquid volume [m^3] of a fill, checked with its free-surface normal against the cavity
     (range, spill, wet floor, liquid-mesh size) without building the container's modes."""
     mine = check_container_options(**{k: options[k] for k in CONTAINER_OPTIONS if k in options})
     if isinstance(obj, Container):
@@ -135,14 +136,11 @@ def _checked_fill(obj, cavity, options, *, surface_normal, **amount):
     volume = liquid_volume_in(cav, **amount)
     up = unit(up_axis if surface_normal is None else _checked_normal(surface_normal))
     if volume > 0.0:
-        most = cav.max_volume_m3(up)
-        if volume > most * (1 + 1e-9) + 1e-15:
-            raise LiquidSpillError(f"{volume * 1e6:.4g} ml would spill over the rim at this tilt (it holds "
-                                   f"{most * 1e6:.4g} ml: fill fraction {most / cav.volume_m3:.3g})")
         cav.check_liquid_mesh_size(mine["liquid_n_theta"], mine["liquid_element_size_m"], mine["liquid_max_nodes"])
         if isinstance(cav, AxisymmetricCavity):
-            cav.free_surface(volume, up, mine["liquid_n_theta"])  # refuses a dry floor or a spill (cheap)
-    return volume, up
+            # The liquid mesh's own checks (spill, dry floor), run now: a quadrature, no build.
+            cav.free_surface(volume, up, mine["liquid_n_theta"])
+    return volume
 
 
 def _checked_normal(surface_normal) -> np.ndarray:
