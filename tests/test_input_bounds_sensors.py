@@ -155,7 +155,7 @@ def tilted(cav: AxisymmetricCavity, degrees: float) -> np.ndarray:
 def test_small_tilted_and_tiny_upright_fills_say_what_is_wrong():
     cav = cavity_of(get_object("mug").solid())
     for fraction in (1e-9, 1e-3):  # scipy's "f(a) and f(b) must have different signs" before
-        with pytest.raises(MeshError, match="leaves part of the floor dry at this tilt"):
+        with pytest.raises(MeshError, match="leaves part of the bottom dry at this tilt"):
             cav.liquid_mesh(fraction * cav.volume_m3, tilted(cav, 55))
     with pytest.raises(MeshError, match="too little liquid") as refused:
         cav.liquid_mesh(1e-9 * cav.volume_m3, cav.upright_up)

@@ -97,6 +97,10 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
             (``container(obj).max_fill_fraction(surface_normal)`` is the most that does).
         sensors.MeshError: the tilted surface uncovers part of the floor (a revolved cavity's
             structured liquid mesh cannot represent it).
+        sensors.mesh.surface.MeshTooLargeError: the liquid mesh would exceed ``liquid_max_nodes``
+            (default :data:`sensors.fluid.cavity.MAX_LIQUID_NODES`).
+        TypeError, ValueError: a bad fill, option or object; all of these are raised before the
+            container is built.
     """
     liquid = get_liquid(liquid)
     # Every input checked before the container is built (minutes with an empty cache).

@@ -11,7 +11,8 @@ Checks (:func:`check_surface`), each a :class:`~sensors.mesh.tets.MeshError` sub
 * :class:`MeshDegenerateError` - zero-area faces or zero volume.
 * :class:`MeshSelfIntersectingError` - faces crossing each other.
 * :class:`MeshTooThinError` - walls thinner than a tet mesher can resolve.
-* :class:`MeshTooLargeError` - the estimated P2 model exceeds ``max_dof`` (a keyword raises it).
+* :class:`MeshTooLargeError` - more faces than ``max_faces`` (:data:`MAX_SURFACE_FACES`), or the
+  estimated P2 model exceeds ``max_dof`` (a keyword raises it).
 
 All checks run before anything is written, so a rejected mesh leaves nothing in the cache.
 """
