@@ -124,7 +124,7 @@ def test_structured_model_sizes_refused_before_meshing(length, width, kind, monk
     try:
         getattr(ModalModel, kind)(*args, "steel")
     except Built:
-        assert all(is_number(v) and 1e-4 <= v <= 10 for v in (length, width))
+        assert all(is_number(v) and 1e-6 <= v <= 10 for v in (length, width))
     except (ValueError, TypeError):
         pass
 

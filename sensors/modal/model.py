@@ -33,9 +33,9 @@ MIN_OBJECT_SIZE_M, MAX_OBJECT_SIZE_M = 2e-3, 2.0
 __all__ = ["ModalModel", "closest_points_on_triangles"]
 
 
-#: Sizes [m] of a bar, tube or rod that ``ModalModel.bar/tube/rod`` builds: 0.1 mm .. 10 m
+#: Sizes [m] of a bar, tube or rod that ``ModalModel.bar/tube/rod`` builds: 1 um .. 10 m
 #: (beyond them the mesh's numbers degenerate or its eigen-solve never ends).
-STRUCTURED_DIMENSION_RANGE_M = (1e-4, 10.0)
+STRUCTURED_DIMENSION_RANGE_M = (1e-6, 10.0)
 
 class ModalModel:
     """Elastic modes of a free solid: frequencies, damping and mass-normalized mode shapes.
@@ -322,7 +322,7 @@ class ModalModel:
         lo, hi = STRUCTURED_DIMENSION_RANGE_M
         for name, value in dims.items():
             if not lo <= real_number(value, name) <= hi:
-                raise ValueError(f"{kind} {name}={value!r} is outside {lo:g} .. {hi:g} m (a unit mix-up?); no "
+                raise MeshError(f"{kind} {name}={value!r} is outside {lo:g} .. {hi:g} m (a unit mix-up?); no "
                                  "structured model is built outside it (sensors.modal.model.STRUCTURED_DIMENSION_RANGE_M)")
         opts = modal_build.options(options)
         material = get_material(material)
