@@ -247,8 +247,9 @@ class AxisymmetricCavity:
                              "cavity's depth): give more, or 0 for an empty container")
         tilt = math.sqrt(float(up @ self._e1) ** 2 + float(up @ self._e2) ** 2)
         covered = self._volume_for_offset(up, float(up @ self.origin_m) + self.radius_m[0] * tilt)
-        return MeshError(f"{volume_m3 * 1e6:.4g} ml leaves part of the bottom dry at this tilt (the liquid covers the "
-                         f"bottom from {covered * 1e6:.4g} ml, a fill fraction of {covered / self.volume_m3:.3g}): give "
+        return MeshError(f"{volume_m3 * 1e6:.4g} ml leaves part of the bottom dry at this tilt (the liquid covers "
+                         f"the bottom from {covered * 1e6:.4g} ml, a fill fraction of "
+                         f"{covered / self.volume_m3:.3g}): give "
                          "more liquid or a smaller tilt (a revolved cavity's structured mesh needs a wet floor)")
 
     def free_surface(self, volume_m3: float, up, n_theta: int = 16):

@@ -34,7 +34,8 @@ from .tets import DEFAULT_MAX_DOF, MeshError, TetMesh, check_tet_quality, orient
 
 __all__ = [
     "MeshScaleError", "MeshNotWatertightError", "MeshInvertedError", "MeshDegenerateError",
-    "MeshSelfIntersectingError", "MeshSeveralBodiesError", "MeshTooThinError", "MeshTooLargeError", "check_surface", "estimate_p2_dof",
+    "MeshSelfIntersectingError", "MeshSeveralBodiesError", "MeshTooThinError", "MeshTooLargeError", "check_surface",
+    "estimate_p2_dof",
     "check_dof", "tetrahedralize_tuned", "DEFAULT_MAX_DOF", "BYTES_PER_DOF", "MIN_EXTENT_M", "MAX_EXTENT_M",
     "HAND_MAX_EXTENT_M", "MIN_THICKNESS_M", "MAX_SURFACE_FACES", "THICKNESS_RAY_FACE_PAIRS",
 ]
@@ -48,7 +49,7 @@ MAX_EXTENT_M = 2.0
 HAND_MAX_EXTENT_M = 0.5
 #: Thinnest wall the tet meshers resolve with at least one P2 element across.
 MIN_THICKNESS_M = 0.0005
-#: Largest surface :func:`check_surface` takes (``max_faces=`` changes it): its checks cost
+#: Largest surface :func:`check_surface` takes (``max_faces=`` or this constant changes it): its checks cost
 #: time and memory in proportion (a 20k-face sphere's wall-thickness check alone took 6 s and
 #: 1.4 GB before it was bounded); a scan is simplified to this first.
 MAX_SURFACE_FACES = 100_000
@@ -94,13 +95,14 @@ class MeshTooLargeError(MeshError):
 
 
 def check_surface(mesh, scale: float = 1.0, hand_max_extent_m: float = HAND_MAX_EXTENT_M,
-                  max_faces: int = MAX_SURFACE_FACES) -> trimesh.Trimesh:
+                  max_faces: int | None = None) -> trimesh.Trimesh:
     """Validate a user's closed surface; return a scaled, merged copy. Raises a MeshError subclass.
 
     Args:
         mesh: ``trimesh.Trimesh`` (or anything ``trimesh.load`` reads, e.g. a path).
         scale: Multiplies the coordinates first (0.001 for a mesh in millimetres).
-        max_faces: Refuse a denser surface at once (:data:`MAX_SURFACE_FACES`).
+        max_faces: Refuse a denser surface at once (None: :data:`MAX_SURFACE_FACES`, read at
+            the call, so raising that constant raises it everywhere, user objects included).
     """
     if isinstance(mesh, (str, Path)):
         mesh = trimesh.load(mesh, force="mesh")
@@ -109,11 +111,13 @@ def check_surface(mesh, scale: float = 1.0, hand_max_extent_m: float = HAND_MAX_
     if isinstance(scale, bool) or not (isinstance(scale, (int, float, np.integer, np.floating))
                                        and math.isfinite(scale) and scale > 0):
         raise MeshScaleError(f"scale must be a positive number, got {scale!r}")
+    max_faces = MAX_SURFACE_FACES if max_faces is None else max_faces
     if len(mesh.faces) > max_faces:
         raise MeshTooLargeError(
             f"surface mesh has {len(mesh.faces):,} faces, above the limit of {max_faces:,} (its checks and tet mesh "
             f"would take minutes and GBs): simplify it first (mesh.simplify_quadric_decimation(face_count="
-            f"{max_faces // 2})), or pass max_faces= to allow it")
+            f"{max_faces // 2})), or raise the limit (sensors.mesh.surface.MAX_SURFACE_FACES, or max_faces= "
+            "of check_surface)")
     vertices = np.asarray(mesh.vertices, dtype=float) * scale
     faces = np.asarray(mesh.faces, dtype=np.int64)
     if len(faces) == 0 or len(vertices) < 4:

@@ -323,7 +323,8 @@ class ModalModel:
         for name, value in dims.items():
             if not lo <= real_number(value, name) <= hi:
                 raise MeshError(f"{kind} {name}={value!r} is outside {lo:g} .. {hi:g} m (a unit mix-up?); no "
-                                 "structured model is built outside it (sensors.modal.model.STRUCTURED_DIMENSION_RANGE_M)")
+                                "structured model is built outside it "
+                                "(sensors.modal.model.STRUCTURED_DIMENSION_RANGE_M)")
         opts = modal_build.options(options)
         material = get_material(material)
         # The key needs no meshing: a cached build is just a file read.

@@ -122,10 +122,10 @@ class ObjectSpec:
         (``name`` defaults to the file's stem, else ``mesh-<first 8 characters of its content id>``).
 
         The surface is checked first (watertight, outward, not degenerate or self-intersecting,
-        one closed shell, at most 100,000 faces, 2 mm .. 0.5 m, walls at least 0.5 mm): each fault raises a ``sensors.MeshError``
-        subclass that says what to do, and nothing is written. Then it is stored in the cache
-        folder by content, where other processes find it. Whether a hand can hold it is the
-        scene's question (``aas_gym`` refuses a mesh its hand cannot grasp).
+        one closed shell, at most 100,000 faces, 2 mm .. 0.5 m, walls at least 0.5 mm): each fault
+        raises a ``sensors.MeshError`` subclass that says what to do, and nothing is written.
+        Then it is stored in the cache folder by content, where other processes find it. Whether
+        a hand can hold it is the scene's question (``aas_gym`` refuses a mesh its hand cannot grasp).
         """
         from ..mesh.surface import check_surface
 

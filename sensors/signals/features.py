@@ -47,8 +47,8 @@ def feature_frequencies_hz(
         raise ValueError(f"need 0 <= f_min_hz < f_max_hz, got f_min_hz={f_min_hz}, f_max_hz={f_max_hz}")
     n_float = (f_max_hz - f_min_hz) / step_hz
     if not n_float <= MAX_FEATURES:
-        raise ValueError(f"the band {f_min_hz:g}..{f_max_hz:g} Hz in steps of {step_hz:g} Hz is {n_float:.3g} features, "
-                         f"above the limit of {MAX_FEATURES:,}: take a larger step_hz or a narrower band")
+        raise ValueError(f"the band {f_min_hz:g}..{f_max_hz:g} Hz in steps of {step_hz:g} Hz is {n_float:.3g} "
+                         f"features, above the limit of {MAX_FEATURES:,}: take a larger step_hz or a narrower band")
     n = int(round(n_float))
     if not math.isclose(n * step_hz, f_max_hz - f_min_hz, rel_tol=1e-9):
         raise ValueError(f"(f_max_hz - f_min_hz) = {f_max_hz - f_min_hz} Hz is not a multiple of step_hz = {step_hz} Hz")
