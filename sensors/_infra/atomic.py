@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO
@@ -23,7 +24,8 @@ def atomic_open(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO]:
         raise ValueError(f"mode must be 'wb' or 'w', got {mode!r}")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    # The writer's pid in the name lets a later writer tell a killed writer's leftover from a live one.
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp")
     try:
         with os.fdopen(fd, mode) as fh:
             yield fh
@@ -35,6 +37,43 @@ def atomic_open(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO]:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+#: A temporary file older than this [s] is a leftover whatever its pid says (no write takes an hour).
+STALE_TEMP_AGE_S = 3600.0
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True  # exists (another user's) or cannot tell: keep its file
+    return True
+
+
+def remove_stale_temp_files(folder: str | os.PathLike, max_age_s: float = STALE_TEMP_AGE_S) -> int:
+    """Remove the temporary files of :func:`atomic_open` in ``folder`` that a killed writer left
+    (kill -9 skips the clean-up): those older than ``max_age_s`` or whose writer's pid is gone
+    (on this machine). Returns how many it removed; files it cannot remove are left alone."""
+    removed = 0
+    now = time.time()
+    try:
+        candidates = list(Path(folder).glob(".*.tmp"))
+    except OSError:
+        return 0
+    for tmp in candidates:
+        parts = tmp.name.split(".")  # "", <target name parts...>, <pid>, <random>, "tmp"
+        pid = int(parts[-3]) if len(parts) >= 5 and parts[-3].isdigit() else None
+        try:
+            old = now - tmp.stat().st_mtime > max_age_s
+            if old or (pid is not None and pid != os.getpid() and not _pid_alive(pid)):
+                tmp.unlink()
+                removed += 1
+        except OSError:
+            continue
+    return removed
 
 
 def _umask() -> int:

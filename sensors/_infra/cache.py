@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_open
+from .atomic import atomic_open, remove_stale_temp_files
 
 __all__ = ["CODE_VERSION", "code_version", "source_version", "default_cache_dir", "content_key", "load_arrays", "save_arrays", "entry_path"]
 
@@ -156,10 +156,24 @@ def load_arrays(key: str, cache_dir=None) -> dict | None:
     return arrays
 
 
+#: Cache folders whose killed writers' temporary files this process has removed.
+_CLEANED: set[str] = set()
+
+
+def _clean_once(folder: Path) -> None:
+    """Remove the temporary files killed writers left in ``folder`` (once per folder and process)."""
+    if str(folder) not in _CLEANED:
+        _CLEANED.add(str(folder))
+        n = remove_stale_temp_files(folder)
+        if n:
+            log.info("removed %d temporary files left by killed cache writers in %s", n, folder)
+
+
 def save_arrays(key: str, arrays: dict, cache_dir=None) -> Path | None:
     """Store ``arrays`` under ``key`` atomically with a content checksum; returns the path
     (None if not writable)."""
     path = entry_path(key, cache_dir)
+    _clean_once(path.parent)
     try:
         with atomic_open(path) as f:
             np.savez(f, **arrays, **{CHECKSUM: np.array(_checksum(arrays))})

@@ -30,7 +30,12 @@ from ..mesh.tets import MeshError, TetMesh
 from ..mesh.tetwild import tetrahedralize_surface, validate_surface
 
 __all__ = ["LiquidMesh", "AxisymmetricCavity", "SurfaceCavity", "LiquidSpillError", "cavity_of", "p2_volume_m3",
-           "unit"]
+           "unit", "MAX_LIQUID_NODES"]
+
+#: Default limit on the P2 nodes of a revolved cavity's liquid mesh (``liquid_max_nodes=`` of
+#: ``filled``/``Container`` changes it): the added-mass solve holds a few kB per node (a mug
+#: meshed at 10 um, 3.7 million nodes, peaked at 14.4 GB), so this bounds it near 1 GB.
+MAX_LIQUID_NODES = 200_000
 
 
 class LiquidSpillError(ValueError):
@@ -230,31 +235,76 @@ class AxisymmetricCavity:
         lo, hi = float((corners @ up).min()), float((corners @ up).max())
         if volume_m3 >= self._volume_for_offset(up, hi):  # full to the top (round-off of the two volumes)
             return hi
+        if volume_m3 <= self._volume_for_offset(up, lo):  # at most the quadrature's error in a dry corner
+            raise self._dry_floor_error(volume_m3, up)
         return scipy.optimize.brentq(lambda d: self._volume_for_offset(up, d) - volume_m3, lo, hi,
                                      xtol=1e-12 * (hi - lo))
 
-    def liquid_mesh(self, volume_m3: float, up, n_theta: int = 16, element_size_m: float | None = None) -> LiquidMesh:
+    def _dry_floor_error(self, volume_m3: float, up) -> MeshError:
+        """The error for a free surface that would leave part of the floor dry, saying how much covers it."""
+        if float(up @ self.axis) >= 1.0 - 1e-12:
+            return MeshError(f"{volume_m3 * 1e6:.3g} ml is too little liquid to mesh (a film of under 1e-9 of the "
+                             "cavity's depth): give more, or 0 for an empty container")
+        tilt = math.sqrt(float(up @ self._e1) ** 2 + float(up @ self._e2) ** 2)
+        covered = self._volume_for_offset(up, float(up @ self.origin_m) + self.radius_m[0] * tilt)
+        return MeshError(f"{volume_m3 * 1e6:.4g} ml leaves part of the bottom dry at this tilt (the liquid covers "
+                         f"the bottom from {covered * 1e6:.4g} ml, a fill fraction of "
+                         f"{covered / self.volume_m3:.3g}): give "
+                         "more liquid or a smaller tilt (a revolved cavity's structured mesh needs a wet floor)")
+
+    def free_surface(self, volume_m3: float, up, n_theta: int = 16):
+        """The free surface's offset d and its axial heights at 4 ``n_theta`` points on the rim
+        circle; raises :class:`LiquidSpillError` if it spills, ``MeshError`` if the floor is partly dry."""
+        up = unit(up)
+        d = self.surface_offset_m(volume_m3, up)
+        # Surface heights on the rim decide validity and the number of layers.
+        rim = np.linspace(0, 2 * math.pi, 4 * n_theta, endpoint=False)
+        s_rim = self._surface_axial(np.cos(rim), np.sin(rim), up, d)
+        if s_rim.min() <= self.axial_m[0] + 1e-9 * self.depth_m:
+            raise self._dry_floor_error(volume_m3, up)
+        if s_rim.max() > self.axial_m[-1] + 1e-9 * self.depth_m:
+            raise LiquidSpillError(f"{volume_m3 * 1e6:.4g} ml would spill over the rim at this tilt (it holds "
+                                   f"{self.max_volume_m3(up) * 1e6:.4g} ml)")
+        return d, s_rim
+
+    def liquid_mesh_nodes(self, n_theta: int = 16, element_size_m: float | None = None) -> int:
+        """The most P2 nodes :meth:`liquid_mesh` makes (liquid up to the rim) with these settings."""
+        h = element_size_m or 2 * math.pi * float(self.radius_m.max()) / n_theta
+        template = disk_template(n_theta, 0)
+        per_layer = 2 * len(template.points) + len(template.triangles) - 1  # vertices and edges (Euler)
+        return per_layer * (2 * max(2, math.ceil(self.depth_m / h)) + 1)
+
+    def check_liquid_mesh_size(self, n_theta: int = 16, element_size_m: float | None = None,
+                               max_nodes: int | None = MAX_LIQUID_NODES) -> None:
+        """Refuse (:class:`~sensors.mesh.surface.MeshTooLargeError`), before meshing, a liquid mesh
+        above ``max_nodes`` (None: no limit)."""
+        if max_nodes is None:
+            return
+        from ..mesh.surface import MeshTooLargeError  # imports trimesh: only when refusing
+
+        n = self.liquid_mesh_nodes(n_theta, element_size_m)
+        if n > max_nodes:
+            raise MeshTooLargeError(
+                f"the liquid mesh would have up to {n:,} nodes (element size {element_size_m} m, {n_theta} around), "
+                f"above the limit of {int(max_nodes):,} (a few kB each in the added-mass solve): give a larger "
+                "liquid_element_size_m or a smaller liquid_n_theta, or raise liquid_max_nodes=")
+
+    def liquid_mesh(self, volume_m3: float, up, n_theta: int = 16, element_size_m: float | None = None,
+                    max_nodes: int | None = MAX_LIQUID_NODES) -> LiquidMesh:
         """Structured P2 mesh of ``volume_m3`` of liquid with its free surface normal to ``up``.
 
         Args:
             n_theta: Elements around (a multiple of 8).
             element_size_m: Axial element size; default the size around the wall.
+            max_nodes: Refuse a larger mesh before building it (:meth:`check_liquid_mesh_size`).
         """
         up = unit(up)
-        d = self.surface_offset_m(volume_m3, up)
+        self.check_liquid_mesh_size(n_theta, element_size_m, max_nodes)
+        d, s_rim = self.free_surface(volume_m3, up, n_theta)
         r_max = float(self.radius_m.max())
         h = element_size_m or 2 * math.pi * r_max / n_theta
         template = disk_template(n_theta, 0)  # the O-grid unit disk of the container meshes
         pts, tris = template.points, template.triangles
-        # Surface heights on the rim decide validity and the number of layers.
-        rim = np.linspace(0, 2 * math.pi, 4 * n_theta, endpoint=False)
-        s_rim = self._surface_axial(np.cos(rim), np.sin(rim), up, d)
-        if s_rim.min() <= self.axial_m[0] + 1e-9 * self.depth_m:
-            raise MeshError("the free surface reaches the bottom at this tilt and volume (the bottom is partly dry); "
-                            "use a SurfaceCavity for this case")
-        if s_rim.max() > self.axial_m[-1] + 1e-9 * self.depth_m:
-            raise LiquidSpillError(f"{volume_m3 * 1e6:.4g} ml would spill over the rim at this tilt (it holds "
-                                   f"{self.max_volume_m3(up) * 1e6:.4g} ml)")
         nz = max(2, int(math.ceil((s_rim.max() - self.axial_m[0]) / h - 1e-9)))
         v, t = extrude_to_tets(pts, tris, 1.0, nz)
         nodes, tets = quadratic_mesh(TetMesh(v, t, "liquid", {}, (1.0,)))
@@ -330,6 +380,9 @@ class SurfaceCavity:
             return float(self._sliced(up, d).volume) - volume_m3
 
         return scipy.optimize.brentq(excess, lo, hi, xtol=1e-9 * (hi - lo))
+
+    def check_liquid_mesh_size(self, *_, **__) -> None:
+        """pytetwild's own size guard (``max_dof``) refuses a too fine liquid mesh before meshing."""
 
     def liquid_mesh(self, volume_m3: float, up, element_size_m: float | None = None, **_) -> LiquidMesh:
         """pytetwild mesh of the cavity below the free surface (straight P2 elements)."""

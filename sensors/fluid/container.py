@@ -12,17 +12,58 @@ import math
 import numpy as np
 
 from .._infra import cache as cache_mod
+from .._infra.checks import real_number, whole_number
 from .._infra.lru import CACHE_SIZES, LRU
 from .added_mass import static_correction
-from .cavity import AxisymmetricCavity, LiquidMesh, cavity_of, unit
+from .cavity import MAX_LIQUID_NODES, AxisymmetricCavity, LiquidMesh, cavity_of, unit
 from .liquid_body import LiquidBody
 from ..fem.assembly import QUADRATURE, shape_functions, shape_gradients_ref
 from ..materials.liquids import get_liquid
+from ..modal.basis import check_points_m
 
-__all__ = ["Container", "CONTAINER_OPTIONS"]
+__all__ = ["Container", "CONTAINER_OPTIONS", "check_container_options", "liquid_volume_in"]
 
 #: Options of :class:`Container` (the rest of ``filled``'s keyword arguments build the dry model).
-CONTAINER_OPTIONS = ("correction_degree", "liquid_n_theta", "liquid_element_size_m", "max_dry_frequency_hz")
+CONTAINER_OPTIONS = ("correction_degree", "liquid_n_theta", "liquid_element_size_m", "max_dry_frequency_hz",
+                     "liquid_max_nodes")
+
+
+def check_container_options(correction_degree=4, liquid_n_theta=16, liquid_element_size_m=None,
+                            max_dry_frequency_hz=None, liquid_max_nodes=MAX_LIQUID_NODES) -> dict:
+    """The :class:`Container` options checked (TypeError/ValueError naming the option), before any build."""
+    return dict(
+        correction_degree=0 if correction_degree is None else whole_number(correction_degree, "correction_degree",
+                                                                            minimum=0, maximum=12),
+        liquid_n_theta=_multiple_of_8(whole_number(liquid_n_theta, "liquid_n_theta", minimum=8, maximum=1024)),
+        liquid_element_size_m=None if liquid_element_size_m is None else real_number(
+            liquid_element_size_m, "liquid_element_size_m", above=0.0),
+        max_dry_frequency_hz=None if max_dry_frequency_hz is None else real_number(
+            max_dry_frequency_hz, "max_dry_frequency_hz", above=0.0),
+        liquid_max_nodes=None if liquid_max_nodes is None else whole_number(liquid_max_nodes, "liquid_max_nodes",
+                                                                            minimum=1))
+
+
+def _multiple_of_8(n: int) -> int:
+    if n % 8:
+        raise ValueError(f"liquid_n_theta must be a multiple of 8, got {n}")
+    return n
+
+
+def liquid_volume_in(cavity, *, fill_fraction=None, fill_height_m=None, volume_m3=None) -> float:
+    """Liquid volume [m^3] in ``cavity`` from exactly one of a fill fraction (of the cavity), an
+    upright height above the inner floor [m] (axisymmetric cavities) or a volume [m^3]."""
+    given = [v is not None for v in (fill_fraction, fill_height_m, volume_m3)]
+    if sum(given) != 1:
+        raise TypeError("give exactly one of fill_fraction, fill_height_m, volume_m3")
+    total = cavity.volume_m3
+    if fill_fraction is not None:
+        return real_number(fill_fraction, "fill_fraction", minimum=0.0, maximum=1.0) * total
+    if fill_height_m is not None:
+        if not isinstance(cavity, AxisymmetricCavity):
+            raise TypeError("fill_height_m needs an axisymmetric cavity; give fill_fraction or volume_m3")
+        height = real_number(fill_height_m, "fill_height_m [m]", minimum=0.0, maximum=cavity.depth_m * (1 + 1e-12))
+        return cavity.volume_below_m3(height)
+    return real_number(volume_m3, "volume_m3", minimum=0.0, maximum=total * (1 + 1e-12))
 
 
 def _rigid_body_data(model):
@@ -65,15 +106,20 @@ class Container:
         liquid_element_size_m: Liquid element size (axial for axisymmetric cavities).
         max_dry_frequency_hz: Use only dry modes up to this frequency (default: all); for
             truncation studies.
+        liquid_max_nodes: Refuse, before meshing, a revolved cavity's liquid mesh above this many
+            P2 nodes (default :data:`~sensors.fluid.cavity.MAX_LIQUID_NODES`; None: no limit).
         cache, cache_dir: The disk cache of the static correction (as the modal models').
     """
 
     def __init__(self, dry, cavity, *, up_axis=None, correction_degree: int | None = 4, liquid_n_theta: int = 16,
                  liquid_element_size_m: float | None = None, max_dry_frequency_hz: float | None = None,
-                 cache: bool = True, cache_dir=None, name: str | None = None):
+                 liquid_max_nodes: int | None = MAX_LIQUID_NODES, cache: bool = True, cache_dir=None,
+                 name: str | None = None):
         if not all(hasattr(dry, a) for a in ("nodes_m", "elements", "mode_shapes", "locator")):
             raise TypeError(f"a Container needs a sensors.ModalModel with its mesh, got {type(dry).__name__} "
                             "(for another material, fill the container and use the filled model's with_material)")
+        checked = check_container_options(correction_degree, liquid_n_theta, liquid_element_size_m,
+                                          max_dry_frequency_hz, liquid_max_nodes)
         self.dry = dry
         self.cavity = cavity_of(cavity)
         self.name = name or str(dry.metadata.get("kind", "container"))
@@ -84,10 +130,11 @@ class Container:
         self.n_dry = len(f) if max_dry_frequency_hz is None else int(np.searchsorted(f, max_dry_frequency_hz, "right"))
         self.band_limit_hz = float(max_dry_frequency_hz if max_dry_frequency_hz is not None
                                    else dry.metadata.get("max_frequency_hz", f[-1] if len(f) else 0.0))
-        self.liquid_n_theta = int(liquid_n_theta)
-        self.liquid_element_size_m = liquid_element_size_m
+        self.liquid_n_theta = checked["liquid_n_theta"]
+        self.liquid_element_size_m = checked["liquid_element_size_m"]
+        self.liquid_max_nodes = checked["liquid_max_nodes"]
         self._mass_kg, self._centre_m, self._rot = _rigid_body_data(dry)
-        self.correction_degree = int(correction_degree or 0)
+        self.correction_degree = checked["correction_degree"]
         if self.correction_degree > 0:
             lam_c, shapes_c = self._correction(cache, cache_dir)
         else:
@@ -114,12 +161,14 @@ class Container:
         """
         obj = solid_of(obj)
         mine = {k: options.pop(k) for k in list(options) if k in CONTAINER_OPTIONS}
+        check_container_options(**mine)
+        cavity = cavity_of(obj)  # refuses a solid without a cavity before its modes are built
         caching = {k: options[k] for k in ("cache", "cache_dir") if k in options}
         if dry is None:
             dry = obj.modal_model(**options)
         elif set(options) - set(caching):
             raise TypeError(f"dry model given: build options {sorted(set(options) - set(caching))} do not apply")
-        return cls(dry, cavity_of(obj), up_axis=obj.up_axis, name=obj.name, **caching, **mine)
+        return cls(dry, cavity, up_axis=obj.up_axis, name=obj.name, **caching, **mine)
 
     def _wetted_faces(self):
         tol = 5e-3 * self.cavity.size_m
@@ -167,7 +216,7 @@ class Container:
     def basis_shapes_at(self, points_m) -> np.ndarray:
         """(n, 3, n_basis) mass-normalized basis at points [m / sqrt(kg)]: 3 translations, 3
         rotations about the centre of mass, the dry modes, the correction vectors."""
-        p = np.atleast_2d(np.asarray(points_m, dtype=np.float64))
+        p = check_points_m(points_m)
         r = p - self._centre_m
         cross = np.zeros((len(p), 3, 3))  # [r]_x
         cross[:, 0, 1], cross[:, 0, 2] = -r[:, 2], r[:, 1]
@@ -199,29 +248,14 @@ class Container:
     def liquid_volume_m3(self, *, fill_fraction=None, fill_height_m=None, volume_m3=None) -> float:
         """Liquid volume from exactly one of a fill fraction (of the cavity), an upright height
         above the inner floor [m] (axisymmetric cavities) or a volume [m^3]."""
-        given = [v is not None for v in (fill_fraction, fill_height_m, volume_m3)]
-        if sum(given) != 1:
-            raise TypeError("give exactly one of fill_fraction, fill_height_m, volume_m3")
-        total = self.cavity.volume_m3
-        if fill_fraction is not None:
-            if not 0.0 <= fill_fraction <= 1.0:
-                raise ValueError(f"fill_fraction must be in [0, 1], got {fill_fraction}")
-            return float(fill_fraction) * total
-        if fill_height_m is not None:
-            if not isinstance(self.cavity, AxisymmetricCavity):
-                raise TypeError("fill_height_m needs an axisymmetric cavity; give fill_fraction or volume_m3")
-            if not 0.0 <= fill_height_m <= self.cavity.depth_m * (1 + 1e-12):
-                raise ValueError(f"fill_height_m must be in [0, {self.cavity.depth_m:.4g}] m, got {fill_height_m}")
-            return self.cavity.volume_below_m3(fill_height_m)
-        if not 0.0 <= volume_m3 <= total * (1 + 1e-12):
-            raise ValueError(f"volume_m3 must be in [0, {total:.4g}] m^3, got {volume_m3}")
-        return float(volume_m3)
+        return liquid_volume_in(self.cavity, fill_fraction=fill_fraction, fill_height_m=fill_height_m,
+                                volume_m3=volume_m3)
 
     def liquid_mesh(self, volume_m3: float, surface_normal=None) -> LiquidMesh:
         """The liquid's P2 mesh (raises :class:`~sensors.fluid.cavity.LiquidSpillError` if it spills,
         :class:`~sensors.MeshError` if the tilted surface uncovers part of the floor)."""
         return self.cavity.liquid_mesh(volume_m3, self.surface_normal(surface_normal), n_theta=self.liquid_n_theta,
-                                       element_size_m=self.liquid_element_size_m)
+                                       element_size_m=self.liquid_element_size_m, max_nodes=self.liquid_max_nodes)
 
     def liquid_body(self, liquid="water", *, fill_fraction=None, fill_height_m=None, volume_m3=None,
                     surface_normal=None) -> LiquidBody:

@@ -15,9 +15,11 @@ import json
 
 import numpy as np
 
+from .._infra.checks import holds_bool
 from .._infra.lru import CACHE_SIZES, LRU
 from .added_mass import liquid_loading
-from .container import Container, solid_of
+from .cavity import AxisymmetricCavity, cavity_of, unit
+from .container import CONTAINER_OPTIONS, Container, check_container_options, liquid_volume_in, solid_of
 from .filled_model import FilledModalModel
 from .liquid_body import LiquidBody
 from ..materials.liquids import get_liquid
@@ -95,10 +97,16 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
             (``container(obj).max_fill_fraction(surface_normal)`` is the most that does).
         sensors.MeshError: the tilted surface uncovers part of the floor (a revolved cavity's
             structured liquid mesh cannot represent it).
+        sensors.mesh.surface.MeshTooLargeError: the liquid mesh would exceed ``liquid_max_nodes``
+            (default :data:`sensors.fluid.cavity.MAX_LIQUID_NODES`).
+        TypeError, ValueError: a bad fill, option or object; all of these are raised before the
+            container is built.
     """
-    c = container(obj, cavity=cavity, **options)
     liquid = get_liquid(liquid)
-    volume = c.liquid_volume_m3(fill_fraction=fill_fraction, fill_height_m=fill_height_m, volume_m3=volume_m3)
+    # Every input checked before the container is built (minutes with an empty cache).
+    volume = _checked_fill(obj, cavity, options, fill_fraction=fill_fraction, fill_height_m=fill_height_m,
+                           volume_m3=volume_m3, surface_normal=surface_normal)
+    c = container(obj, cavity=cavity, **options)
     up = c.surface_normal(surface_normal)
 
     def wet() -> FilledModalModel:
@@ -109,3 +117,42 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
         return FilledModalModel(c, LiquidBody.in_cavity(c.cavity, liquid, volume, up, mesh), Ma, S)
 
     return c.fills.get_or_build((liquid, round(volume, 15), tuple(np.round(up, 12))), wet)
+
+
+def _checked_fill(obj, cavity, options, *, surface_normal, **amount):
+    """The liquid volume [m^3] of a fill, checked with its free-surface normal against the cavity
+    (range, spill, wet floor, liquid-mesh size) without building the container's modes."""
+    mine = check_container_options(**{k: options[k] for k in CONTAINER_OPTIONS if k in options})
+    if isinstance(obj, Container):
+        cav, up_axis = obj.cavity, obj.up_axis
+        mine = dict(liquid_n_theta=obj.liquid_n_theta, liquid_element_size_m=obj.liquid_element_size_m,
+                    liquid_max_nodes=obj.liquid_max_nodes)
+    elif hasattr(obj, "mode_shapes_at") and not hasattr(obj, "tet_mesher"):  # a bare model: container() refuses
+        if cavity is None:
+            raise TypeError("a bare modal model does not know its cavity: pass cavity= (or the EverydayObject)")
+        cav = cavity_of(cavity)
+        up_axis = cav.upright_up if isinstance(cav, AxisymmetricCavity) else (0.0, 0.0, 1.0)
+    else:
+        if cavity is not None:
+            raise TypeError("an everyday object brings its cavity: do not pass cavity=")
+        solid = solid_of(obj)
+        cav, up_axis = cavity_of(solid), solid.up_axis
+    volume = liquid_volume_in(cav, **amount)
+    up = unit(up_axis if surface_normal is None else _checked_normal(surface_normal))
+    if volume > 0.0:
+        cav.check_liquid_mesh_size(mine["liquid_n_theta"], mine["liquid_element_size_m"], mine["liquid_max_nodes"])
+        if isinstance(cav, AxisymmetricCavity):
+            # The liquid mesh's own checks (spill, dry floor), run now: a quadrature, no build.
+            cav.free_surface(volume, up, mine["liquid_n_theta"])
+    return volume
+
+
+def _checked_normal(surface_normal) -> np.ndarray:
+    """A finite, non-zero 3-vector of numbers (booleans refused)."""
+    v = np.asarray(surface_normal)
+    if v.dtype.kind not in "iuf" or v.shape != (3,) or holds_bool(surface_normal):
+        raise TypeError(f"surface_normal must be 3 numbers, got {surface_normal!r}")
+    v = v.astype(float)
+    if not np.all(np.isfinite(v)) or not np.linalg.norm(v) > 0:
+        raise ValueError(f"surface_normal must be a finite non-zero vector, got {surface_normal!r}")
+    return v

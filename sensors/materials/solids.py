@@ -42,7 +42,8 @@ class Material:
     def __post_init__(self) -> None:
         for field in ("density_kg_m3", "youngs_modulus_pa", "poisson_ratio", "alpha", "beta", "gamma"):
             value = getattr(self, field)
-            if isinstance(value, (bool, np.bool_)):  # float(True) is 1.0: a typo must not become 1 Pa
+            # float(True) is 1.0 and float("7800") 7800: a typo must not become 1 Pa, nor a string pass
+            if isinstance(value, (bool, np.bool_, str, bytes)):
                 raise ValueError(f"Material {self.name!r}: {field} must be a number, got {value!r}")
             try:
                 value = float(value)
@@ -122,7 +123,9 @@ def get_material(name: "str | Material") -> Material:
     """
     if isinstance(name, Material):
         return name
-    key = str(name).strip().lower()
+    if not isinstance(name, str):
+        raise TypeError(f"a material is a name (a string) or a sensors.Material, got {name!r} ({type(name).__name__})")
+    key = name.strip().lower()
     key = _ALIASES.get(key, key)
     try:
         return MATERIALS[key]

@@ -57,7 +57,8 @@ def grid_triangles(n_u: int, n_v: int, index: np.ndarray) -> np.ndarray:
 
 
 def _divisions(extent: float, h: float, minimum: int) -> int:
-    return max(minimum, int(math.ceil(extent / h - 1e-9)))
+    # Capped (the size guard refuses it then): extent / h can overflow to inf.
+    return max(minimum, int(math.ceil(min(extent / h, 1e15) - 1e-9)))
 
 
 def bar_mesh(length_m: float, width_m: float, height_m: float, element_size_m: float | None = None,

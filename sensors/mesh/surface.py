@@ -6,11 +6,13 @@ Checks (:func:`check_surface`), each a :class:`~sensors.mesh.tets.MeshError` sub
 * :class:`MeshScaleError` - largest extent above 2 m or below 2 mm (a unit mix-up: pass
   ``scale=``), or larger than the hand can handle (:data:`HAND_MAX_EXTENT_M`).
 * :class:`MeshNotWatertightError` - open boundary or non-manifold edges.
+* :class:`MeshSeveralBodiesError` - more than one closed shell (two bodies, or a shell inside a shell).
 * :class:`MeshInvertedError` - faces wound inward (negative volume) or inconsistently.
 * :class:`MeshDegenerateError` - zero-area faces or zero volume.
 * :class:`MeshSelfIntersectingError` - faces crossing each other.
 * :class:`MeshTooThinError` - walls thinner than a tet mesher can resolve.
-* :class:`MeshTooLargeError` - the estimated P2 model exceeds ``max_dof`` (a keyword raises it).
+* :class:`MeshTooLargeError` - more faces than ``max_faces`` (:data:`MAX_SURFACE_FACES`), or the
+  estimated P2 model exceeds ``max_dof`` (a keyword raises it).
 
 All checks run before anything is written, so a rejected mesh leaves nothing in the cache.
 """
@@ -28,13 +30,14 @@ import trimesh
 
 from .._infra import cache as cache_mod
 from .intersections import count_self_intersections
-from .tets import MeshError, TetMesh, check_tet_quality, orient_tets
+from .tets import DEFAULT_MAX_DOF, MeshError, TetMesh, check_tet_quality, orient_tets
 
 __all__ = [
     "MeshScaleError", "MeshNotWatertightError", "MeshInvertedError", "MeshDegenerateError",
-    "MeshSelfIntersectingError", "MeshTooThinError", "MeshTooLargeError", "check_surface", "estimate_p2_dof",
+    "MeshSelfIntersectingError", "MeshSeveralBodiesError", "MeshTooThinError", "MeshTooLargeError", "check_surface",
+    "estimate_p2_dof",
     "check_dof", "tetrahedralize_tuned", "DEFAULT_MAX_DOF", "BYTES_PER_DOF", "MIN_EXTENT_M", "MAX_EXTENT_M",
-    "HAND_MAX_EXTENT_M", "MIN_THICKNESS_M",
+    "HAND_MAX_EXTENT_M", "MIN_THICKNESS_M", "MAX_SURFACE_FACES", "THICKNESS_RAY_FACE_PAIRS",
 ]
 
 log = logging.getLogger(__name__)
@@ -46,8 +49,15 @@ MAX_EXTENT_M = 2.0
 HAND_MAX_EXTENT_M = 0.5
 #: Thinnest wall the tet meshers resolve with at least one P2 element across.
 MIN_THICKNESS_M = 0.0005
-#: Default size guard: about 3 GB of sparse factor at :data:`BYTES_PER_DOF` (issue 17 item 7).
-DEFAULT_MAX_DOF = 150_000
+#: Largest surface :func:`check_surface` takes (``max_faces=`` or this constant changes it): its checks cost
+#: time and memory in proportion (a 20k-face sphere's wall-thickness check alone took 6 s and
+#: 1.4 GB before it was bounded); a scan is simplified to this first.
+MAX_SURFACE_FACES = 100_000
+#: Ray-face pairs the wall-thickness check tests at most (rays x faces): fewer rays on a
+#: dense surface, so its cost is bounded (2000 rays up to 10,000 faces).
+THICKNESS_RAY_FACE_PAIRS = 20_000_000
+#: Ray-face pairs cast at once (bounds the ray tracer's candidate arrays to a few hundred MB).
+_PAIRS_PER_BATCH = 2_000_000
 #: Measured peak memory of assembly plus sparse LU per P2 dof on the project's meshes.
 BYTES_PER_DOF = 20_000
 
@@ -58,6 +68,10 @@ class MeshScaleError(MeshError):
 
 class MeshNotWatertightError(MeshError):
     """The surface has holes or non-manifold edges."""
+
+
+class MeshSeveralBodiesError(MeshError):
+    """The surface holds more than one closed shell (separate bodies, or a cavity's shell)."""
 
 
 class MeshInvertedError(MeshError):
@@ -80,19 +94,30 @@ class MeshTooLargeError(MeshError):
     """The model would need more degrees of freedom (memory) than the limit allows."""
 
 
-def check_surface(mesh, scale: float = 1.0, hand_max_extent_m: float = HAND_MAX_EXTENT_M) -> trimesh.Trimesh:
+def check_surface(mesh, scale: float = 1.0, hand_max_extent_m: float = HAND_MAX_EXTENT_M,
+                  max_faces: int | None = None) -> trimesh.Trimesh:
     """Validate a user's closed surface; return a scaled, merged copy. Raises a MeshError subclass.
 
     Args:
         mesh: ``trimesh.Trimesh`` (or anything ``trimesh.load`` reads, e.g. a path).
         scale: Multiplies the coordinates first (0.001 for a mesh in millimetres).
+        max_faces: Refuse a denser surface at once (None: :data:`MAX_SURFACE_FACES`, read at
+            the call, so raising that constant raises it everywhere, user objects included).
     """
     if isinstance(mesh, (str, Path)):
         mesh = trimesh.load(mesh, force="mesh")
     if not isinstance(mesh, trimesh.Trimesh):
         raise MeshError(f"expected a trimesh.Trimesh or a mesh file, got {type(mesh).__name__}")
-    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
+    if isinstance(scale, bool) or not (isinstance(scale, (int, float, np.integer, np.floating))
+                                       and math.isfinite(scale) and scale > 0):
         raise MeshScaleError(f"scale must be a positive number, got {scale!r}")
+    max_faces = MAX_SURFACE_FACES if max_faces is None else max_faces
+    if len(mesh.faces) > max_faces:
+        raise MeshTooLargeError(
+            f"surface mesh has {len(mesh.faces):,} faces, above the limit of {max_faces:,} (its checks and tet mesh "
+            f"would take minutes and GBs): simplify it first (mesh.simplify_quadric_decimation(face_count="
+            f"{max_faces // 2})), or raise the limit (sensors.mesh.surface.MAX_SURFACE_FACES, or max_faces= "
+            "of check_surface)")
     vertices = np.asarray(mesh.vertices, dtype=float) * scale
     faces = np.asarray(mesh.faces, dtype=np.int64)
     if len(faces) == 0 or len(vertices) < 4:
@@ -134,6 +159,14 @@ def check_surface(mesh, scale: float = 1.0, hand_max_extent_m: float = HAND_MAX_
         raise MeshSelfIntersectingError(
             f"surface mesh is self-intersecting ({n_cross} pairs of faces cross): merge its parts with a boolean "
             "union (trimesh.boolean.union(..., engine='manifold'))")
+    n_bodies = int(surface.body_count)
+    if n_bodies > 1:
+        # One model carries one solid: the grasp meshes one part, MuJoCo and the sound model
+        # would weigh different ones (a shell inside a shell: 1.02 kg against 0.94 kg).
+        raise MeshSeveralBodiesError(
+            f"surface mesh has {n_bodies} separate closed shells (several bodies, or a shell inside another): pass "
+            "one solid; keep the largest part (max(mesh.split(), key=lambda m: m.volume)) or join them with a "
+            "boolean union (trimesh.boolean.union(mesh.split(), engine='manifold'))")
     thickness = min_thickness_m(surface)
     if thickness < MIN_THICKNESS_M:
         raise MeshTooThinError(
@@ -148,16 +181,25 @@ def min_thickness_m(surface: trimesh.Trimesh, n_samples: int = 2000, seed: int =
     Only hits on an opposite wall count (its normal within 60 degrees of antiparallel): a ray
     from near a concave crease grazes the neighbouring face at a distance that is no wall.
     """
-    points, face = trimesh.sample.sample_surface_even(surface, n_samples, seed=seed)
+    n_faces = len(surface.faces)
+    n_rays = min(n_samples, max(200, THICKNESS_RAY_FACE_PAIRS // max(n_faces, 1)))
+    if n_rays < n_samples:
+        log.info("wall-thickness check: %d rays instead of %d on a %d-face surface (bounded at %d ray-face pairs)",
+                 n_rays, n_samples, n_faces, THICKNESS_RAY_FACE_PAIRS)
+    points, face = trimesh.sample.sample_surface_even(surface, n_rays, seed=seed)
     normals = surface.face_normals[face]
     # Closer than this a ray re-hits its own face; the offset is added back to the distance.
     offset = 1e-4 * float(np.ptp(surface.vertices, axis=0).max())
     origins = points - normals * offset
-    hit_face, ray, loc = surface.ray.intersects_id(origins, -normals, multiple_hits=False, return_locations=True)
-    opposite = np.einsum("ij,ij->i", surface.face_normals[hit_face], normals[ray]) < -0.5
-    if not opposite.any():
-        return float("inf")
-    return float(np.linalg.norm(loc[opposite] - origins[ray[opposite]], axis=1).min()) + offset
+    batch = max(1, _PAIRS_PER_BATCH // max(n_faces, 1))
+    best = float("inf")
+    for start in range(0, len(origins), batch):
+        o, d = origins[start:start + batch], -normals[start:start + batch]
+        hit_face, ray, loc = surface.ray.intersects_id(o, d, multiple_hits=False, return_locations=True)
+        opposite = np.einsum("ij,ij->i", surface.face_normals[hit_face], -d[ray]) < -0.5
+        if opposite.any():
+            best = min(best, float(np.linalg.norm(loc[opposite] - o[ray[opposite]], axis=1).min()))
+    return best + offset if math.isfinite(best) else best
 
 
 def estimate_p2_dof(volume_m3: float, element_size_m: float) -> int:
@@ -169,7 +211,8 @@ def estimate_p2_dof(volume_m3: float, element_size_m: float) -> int:
 
 
 def check_dof(n_dof: int, max_dof: int | None, what: str) -> None:
-    """Refuse a build beyond ``max_dof`` (None: :data:`DEFAULT_MAX_DOF`) with a clear error."""
+    """Refuse a build beyond ``max_dof`` (None: :data:`sensors.mesh.tets.DEFAULT_MAX_DOF`, the
+    one default) with a clear error."""
     limit = DEFAULT_MAX_DOF if max_dof is None else int(max_dof)
     if n_dof > limit:
         raise MeshTooLargeError(

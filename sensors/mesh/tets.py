@@ -77,7 +77,8 @@ class TetMesh:
 def check_positive(**values: float) -> None:
     """Raise :class:`MeshError` naming the first argument that is not a finite positive number."""
     for name, value in values.items():
-        if not (isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value) and value > 0):
+        if isinstance(value, (bool, np.bool_)) or not (
+                isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value) and value > 0):
             raise MeshError(f"{name} must be a finite positive number, got {value!r}")
 
 

@@ -12,7 +12,30 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from .._infra.checks import holds_bool
 from .damping import modal_damping_matrix
+
+#: Object-frame points farther than this from the origin [m] are refused: no object is that
+#: large, and squared distances of points near 1e308 overflow the point location.
+MAX_POINT_COORDINATE_M = 1e6
+
+
+def check_points_m(points_m) -> np.ndarray:
+    """``points_m`` as an (n, 3) float array of object-frame points [m]; TypeError for
+    non-numbers (booleans, strings), ValueError for another shape, NaN/inf or a coordinate
+    beyond :data:`MAX_POINT_COORDINATE_M`."""
+    p = np.asarray(points_m)
+    if p.dtype.kind not in "iuf" or holds_bool(points_m):
+        raise TypeError(f"points_m must be numbers [m], got dtype {p.dtype}")
+    p = np.atleast_2d(p.astype(np.float64))
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise ValueError(f"points_m must have shape (n, 3) or (3,), got {np.shape(points_m)}")
+    if not np.all(np.isfinite(p)):
+        raise ValueError("points_m contains non-finite values")
+    if p.size and np.abs(p).max() > MAX_POINT_COORDINATE_M:
+        raise ValueError(f"points_m has a coordinate of {np.abs(p).max():.3g} m, beyond {MAX_POINT_COORDINATE_M:g} m: "
+                         "object-frame points in metres?")
+    return p
 from ..materials.solids import Material, get_material
 
 

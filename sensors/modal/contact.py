@@ -6,9 +6,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._infra.checks import holds_bool, real_number
+
 # Normals coming from MuJoCo are float32 and renormalised upstream; 1e-4 accepts rounding
 # but rejects a vector that was never normalised (or a force vector passed by mistake).
 NORMAL_TOLERANCE = 1e-4
+
+
+def _vector3(value, name: str) -> np.ndarray:
+    """A copy of ``value`` as a float 3-vector; TypeError for booleans, strings or objects."""
+    v = np.array(value)
+    if v.dtype.kind not in "iuf" or holds_bool(value):
+        raise TypeError(f"Contact {name} must be 3 numbers, got {value!r}")
+    v = v.astype(float).reshape(-1)
+    if v.shape != (3,):
+        raise ValueError(f"Contact position_m and normal must be 3-vectors, got {name} of shape {v.shape}")
+    return v
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,8 +47,7 @@ class Contact:
     friction: float
 
     def __post_init__(self) -> None:
-        p = np.array(self.position_m, dtype=float).reshape(-1)
-        n = np.array(self.normal, dtype=float).reshape(-1)
+        p, n = _vector3(self.position_m, "position_m"), _vector3(self.normal, "normal")
         if p.shape != (3,) or n.shape != (3,):
             raise ValueError(f"Contact position_m and normal must be 3-vectors, got {p.shape} and {n.shape}")
         if not (np.all(np.isfinite(p)) and np.all(np.isfinite(n))):
@@ -43,8 +55,8 @@ class Contact:
         length = float(np.linalg.norm(n))
         if abs(length - 1.0) > NORMAL_TOLERANCE:
             raise ValueError(f"Contact normal must be a unit vector (|n| = {length:.6g})")
-        f = float(self.force_n)
-        mu = float(self.friction)
+        f = real_number(self.force_n, "Contact force_n [N]")
+        mu = real_number(self.friction, "Contact friction")
         if not np.isfinite(f) or f < 0.0:
             raise ValueError(f"Contact force_n must be finite and >= 0 N, got {self.force_n!r}")
         if not np.isfinite(mu) or mu < 0.0:

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .._infra import cache as cache_mod
+from .._infra.checks import real_number
 from . import build as modal_build, io as modal_io
 from .damping import modal_damping_matrix
 from ..fem.assembly import assemble, shape_functions
@@ -23,7 +24,7 @@ from ..materials.solids import get_material
 from ..mesh.prisms import bar_mesh, rod_mesh, tube_mesh
 from ..mesh.tets import MeshError, TetMesh, tet_volumes
 from ..mesh.tetwild import tetrahedralize_surface, validate_surface
-from .basis import MaterialView, band_text
+from .basis import MaterialView, band_text, check_points_m
 from ..mesh.locator import TetLocator, closest_points_on_triangles  # noqa: F401  (re-exported)
 
 #: Sizes [m] of what a gripper holds: a mesh outside is probably in another unit (``scale=``).
@@ -31,6 +32,10 @@ MIN_OBJECT_SIZE_M, MAX_OBJECT_SIZE_M = 2e-3, 2.0
 
 __all__ = ["ModalModel", "closest_points_on_triangles"]
 
+
+#: Sizes [m] of a bar, tube or rod that ``ModalModel.bar/tube/rod`` builds: 1 um .. 10 m
+#: (beyond them the mesh's numbers degenerate or its eigen-solve never ends).
+STRUCTURED_DIMENSION_RANGE_M = (1e-6, 10.0)
 
 class ModalModel:
     """Elastic modes of a free solid: frequencies, damping and mass-normalized mode shapes.
@@ -145,12 +150,7 @@ class ModalModel:
 
     @staticmethod
     def _points(points_m) -> np.ndarray:
-        p = np.atleast_2d(np.asarray(points_m, dtype=np.float64))
-        if p.ndim != 2 or p.shape[1] != 3:
-            raise ValueError(f"points_m must have shape (n, 3) or (3,), got {np.shape(points_m)}")
-        if not np.all(np.isfinite(p)):
-            raise ValueError("points_m contains non-finite values")
-        return p
+        return check_points_m(points_m)
 
     def mode_shapes_at(self, points_m) -> np.ndarray:
         """Mode shapes at arbitrary points, interpolated with the element shape functions.
@@ -319,6 +319,12 @@ class ModalModel:
 
     @classmethod
     def _build_structured(cls, kind, mesher, dims, material, options) -> "ModalModel":
+        lo, hi = STRUCTURED_DIMENSION_RANGE_M
+        for name, value in dims.items():
+            if not lo <= real_number(value, name) <= hi:
+                raise MeshError(f"{kind} {name}={value!r} is outside {lo:g} .. {hi:g} m (a unit mix-up?); no "
+                                "structured model is built outside it "
+                                "(sensors.modal.model.STRUCTURED_DIMENSION_RANGE_M)")
         opts = modal_build.options(options)
         material = get_material(material)
         # The key needs no meshing: a cached build is just a file read.

@@ -119,25 +119,33 @@ class ObjectSpec:
     def from_mesh(cls, mesh, material: str, name: str | None = None, scale: float = 1.0) -> "ObjectSpec":
         """A user's object from a closed surface (``trimesh.Trimesh`` or a mesh file) in metres
         (``scale=1e-3`` for millimetres), made of ``material``; labelled ``<material>_<name>``
-        (``name`` defaults to the file's stem).
+        (``name`` defaults to the file's stem, else ``mesh-<first 8 characters of its content id>``).
 
         The surface is checked first (watertight, outward, not degenerate or self-intersecting,
-        2 mm .. 0.5 m, walls at least 0.5 mm): each fault raises a ``sensors.MeshError``
-        subclass that says what to do, and nothing is written. Then it is stored in the cache
-        folder by content, where other processes find it. Whether a hand can hold it is the
-        scene's question (``aas_gym`` refuses a mesh its hand cannot grasp).
+        one closed shell, at most 100,000 faces, 2 mm .. 0.5 m, walls at least 0.5 mm): each fault
+        raises a ``sensors.MeshError`` subclass that says what to do, and nothing is written.
+        Then it is stored in the cache folder by content, where other processes find it. Whether
+        a hand can hold it is the scene's question (``aas_gym`` refuses a mesh its hand cannot grasp).
         """
         from ..mesh.surface import check_surface
 
-        if isinstance(mesh, (str, Path)):
+        if name is not None and not isinstance(name, str):
+            raise TypeError(f"name must be a string, got {type(name).__name__}")
+        if not isinstance(material, str):
+            raise TypeError(f"material must be a material name (a string), got {type(material).__name__}")
+        material = _material(material).name  # names checked before a file is read
+        from_file = isinstance(mesh, (str, Path))
+        if from_file:
             name = name or Path(mesh).stem
+        given = re.sub(r"[^A-Za-z0-9_-]+", "_", name or "").strip("_")
+        if given in ALL_SHAPES:
+            raise ValueError(f"name {given!r} is a built-in shape: choose another name for your mesh")
+        if from_file:
             mesh = load_mesh_file(mesh)
-        name = re.sub(r"[^A-Za-z0-9_-]+", "_", name or "mesh").strip("_") or "mesh"
-        if name in ALL_SHAPES:
-            raise ValueError(f"name {name!r} is a built-in shape: choose another name for your mesh")
-        material = _material(material).name
         surface = check_surface(mesh, scale=scale)
-        return cls(MESH_SHAPE, material, mesh_id=store_surface(surface), name=name)
+        mesh_id = store_surface(surface)
+        # Without a name (a Trimesh has no file stem) the content id names it: "mesh" is a shape.
+        return cls(MESH_SHAPE, material, mesh_id=mesh_id, name=given or f"mesh-{mesh_id[:8]}")
 
     @property
     def is_prism(self) -> bool:

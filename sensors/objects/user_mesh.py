@@ -32,7 +32,14 @@ def load_mesh_file(path) -> "trimesh.Trimesh":  # noqa: F821
     if not path.is_file():
         raise FileNotFoundError(f"mesh file {path} does not exist")
     try:
+        # Read raw first: trimesh's processing drops non-finite vertices with their faces, and
+        # the hole that leaves would be reported as "not watertight" instead of the NaN.
+        raw = trimesh.load(path, force="mesh", process=False)
+        if isinstance(raw, trimesh.Trimesh) and not np.all(np.isfinite(np.asarray(raw.vertices, dtype=float))):
+            raise MeshError(f"{path} has non-finite (NaN or inf) vertex coordinates: fix or drop them")
         mesh = trimesh.load(path, force="mesh")
+    except MeshError:
+        raise
     except Exception as exc:  # trimesh raises many types for foreign files
         raise MeshError(f"cannot read {path} as a mesh ({type(exc).__name__}: {exc}); "
                         f"use one of {', '.join(MESH_SUFFIXES)}") from None

@@ -17,6 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from .._infra.checks import real_number
+
 KINDS = ("impulse", "linear", "exponential")
 # Files written before the names were unified say "fs" and "linear_sweep"/"exponential_sweep".
 _LEGACY_KINDS = {"linear_sweep": "linear", "exponential_sweep": "exponential"}
@@ -26,11 +28,25 @@ DEFAULT_FS = 44100
 DEFAULT_PERIOD_S = 0.5
 
 
+#: Most samples one period (or a ``loop``) may hold: 2**26 float64 samples is 0.5 GB, 25 min
+#: at 44.1 kHz. Change it here (``sensors.signals.excitation.MAX_SIGNAL_SAMPLES``) for longer ones.
+MAX_SIGNAL_SAMPLES = 2**26
+
+
 def _require_finite_positive(name: str, value: float) -> float:
-    value = float(value)
-    if not math.isfinite(value) or value <= 0.0:
+    value = real_number(value, name)
+    if value <= 0.0:
         raise ValueError(f"{name} must be a finite positive number, got {value!r}")
     return value
+
+
+def _check_samples(name: str, seconds: float, sample_rate_hz: int) -> None:
+    """Refuse a signal above :data:`MAX_SIGNAL_SAMPLES` before allocating it."""
+    n = seconds * sample_rate_hz  # a float: 1e308 s overflows to inf here, not in int()
+    if not n <= MAX_SIGNAL_SAMPLES:
+        raise ValueError(f"{name}={seconds!r} s at {sample_rate_hz} Hz is {n:.3g} samples, above the limit of "
+                         f"{MAX_SIGNAL_SAMPLES:,} ({MAX_SIGNAL_SAMPLES * 8 / 1e9:.2g} GB): shorten it, or raise "
+                         "sensors.signals.excitation.MAX_SIGNAL_SAMPLES")
 
 
 def _sweep_args(args: dict[str, Any]) -> dict[str, Any]:
@@ -68,22 +84,27 @@ class Excitation:
     shape: str = "click"
 
     def __post_init__(self) -> None:
+        if not isinstance(self.kind, str):
+            raise TypeError(f"kind must be one of {KINDS}, got {self.kind!r}")
         object.__setattr__(self, "kind", _LEGACY_KINDS.get(self.kind, self.kind))
         if self.kind not in KINDS:
             raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
-        if isinstance(self.sample_rate_hz, bool) or int(self.sample_rate_hz) != self.sample_rate_hz or self.sample_rate_hz <= 0:
+        rate = real_number(self.sample_rate_hz, "sample_rate_hz")
+        if rate != int(rate) or rate <= 0:
             raise ValueError(f"sample_rate_hz must be a positive integer sample rate in Hz, got {self.sample_rate_hz!r}")
-        object.__setattr__(self, "sample_rate_hz", int(self.sample_rate_hz))
+        object.__setattr__(self, "sample_rate_hz", int(rate))
         _require_finite_positive("duration_s", self.duration_s)
         _require_finite_positive("period_s", self.period_s)
         _require_finite_positive("amplitude", self.amplitude)
+        real_number(self.fade_s, "fade_s")
+        _check_samples("period_s", self.period_s, self.sample_rate_hz)
         if self.period_s < self.duration_s:
             raise ValueError(
                 f"period_s ({self.period_s} s) must be >= duration_s ({self.duration_s} s)"
             )
         if round(self.duration_s * self.sample_rate_hz) < 1:
             raise ValueError(f"duration_s={self.duration_s} s is shorter than one sample at sample_rate_hz={self.sample_rate_hz} Hz")
-        if not math.isfinite(self.fade_s) or self.fade_s < 0 or 2 * self.fade_s > self.duration_s:
+        if self.fade_s < 0 or 2 * self.fade_s > self.duration_s:
             raise ValueError(f"fade_s must be in [0, duration_s / 2], got {self.fade_s!r}")
         if self.kind == "impulse":
             if self.shape not in IMPULSE_SHAPES:
@@ -92,7 +113,7 @@ class Excitation:
         if self.f0_hz is None or self.f1_hz is None:
             raise ValueError(f"a {self.kind} needs f0_hz and f1_hz")
         nyquist = self.sample_rate_hz / 2.0
-        f0, f1 = float(self.f0_hz), float(self.f1_hz)
+        f0, f1 = real_number(self.f0_hz, "f0_hz"), real_number(self.f1_hz, "f1_hz")
         if not (math.isfinite(f0) and math.isfinite(f1)):
             raise ValueError(f"f0_hz and f1_hz must be finite, got {f0!r}, {f1!r}")
         if self.kind == "exponential" and f0 <= 0:
@@ -218,6 +239,7 @@ class Excitation:
     def loop(self, duration_s: float) -> np.ndarray:
         """The excitation looped for ``duration_s`` seconds (``round(duration_s * sample_rate_hz)`` samples)."""
         _require_finite_positive("duration_s", duration_s)
+        _check_samples("duration_s", duration_s, self.sample_rate_hz)
         n = int(round(duration_s * self.sample_rate_hz))
         return np.resize(self.signal, n)
 

@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from .._infra.checks import real_number
 from .._infra.deprecation import renamed_keywords
 
 DEFAULT_F_MIN_HZ = 3000.0
@@ -30,17 +31,25 @@ DB_REFERENCE = 1e-6
 DB_FLOOR = 1e-9
 
 
+#: Most features one vector may have (the paper's has 140); bounds the spectrum's memory.
+MAX_FEATURES = 100_000
+
+
 def feature_frequencies_hz(
     f_min_hz: float = DEFAULT_F_MIN_HZ, f_max_hz: float = DEFAULT_F_MAX_HZ, step_hz: float = DEFAULT_STEP_HZ
 ) -> np.ndarray:
     """Centre frequencies of the features: ``f_min_hz`` up to (excluding) ``f_max_hz``."""
-    if not (math.isfinite(f_min_hz) and math.isfinite(f_max_hz) and math.isfinite(step_hz)):
-        raise ValueError("f_min_hz, f_max_hz and step_hz must be finite")
+    for name, value in (("f_min_hz", f_min_hz), ("f_max_hz", f_max_hz), ("step_hz", step_hz)):
+        real_number(value, name)
     if step_hz <= 0:
         raise ValueError(f"step_hz must be positive, got {step_hz}")
     if not 0 <= f_min_hz < f_max_hz:
         raise ValueError(f"need 0 <= f_min_hz < f_max_hz, got f_min_hz={f_min_hz}, f_max_hz={f_max_hz}")
-    n = int(round((f_max_hz - f_min_hz) / step_hz))
+    n_float = (f_max_hz - f_min_hz) / step_hz
+    if not n_float <= MAX_FEATURES:
+        raise ValueError(f"the band {f_min_hz:g}..{f_max_hz:g} Hz in steps of {step_hz:g} Hz is {n_float:.3g} "
+                         f"features, above the limit of {MAX_FEATURES:,}: take a larger step_hz or a narrower band")
+    n = int(round(n_float))
     if not math.isclose(n * step_hz, f_max_hz - f_min_hz, rel_tol=1e-9):
         raise ValueError(f"(f_max_hz - f_min_hz) = {f_max_hz - f_min_hz} Hz is not a multiple of step_hz = {step_hz} Hz")
     return f_min_hz + step_hz * np.arange(n)
@@ -63,8 +72,8 @@ def validate_waveform(waveform: np.ndarray, name: str = "waveform") -> np.ndarra
 
 
 def _validate_fs(sample_rate_hz: float, f_needed_hz: float) -> float:
-    sample_rate_hz = float(sample_rate_hz)
-    if not math.isfinite(sample_rate_hz) or sample_rate_hz <= 0:
+    sample_rate_hz = real_number(sample_rate_hz, "sample_rate_hz")
+    if sample_rate_hz <= 0:
         raise ValueError(f"sample_rate_hz must be a positive sample rate in Hz, got {sample_rate_hz!r}")
     if f_needed_hz >= sample_rate_hz / 2:
         raise ValueError(
@@ -82,10 +91,14 @@ def segment(waveform: np.ndarray, sample_rate_hz: float, period_s: float = 0.5, 
     Incomplete trailing windows are dropped.
     """
     x = validate_waveform(waveform)
-    if not math.isfinite(period_s) or period_s <= 0:
+    sample_rate_hz = real_number(sample_rate_hz, "sample_rate_hz", above=0.0)
+    if real_number(period_s, "period_s") <= 0:
         raise ValueError(f"period_s must be a positive duration, got {period_s!r}")
-    if not math.isfinite(start_s) or start_s < 0:
-        raise ValueError(f"start_s must be >= 0, got {start_s!r}")
+    real_number(start_s, "start_s", minimum=0.0)
+    if not (period_s + start_s) * sample_rate_hz <= x.size + 1:  # floats: 1e308 s must not reach int()
+        raise ValueError(
+            f"recording too short: {x.size} samples ({x.size / sample_rate_hz:.4g} s) from start_s={start_s} s "
+            f"hold no complete window of period_s={period_s} s")
     length = int(round(period_s * sample_rate_hz))
     start = int(round(start_s * sample_rate_hz))
     if length < 2:
@@ -139,6 +152,8 @@ def spectral_features(
         average: mean amplitude over windows (shape ``(n_features,)``); otherwise one row
             per window (shape ``(n_windows, n_features)``).
     """
+    if not isinstance(average, (bool, np.bool_)):
+        raise TypeError(f"average must be True or False, got {average!r}")
     freqs = feature_frequencies_hz(f_min_hz, f_max_hz, step_hz)
     sample_rate_hz = _validate_fs(sample_rate_hz, freqs[-1])
     windows = segment(waveform, sample_rate_hz, period_s, start_s)
