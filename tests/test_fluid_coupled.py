@@ -10,8 +10,9 @@ on the exact matrices), not reduced to modes.
 Why a coarse wall (``WALL_RESOLUTION`` 0.5: 19,098 P2 dof, about 2.2 GB peak) still tests
 what it claims: what is compared is the project's reduction (dry modes + static correction, its
 own liquid mesh and quadrature) against the full coupled solve *on the same wall mesh* (the
-first test checks that the reference's wall is the project's dry model, to 1e-6). The wall's
-discretization error is common to both sides; what differs is the liquid's added mass and the
+first test checks that the reference's wall is the project's dry model: to 5e-5 here, 1e-6 on
+the shipped mesh; the difference is the quadrature of the more curved coarse elements). The
+wall's discretization error is common to both sides; what differs is the liquid's added mass and the
 modal reduction, which see the wall only through its mode shapes, smooth at these
 frequencies. The same comparison on the shipped mesh (resolution 1.0: 98,964 dof, 11.6 GB) is
 ``benchmarks/fluid_coupled.py`` (docs/benchmarks/fluid_coupled.md). When written, the largest
@@ -61,7 +62,11 @@ def test_reference_wall_is_the_project_dry_model(wall, wet_container):
     assert dist.max() < 1e-12
     U = dry.mode_shapes[index].reshape(-1, dry.n_modes)  # scalar dof a, component c -> 3 a + c
     rq = np.einsum("ik,ik->k", U, wall["K"] @ U) / np.einsum("ik,ik->k", U, wall["M"] @ U)
-    np.testing.assert_allclose(np.sqrt(rq) / (2 * np.pi), dry.frequencies_hz, rtol=1e-6)
+    # rtol: the two assemblies integrate curved elements with different quadratures. On this
+    # wall (mid-edge nodes moved up to 0.35 mm onto the cylinders) they differ by up to 1.7e-5
+    # (skfem's default order; 2.4e-6 at order 6, 1.4e-5 at order 8), within 1e-6 on the shipped
+    # mesh (0.09 mm): 5e-5 still leaves the dry wall 200x below the 1 % compared below.
+    np.testing.assert_allclose(np.sqrt(rq) / (2 * np.pi), dry.frequencies_hz, rtol=5e-5)
 
 
 @pytest.mark.slow
