@@ -4,6 +4,9 @@ import os
 
 import pytest
 
+# Each run ends with every test process's peak memory (tests/peak_memory.py).
+pytest_plugins = ["peak_memory", "pytester"]
+
 # Headless rendering unless the caller chose a backend (must precede any mujoco import).
 os.environ.setdefault("MUJOCO_GL", "egl")
 
