@@ -84,6 +84,7 @@ class SuperLUFactorization:
         diagonal = np.array_equal(self._lu.perm_r, self._lu.perm_c)
         self.n_negative = int((self._lu.U.diagonal() < 0).sum()) if diagonal else None
         self.factor_nnz = int(self._lu.L.nnz + self._lu.U.nnz)
+        self.factor_mb = self.factor_nnz * 12 / 2**20  # value and row index per entry
 
     def solve(self, B: np.ndarray) -> np.ndarray:
         """A^-1 B for a vector or an (n, k) block."""
@@ -108,7 +109,8 @@ class PardisoFactorization:
         except PardisoError as exc:
             raise FactorizationError(str(exc)) from exc
         self.n_negative = self._f.n_negative if self._f.n_perturbed_pivots == 0 else None
-        self.factor_nnz = self._f.factor_nnz
+        self.factor_nnz = None  # PARDISO counts its factor in blocks (see factor_mb)
+        self.factor_mb = self._f.factor_mb
 
     def solve(self, B: np.ndarray) -> np.ndarray:
         """A^-1 B for a vector or an (n, k) block."""
@@ -118,7 +120,7 @@ class PardisoFactorization:
 def factorize(A, solver: str | None = None):
     """Factorization of the symmetric sparse matrix ``A`` by ``solver`` (default:
     :func:`default_solver`), with ``solve(B)``, ``n_negative`` (inertia or None), ``factor_nnz``
-    and ``name``.
+    (entries of the factor, None where unknown), ``factor_mb`` and ``name``.
 
     Raises:
         FactorizationError: the factorization failed.

@@ -188,7 +188,7 @@ def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol,
         except FactorizationError as exc:
             failure = EigenSolveError(f"factorization of K - sigma M failed ({exc}); is the mesh valid?")
             continue
-        info.update(solver=fact.name, factor_nnz=fact.factor_nnz)
+        info.update(solver=fact.name, factor_mb=fact.factor_mb)
         # Below a positive shift lie the six rigid-body modes (eigenvalue 0) and the elastic ones.
         n_below = None if fact.n_negative is None else fact.n_negative - (len(R.T) if sigma > 0 else 0)
 
@@ -222,7 +222,7 @@ def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_r
         solver: Sparse direct solver of the shift-invert, ``"pardiso"`` or ``"superlu"``
             (default :func:`sensors.fem.direct_solver.default_solver`); both give the same modes.
         info: Optional dict that receives how the modes were solved: ``solver`` (``"dense"``
-            below :data:`DENSE_MAX_DOF`), ``factor_nnz``.
+            below :data:`DENSE_MAX_DOF`), ``factor_mb`` (memory of the factorization).
 
     Returns:
         (lambdas (r,) ascending [rad^2/s^2], U (3 n_nodes, r) with U^T M U = I).
