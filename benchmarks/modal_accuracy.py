@@ -310,8 +310,8 @@ def solver_child(label: str) -> None:
 
 
 def entries_m(row) -> str:
-    """Factor entries in millions ("blocks" where the solver counts 3 x 3 blocks: PARDISO)."""
-    return "blocks" if row.get("factor_nnz") is None else f"{row['factor_nnz'] / 1e6:.1f}"
+    """Factor entries in millions ("-" where the solver counts blocks instead: PARDISO)."""
+    return "-" if row.get("factor_nnz") is None else f"{row['factor_nnz'] / 1e6:.1f}"
 
 
 def solver_table(quick: bool):
@@ -430,7 +430,7 @@ def main(argv=None):
         "sigma inside the band (half its top eigenvalue, the eigen-solve's first shift), ABS bars and tubes "
         "(22.05 kHz), the everyday objects in their materials (10 kHz). CPU seconds of the factorization (ordering "
         "included) and of one solve with a 6-column block (the Krylov block); entries of the factor (L + U for "
-        "SuperLU, L for the LDL^T solvers); resident memory the factorization holds; each in its own process, one "
+        "SuperLU, L for the LDL^T solvers; PARDISO works on 3 x 3 node blocks and counts those); resident memory the factorization holds; each in its own process, one "
         "thread. Candidates the project does not install are measured when importable: "
         "SuperLU in a METIS nested-dissection order of the node graph (`pymetis`), CHOLMOD's LDL^T (`scikit-sparse` "
         "on Debian's SuiteSparse 5; its supernodal mode is LL^T only), MUMPS (Debian's, through `pymumps`).",

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from .direct_solver import FactorizationError, factorize
+from .direct_solver import FactorizationError, default_solver, factorize
 
 __all__ = ["EigenSolveError", "rigid_body_modes", "solve_modes", "mode_residuals"]
 
@@ -181,8 +181,9 @@ def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol,
     safe = -min(max(1e-3 * lam_max, 1e-10 * lam_scale), 1e-3 * lam_scale)
     MR = M @ R
     failure = None
+    solver = solver or default_solver()
     for sigma in (_BAND_SHIFT * lam_max, safe):
-        say("factorizing")
+        say(f"factorizing ({solver})")
         try:
             fact = factorize(K - sigma * M, solver)
         except FactorizationError as exc:
