@@ -10,8 +10,8 @@ mesh (equal error: the same discretization), both measured in this run, interlea
 Issue 30: every build time is measured on both sparse-solver paths (MKL PARDISO, the default
 where MKL is installed, and SciPy's SuperLU, ``AAS_GYM_SOLVER=superlu``); the solvers (and, when
 importable, the other candidates: SuperLU with a METIS ordering, CHOLMOD, MUMPS) factorize the
-project's K - sigma M of 10k-280k dof, each in its own process (its peak memory); and a 143k-dof
-tube is built on both paths (the goal: at least 5x faster than SuperLU).
+project's K - sigma M of 11k-225k dof, each in its own process (the memory it holds); and a
+143k-dof tube is built on both paths (the goal: at least 5x faster than SuperLU).
 
 Times are CPU time of this process (one BLAS thread), medians of ``--repeats`` runs.
 

@@ -5,9 +5,9 @@ Two paths give the same modes (to the eigen-solve's residual tolerance):
 
 * ``"pardiso"``: Intel MKL PARDISO, symmetric indefinite LDL^T with a METIS nested-dissection
   ordering (:mod:`sensors.fem.pardiso`; needs the ``mkl`` wheel, x86-64 only). The default
-  where MKL is installed: on the project's K - sigma M it factorizes 2-4x faster than SuperLU
-  at 10-50k dof and about 8x faster at 140k, with half the memory
-  (docs/benchmarks/modal_accuracy.md, "Sparse direct solvers").
+  where MKL is installed: on the project's K - sigma M (one thread) it factorizes 2.3-5x faster
+  than SuperLU at 11-48k dof and 11x at 143k, holding a fifth of the memory; SuperLU in a METIS
+  order, CHOLMOD's LDL^T and MUMPS gained at most 2.2x (docs/benchmarks/modal_accuracy.md).
 * ``"superlu"``: SciPy's SuperLU with a minimum-degree ordering, pivots kept on the diagonal
   (the matrix is symmetric and the shift makes it well conditioned); works everywhere.
 
