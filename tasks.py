@@ -9,7 +9,8 @@
 Set-up is idempotent and cheap when nothing changed: it creates or reuses ``.venv``,
 installs the Debian packages the project needs when run as root (PortAudio headers for
 PyAudio, OSMesa/EGL for headless rendering, PulseAudio for the audio loopback tests), and
-installs the project with pinned versions from ``constraints.txt``.
+installs the project with pinned versions from ``constraints.txt`` (on x86-64 that includes
+MKL, whose PARDISO is the modal build's sparse solver; it needs no Debian package).
 """
 
 from __future__ import annotations
@@ -133,6 +134,16 @@ def ensure_installed(py: Path) -> None:
             raise SystemExit(1)
     STAMP.write_text(fingerprint)
     say("installed")
+    report_solver(py)
+
+
+def report_solver(py: Path) -> None:
+    """One line on the modal build's sparse solver: MKL PARDISO (installed with the project on
+    x86-64 Linux and Windows) or SciPy's SuperLU (the same modes, several times slower on big models)."""
+    res = subprocess.run([str(py), "-c", "from sensors.fem import available_solvers; print(available_solvers()[0])"],
+                         capture_output=True, text=True, cwd=ROOT)
+    solver = res.stdout.strip() or "unknown"
+    say(f"sparse solver of the modal build: {solver}")
 
 
 def runtime_env() -> dict[str, str]:

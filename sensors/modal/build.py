@@ -78,7 +78,9 @@ def _solve(cls, key, make_mesh, material, opts, meta):
         K, M = assemble(nodes, elements, material, opts["element"])
         bar.update()
         stage("eigensolve")
-        lam, U = solve_modes(K, M, nodes, opts["max_frequency_hz"], progress=lambda s: bar.set_postfix_str(s, refresh=False))
+        solved = {}
+        lam, U = solve_modes(K, M, nodes, opts["max_frequency_hz"], info=solved,
+                             progress=lambda s: bar.set_postfix_str(s, refresh=False))
         bar.update()
     finally:
         bar.close()
@@ -87,7 +89,8 @@ def _solve(cls, key, make_mesh, material, opts, meta):
     stage_s = {n: (timings[names[i + 1]] if i + 1 < len(names) else end) - timings[n] for i, n in enumerate(names)}
     meta = dict(meta)
     meta.update(key_options(opts), n_dof=int(K.shape[0]), n_tets=int(len(elements)), build_time_s=end - t0,
-                stage_times_s=stage_s, cache_key=key, code_version=cache_mod.CODE_VERSION)
+                stage_times_s=stage_s, cache_key=key, code_version=cache_mod.CODE_VERSION,
+                solver=solved.get("solver"))
     r = U.shape[1]
     model = cls(nodes, elements, np.sqrt(lam) / (2.0 * np.pi), U.reshape(len(nodes), 3, r), material,
                 element=opts["element"], metadata=meta)
