@@ -199,7 +199,7 @@ def shifted_stiffness(kind: str, which, band_hz: float):
     """The project's K - sigma M (sigma in the band, as the eigen-solve's first shift) and the
     node count, for a bar or tube at a resolution or an everyday object by name."""
     from sensors.fem.assembly import assemble
-    from sensors.fem.eigen import _BAND_SHIFT
+    from sensors.fem.eigen import BAND_SHIFT
     from sensors.mesh import quadratic_mesh, tube_mesh
 
     if kind == "everyday":
@@ -212,7 +212,7 @@ def shifted_stiffness(kind: str, which, band_hz: float):
         tm, material = mesher(**dims, resolution=which, max_dof=None), MATERIALS["abs"]
     nodes, elements = quadratic_mesh(tm)
     K, M = assemble(nodes, elements, material, "p2")
-    return (K - _BAND_SHIFT * (2 * math.pi * band_hz) ** 2 * M).tocsr(), len(nodes)
+    return (K - BAND_SHIFT * (2 * math.pi * band_hz) ** 2 * M).tocsr(), len(nodes)
 
 
 def _candidate(solver: str, A, n_nodes: int):

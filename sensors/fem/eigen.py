@@ -33,7 +33,7 @@ log = logging.getLogger(__name__)
 DENSE_MAX_DOF = 1200
 # The shift-invert shift as a fraction of the band's top eigenvalue (2 pi f_max)^2, and the
 # Krylov block size (see _block_krylov); both measured on the default objects.
-_BAND_SHIFT = 0.5
+BAND_SHIFT = 0.5
 _BLOCK = 6
 
 
@@ -182,7 +182,7 @@ def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol,
     MR = M @ R
     failure = None
     solver = solver or default_solver()
-    for sigma in (_BAND_SHIFT * lam_max, safe):
+    for sigma in (BAND_SHIFT * lam_max, safe):
         say(f"factorizing ({solver})")
         try:
             fact = factorize(K - sigma * M, solver)
