@@ -211,3 +211,13 @@ def test_a_shell_inside_a_shell_is_refused():
     inner.invert()  # a hollow ball: the inner shell faces the void
     with pytest.raises(MeshSeveralBodiesError, match="a shell inside another"):
         check_surface(trimesh.util.concatenate([outer, inner]))
+
+
+@pytest.mark.parametrize("liquid, error", [(True, TypeError), (None, TypeError), (1e300, ValueError),
+                                           (float("nan"), ValueError), (-1000.0, ValueError)])
+def test_a_liquid_is_a_name_a_plausible_density_or_a_liquid(liquid, error):
+    from sensors.materials import get_liquid
+
+    with pytest.raises(error, match="liquid"):
+        get_liquid(liquid)
+    assert get_liquid(1000.0).density_kg_m3 == 1000.0 and get_liquid(" Water").name == "water"

@@ -50,13 +50,23 @@ LIQUIDS: dict[str, Liquid] = {
 }
 
 
+#: The densest liquid a user density may name [kg/m^3] (mercury is 13,534).
+MAX_LIQUID_DENSITY_KG_M3 = 25_000.0
+
+
 def get_liquid(liquid: "str | Liquid | float") -> Liquid:
     """A built-in liquid by name, a :class:`Liquid`, or a user density [kg/m^3] (inviscid)."""
     if isinstance(liquid, Liquid):
         return liquid
-    if isinstance(liquid, (int, float)) and not isinstance(liquid, bool):
+    if isinstance(liquid, bool) or not isinstance(liquid, (str, int, float)):
+        raise TypeError(f"a liquid is a name, a density in kg/m^3 or a Liquid, got {liquid!r} "
+                        f"({type(liquid).__name__})")
+    if isinstance(liquid, (int, float)):
+        # Liquids range from about 600 kg/m^3 (light hydrocarbons) to 13,534 (mercury).
+        if not math.isfinite(liquid) or not 0.0 < liquid <= MAX_LIQUID_DENSITY_KG_M3:
+            raise ValueError(f"a liquid's density must be in (0, {MAX_LIQUID_DENSITY_KG_M3:g}] kg/m^3, got {liquid!r}")
         return Liquid(f"user {float(liquid):g} kg/m^3", float(liquid), 0.0)
-    key = str(liquid).strip().lower()
+    key = liquid.strip().lower()
     try:
         return LIQUIDS[key]
     except KeyError:
