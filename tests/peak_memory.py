@@ -22,7 +22,17 @@ _KEY = "peak_memory"
 
 
 def _maxrss_bytes(who: int) -> int:
-    """``ru_maxrss`` in bytes (Linux reports KiB, macOS bytes)."""
+    """``ru_maxrss`` in bytes (Linux reports KiB, macOS bytes). This process's own peak is read
+    from Linux's ``VmHWM`` where there is one: ``ru_maxrss`` keeps the parent's peak across fork
+    and exec, so a run started by a big process would report that process's peak as its own."""
+    if who == resource.RUSAGE_SELF:
+        try:
+            with open("/proc/self/status") as status:
+                for line in status:
+                    if line.startswith("VmHWM:"):
+                        return int(line.split()[1]) * 1024
+        except OSError:
+            pass
     rss = resource.getrusage(who).ru_maxrss
     return int(rss) if sys.platform == "darwin" else int(rss) * 1024
 

@@ -125,8 +125,8 @@ def test_without_mkl_the_scipy_path_is_chosen_with_one_line_on_the_fast_path(mon
     from sensors.fem import pardiso
 
     monkeypatch.delenv(direct_solver.SOLVER_ENV, raising=False)
-    monkeypatch.setattr(pardiso, "_LIB", [None])  # as on a machine without the mkl wheel
-    monkeypatch.setattr(direct_solver, "_WARNED", [])
+    monkeypatch.setattr(pardiso, "LIBRARY", [None])  # as on a machine without the mkl wheel
+    monkeypatch.setattr(direct_solver, "HINT_SHOWN", [])
     with caplog.at_level(logging.WARNING, logger=direct_solver.__name__):
         assert default_solver() == "superlu"
         assert default_solver() == "superlu"

@@ -20,7 +20,10 @@ def real_number(value, name: str, *, minimum: float | None = None, maximum: floa
     """
     if isinstance(value, bool) or type(value).__name__ == "bool_" or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be a number, got {value!r} ({type(value).__name__})")
-    x = float(value)
+    try:
+        x = float(value)
+    except OverflowError:  # an integer beyond float's range
+        x = math.inf
     if not math.isfinite(x):
         raise ValueError(f"{name} must be finite, got {value!r}")
     if above is not None and not x > above:

@@ -31,7 +31,8 @@ log = logging.getLogger(__name__)
 SOLVERS = ("pardiso", "superlu")
 SOLVER_ENV = "AAS_GYM_SOLVER"
 FAST_PATH_HINT = "pip install mkl (x86-64), or `python3 tasks.py setup`"
-_WARNED: list = []
+#: Whether the one line about the fast path was logged in this process.
+HINT_SHOWN: list = []
 
 
 class FactorizationError(RuntimeError):
@@ -55,8 +56,8 @@ def default_solver() -> str:
         return forced
     if "pardiso" in available_solvers():
         return "pardiso"
-    if not _WARNED:
-        _WARNED.append(True)
+    if not HINT_SHOWN:
+        HINT_SHOWN.append(True)
         log.warning("sparse solver: SciPy SuperLU (big models build several times slower); fast path: %s",
                     FAST_PATH_HINT)
     return "superlu"

@@ -37,7 +37,8 @@ class PardisoError(RuntimeError):
     """PARDISO returned an error code (the factorization failed or MKL is unusable)."""
 
 
-_LIB: list = []  # [library or None] once looked up
+#: The MKL library once looked up: [library or None] (a test sets [None] to act as a machine without MKL).
+LIBRARY: list = []
 
 
 def _candidate_paths() -> list[str]:
@@ -55,8 +56,8 @@ def _candidate_paths() -> list[str]:
 
 def mkl_library():
     """The loaded ``mkl_rt`` library, or None when MKL is not installed (looked up once)."""
-    if _LIB:
-        return _LIB[0]
+    if LIBRARY:
+        return LIBRARY[0]
     lib = None
     paths = _candidate_paths()
     if not paths:  # a system-wide MKL (slow: find_library may run ldconfig)
@@ -77,7 +78,7 @@ def mkl_library():
         lib.pardiso.argtypes = [ctypes.c_void_p, i32p, i32p, i32p, i32p, i32p, ctypes.c_void_p, ctypes.c_void_p,
                                 ctypes.c_void_p, ctypes.c_void_p, i32p, ctypes.c_void_p, i32p, ctypes.c_void_p,
                                 ctypes.c_void_p, i32p]
-    _LIB.append(lib)
+    LIBRARY.append(lib)
     return lib
 
 

@@ -42,7 +42,10 @@ def _require_finite_positive(name: str, value: float) -> float:
 
 def _check_samples(name: str, seconds: float, sample_rate_hz: int) -> None:
     """Refuse a signal above :data:`MAX_SIGNAL_SAMPLES` before allocating it."""
-    n = seconds * sample_rate_hz  # a float: 1e308 s overflows to inf here, not in int()
+    try:  # as floats: 1e308 s overflows to inf here, not in int() or in a message's format
+        n = float(seconds) * float(sample_rate_hz)
+    except OverflowError:  # an integer beyond float's range
+        n = math.inf
     if not n <= MAX_SIGNAL_SAMPLES:
         raise ValueError(f"{name}={seconds!r} s at {sample_rate_hz} Hz is {n:.3g} samples, above the limit of "
                          f"{MAX_SIGNAL_SAMPLES:,} ({MAX_SIGNAL_SAMPLES * 8 / 1e9:.2g} GB): shorten it, or raise "
