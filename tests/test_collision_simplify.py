@@ -37,7 +37,9 @@ def test_pieces_of_a_simplified_surface_cover_the_original_solid(glass, tmp_path
     assert 1 <= len(pieces) <= 32
     lo, hi = glass.bounds
     points = np.random.default_rng(1).uniform(lo, hi, size=(4000, 3))
-    inside = points[glass.contains(points)]
+    # In chunks: trimesh's ray test on the 30k-face glass holds every ray's candidates at once
+    # (4.8 GB for 4000 points in one call, 0.8 GB in eight).
+    inside = points[np.concatenate([glass.contains(chunk) for chunk in np.array_split(points, 8)])]
     covered = np.zeros(len(inside), bool)
     volume = 0.0
     for piece in pieces:
