@@ -9,9 +9,10 @@ true value, ``int(2.7)`` is 2.
 
 from __future__ import annotations
 
-import math
 import numbers
 from typing import Any
+
+from .._infra.checks import real_number
 
 __all__ = ["check_choice", "check_flag", "check_integer", "check_number"]
 
@@ -37,12 +38,8 @@ def check_number(name: str, value: Any, low: float | None = None, high: float | 
                  low_open: bool = False, unit: str = "") -> float:
     """A finite real number (not a bool, not a string) in ``[low, high]`` (``(low, high]``
     with ``low_open``)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a number, got {value!r} ({type(value).__name__})")
-    value = float(value)
+    value = real_number(value, name)  # the type and finiteness checks (and their messages)
     unit = f" {unit}" if unit else ""
-    if not math.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value!r}")
     if (low is not None and (value < low or (low_open and value == low))) or (high is not None and value > high):
         left = "(" if low_open else "["
         raise ValueError(f"{name} must be in {left}{_bound(low, '-')}, {_bound(high)}]{unit}, got {value!r}")
