@@ -28,3 +28,18 @@ def audio_loopback(tmp_path_factory):
     lb = loopback.start_loopback(runtime_dir=tmp_path_factory.mktemp("pulse"))
     yield lb
     loopback.stop_loopback(lb.runtime_dir)
+
+
+@pytest.fixture
+def no_build(monkeypatch, tmp_path):
+    """An empty cache folder (returned), and any container modal build fails the test: the
+    inputs must be refused before any work."""
+    from sensors.objects.everyday import EverydayObject
+
+    monkeypatch.setenv("AAS_GYM_CACHE", str(tmp_path / "cache"))
+
+    def refuse(*_, **__):
+        raise AssertionError("a modal model was built before the inputs were checked")
+
+    monkeypatch.setattr(EverydayObject, "modal_model", refuse)
+    return tmp_path / "cache"

@@ -22,21 +22,8 @@ from sensors.mesh.surface import MeshScaleError, MeshSeveralBodiesError, MeshToo
 from sensors.mesh.tets import MeshError
 from sensors.modal.contact import Contact
 from sensors.objects.catalog import ObjectSpec, get_object
-from sensors.objects.everyday import EverydayObject
 from sensors.signals.excitation import Excitation
 from sensors.signals.features import spectral_features
-
-
-@pytest.fixture
-def no_build(monkeypatch, tmp_path):
-    """An empty cache folder, and any modal build fails the test (the inputs must be refused first)."""
-    monkeypatch.setenv("AAS_GYM_CACHE", str(tmp_path / "cache"))
-
-    def refuse(*_, **__):
-        raise AssertionError("the container's modal model was built before the inputs were checked")
-
-    monkeypatch.setattr(EverydayObject, "modal_model", refuse)
-    return tmp_path / "cache"
 
 
 # ---------------------------------------------------------------- 1. cost bounded before work

@@ -153,7 +153,7 @@ def test_env_constructor_builds_valid_or_refuses_clearly(env_id):
             assert type(base.width) is int and type(base.height) is int and base.width >= 1 and base.height >= 1
             assert 0 < base.grip_force_n <= 140
             _check_acoustic(base.acoustic)
-            assert base.observation_space.contains(base.observation_space.sample()) or True  # spaces build
+            assert base.observation_space.contains(base.observation_space.sample())  # the spaces build
         finally:
             env.close()
 

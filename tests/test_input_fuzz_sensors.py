@@ -19,7 +19,6 @@ from sensors.fluid import filled
 from sensors.materials.solids import Material, get_material
 from sensors.modal.contact import Contact
 from sensors.objects.catalog import ObjectSpec, get_object
-from sensors.objects.everyday import EverydayObject
 from sensors.signals.excitation import Excitation
 from sensors.signals.features import spectral_features
 
@@ -47,16 +46,6 @@ def refused_or_valid(call):
         return True, call()
     except (ValueError, TypeError, KeyError):
         return False, None
-
-
-@pytest.fixture
-def no_build(monkeypatch, tmp_path):
-    monkeypatch.setenv("AAS_GYM_CACHE", str(tmp_path / "cache"))
-
-    def refuse(*_, **__):
-        raise AssertionError("a modal model was built: inputs must be refused first")
-
-    monkeypatch.setattr(EverydayObject, "modal_model", refuse)
 
 
 @pytest.fixture(scope="module")
