@@ -245,7 +245,6 @@ class AasEnv(gym.Env):
         if self.acoustic.streaming and not self._step_is_probe:
             self.acoustic.check_samples(self.step_samples, f"one streamed step (frame_skip={self.frame_skip}, "
                                                            f"dt = {self.dt:g} s)")
-        if self.acoustic.streaming and not self._step_is_probe:
             exact = self.dt * self.excitation.sample_rate_hz
             if abs(exact - round(exact)) > 1e-6:
                 raise ValueError(f"a streamed step must hold a whole number of samples: dt = {self.dt} s gives "
