@@ -30,7 +30,7 @@ from sensors._infra.deprecation import warn_deprecated
 from sensors._infra.lru import CACHE_SIZES, LRU
 from sensors.objects.catalog import ObjectSpec, get_object
 from sensors.task import (HOME_TCP, LEGACY_KEYWORDS, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT,
-                          STATE_SIZE, AcousticConfig, check_choice, check_grip_force, check_integer, check_number,
+                          STATE_SIZE, AcousticConfig, check_choice, check_grip_force, check_integer,
                           proprio_spaces)
 
 __all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "MAX_FRAME_SKIP", "N_FEATURES",
@@ -132,24 +132,6 @@ def object_list(name: str, value) -> list[ObjectSpec]:
     return [get_object(o) for o in value]
 
 
-def check_randomization(r: DomainRandomization) -> DomainRandomization:
-    """``r`` if every knob is a finite number >= 0 (relative ones below 1: a scale of
-    ``1 - 1`` would zero a modulus or a grip force) and ``leak_scale`` a pair 0 <= low <= high;
-    else ``TypeError``/``ValueError`` naming the knob."""
-    for name in ("grip_force_rel", "position_noise_m", "placement_m", "yaw_rad", "damping_rel", "modulus_rel",
-                 "density_rel", "sensor_noise_std"):
-        value = check_number(f"randomization.{name}", getattr(r, name), 0.0)
-        if name.endswith("_rel") and value >= 1.0:
-            raise ValueError(f"randomization.{name} must be below 1 (a relative spread), got {value!r}")
-    scale = r.leak_scale
-    if isinstance(scale, (str, bytes)) or not hasattr(scale, "__len__") or len(scale) != 2:
-        raise TypeError(f"randomization.leak_scale must be a pair (low, high), got {scale!r}")
-    lo, hi = (check_number("randomization.leak_scale", v, 0.0) for v in scale)
-    if lo > hi:
-        raise ValueError(f"randomization.leak_scale must have low <= high, got {scale!r}")
-    return r
-
-
 def _load_leaks(leak):
     """Leak recordings loaded at construction, so a missing or foreign file fails at
     ``gym.make`` naming the file, not at the first reset inside numpy."""
@@ -215,7 +197,7 @@ class AasEnv(gym.Env):
         self.distractors = (object_list("distractors", distractors) if distractors is not None else
                             default_distractors([get_object(n) for n in DEFAULT_OBJECT_NAMES]))
         self.grip_force_n = check_grip_force(grip_force_n)
-        self.randomization = check_randomization(DomainRandomization.coerce(randomization))
+        self.randomization = DomainRandomization.coerce(randomization).checked()
         try:
             self.frame_skip = check_integer("frame_skip", frame_skip, 1)
         except TypeError:
