@@ -30,7 +30,7 @@ from sensors._infra.deprecation import warn_deprecated
 from sensors._infra.lru import CACHE_SIZES, LRU
 from sensors.objects.catalog import ObjectSpec, get_object
 from sensors.task import (HOME_TCP, LEGACY_KEYWORDS, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT,
-                          STATE_SIZE, AcousticConfig, check_choice, check_grip_force, check_integer,
+                          STATE_SIZE, AcousticConfig, AcousticEnvMixin, check_choice, check_grip_force, check_integer,
                           proprio_spaces)
 
 __all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "MAX_FRAME_SKIP", "N_FEATURES",
@@ -146,7 +146,7 @@ def _load_leaks(leak):
                                 "or leave acoustic.leak None") from None
 
 
-class AasEnv(gym.Env):
+class AasEnv(AcousticEnvMixin, gym.Env):
     """Base class: not registered. Subclasses define spaces, ``reset`` and ``step``; their
     docstrings carry a table of their own arguments, to which :data:`COMMON_ARGUMENTS`
     (``scene``, ``distractors``, ``acoustic``, ``grip_force_n``, ``randomization``,
@@ -232,27 +232,6 @@ class AasEnv(gym.Env):
                 raise ValueError(f"a streamed step must hold a whole number of samples: dt = {self.dt} s gives "
                                  f"{exact:.3f} at {self.excitation.sample_rate_hz} Hz; choose frame_skip so "
                                  "that it does (the default 25 gives 2205)")
-
-    @property
-    def excitation(self):
-        """What the actuator plays (``acoustic.excitation``, a ``sensors.Excitation``)."""
-        return self.acoustic.excitation
-
-    @property
-    def duration_s(self) -> float:
-        """Length of one recording [s] (``acoustic.duration_s``)."""
-        return self.acoustic.duration_s
-
-    @property
-    def cadence(self) -> str:
-        """When the env records: ``acoustic.cadence``, or ``"never"`` when the sensor is off."""
-        return self.acoustic.active_cadence
-
-    @property
-    def sense_mode(self) -> str:
-        """Deprecated: :attr:`cadence`."""
-        warn_deprecated(f"{type(self).__name__}.sense_mode", "cadence")
-        return self.cadence
 
     @property
     def include_waveform(self) -> bool:
