@@ -28,6 +28,7 @@ from aas_gym.object_bodies import euler_to_quat, yaw_rest_quat
 from aas_gym.object_grasps import END_MARGIN_M, grasp_set, rest_height_m, rest_rotation
 from aas_gym.object_names import DEFAULT_OBJECT_NAMES
 from sensors.objects.catalog import ObjectSpec, get_object
+from sensors.task import check_number
 
 SCENE_KINDS = ("single", "multi")
 #: A surface target's top edge must reach this far from its centre for a bar to lean on it.
@@ -84,6 +85,23 @@ class DomainRandomization:
         if value is False:
             return cls.off()
         raise TypeError(f"randomization must be a DomainRandomization, a dict, None or False, got {value!r}")
+
+    def checked(self) -> "DomainRandomization":
+        """``self`` if every knob is a finite number >= 0 (relative ones below 1: a scale of
+        ``1 - 1`` would zero a modulus or a grip force) and ``leak_scale`` a pair 0 <= low <= high;
+        else ``TypeError``/``ValueError`` naming the knob."""
+        for name in ("grip_force_rel", "position_noise_m", "placement_m", "yaw_rad", "damping_rel", "modulus_rel",
+                     "density_rel", "sensor_noise_std"):
+            value = check_number(f"randomization.{name}", getattr(self, name), 0.0)
+            if name.endswith("_rel") and value >= 1.0:
+                raise ValueError(f"randomization.{name} must be below 1 (a relative spread), got {value!r}")
+        scale = self.leak_scale
+        if isinstance(scale, (str, bytes)) or not hasattr(scale, "__len__") or len(scale) != 2:
+            raise TypeError(f"randomization.leak_scale must be a pair (low, high), got {scale!r}")
+        lo, hi = (check_number("randomization.leak_scale", v, 0.0) for v in scale)
+        if lo > hi:
+            raise ValueError(f"randomization.leak_scale must have low <= high, got {scale!r}")
+        return self
 
 
 def default_distractors(pool: Sequence[ObjectSpec]) -> list[ObjectSpec]:

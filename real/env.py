@@ -15,11 +15,10 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from sensors import AcousticSensor, Excitation
-from sensors._infra.deprecation import warn_deprecated
-from sensors.task import (HOME_TCP, AcousticConfig, GraspHold, RobotState, check_grip_force, check_integer,
-                          check_number, decode_grasp_action, grasp_reward_terms, next_tcp_target, proprio_spaces,
-                          records_this_step, reward_total, step_success, tcp_object_distance_m)
+from sensors import AcousticSensor
+from sensors.task import (HOME_TCP, AcousticConfig, AcousticEnvMixin, GraspHold, RobotState, check_grip_force,
+                          check_integer, check_number, decode_grasp_action, grasp_reward_terms, next_tcp_target,
+                          proprio_spaces, records_this_step, reward_total, step_success, tcp_object_distance_m)
 
 
 @runtime_checkable
@@ -48,7 +47,7 @@ class RobotInterface(Protocol):
         ...
 
 
-class RealGraspEnv(gym.Env):
+class RealGraspEnv(AcousticEnvMixin, gym.Env):
     """Reach, grasp and sense one object with a real robot and acoustic sensor.
 
     The task of ``aas_gym/AcousticGrasp-v0``, its rules written once in ``sensors.task``
@@ -134,27 +133,6 @@ class RealGraspEnv(gym.Env):
         self.last_recording = None
         self.stream = None  # the RigStream of the episode (cadence "stream")
         self._hold = GraspHold(self.excitation.period_samples)
-
-    @property
-    def excitation(self) -> Excitation:
-        """What the actuator plays (``acoustic.excitation``)."""
-        return self.acoustic.excitation
-
-    @property
-    def duration_s(self) -> float:
-        """Length of one recording [s] (``acoustic.duration_s``)."""
-        return self.acoustic.duration_s
-
-    @property
-    def cadence(self) -> str:
-        """When the env records: ``acoustic.cadence``, or ``"never"`` when the sensor is off."""
-        return self.acoustic.active_cadence
-
-    @property
-    def sense_mode(self) -> str:
-        """Deprecated: :attr:`cadence`."""
-        warn_deprecated("RealGraspEnv.sense_mode", "cadence")
-        return self.cadence
 
     def _empty_acoustic(self) -> dict[str, np.ndarray]:
         return self.acoustic.empty(self.audio_samples if self.acoustic.streaming else None)

@@ -30,7 +30,7 @@ from sensors._infra.deprecation import warn_deprecated
 from sensors._infra.lru import CACHE_SIZES, LRU
 from sensors.objects.catalog import ObjectSpec, get_object
 from sensors.task import (HOME_TCP, LEGACY_KEYWORDS, MAX_GRIP_FORCE_N, MAX_OPENING_M, N_FEATURES, STATE_LAYOUT,
-                          STATE_SIZE, AcousticConfig, check_choice, check_grip_force, check_integer, check_number,
+                          STATE_SIZE, AcousticConfig, AcousticEnvMixin, check_choice, check_grip_force, check_integer,
                           proprio_spaces)
 
 __all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "MAX_FRAME_SKIP", "N_FEATURES",
@@ -132,24 +132,6 @@ def object_list(name: str, value) -> list[ObjectSpec]:
     return [get_object(o) for o in value]
 
 
-def check_randomization(r: DomainRandomization) -> DomainRandomization:
-    """``r`` if every knob is a finite number >= 0 (relative ones below 1: a scale of
-    ``1 - 1`` would zero a modulus or a grip force) and ``leak_scale`` a pair 0 <= low <= high;
-    else ``TypeError``/``ValueError`` naming the knob."""
-    for name in ("grip_force_rel", "position_noise_m", "placement_m", "yaw_rad", "damping_rel", "modulus_rel",
-                 "density_rel", "sensor_noise_std"):
-        value = check_number(f"randomization.{name}", getattr(r, name), 0.0)
-        if name.endswith("_rel") and value >= 1.0:
-            raise ValueError(f"randomization.{name} must be below 1 (a relative spread), got {value!r}")
-    scale = r.leak_scale
-    if isinstance(scale, (str, bytes)) or not hasattr(scale, "__len__") or len(scale) != 2:
-        raise TypeError(f"randomization.leak_scale must be a pair (low, high), got {scale!r}")
-    lo, hi = (check_number("randomization.leak_scale", v, 0.0) for v in scale)
-    if lo > hi:
-        raise ValueError(f"randomization.leak_scale must have low <= high, got {scale!r}")
-    return r
-
-
 def _load_leaks(leak):
     """Leak recordings loaded at construction, so a missing or foreign file fails at
     ``gym.make`` naming the file, not at the first reset inside numpy."""
@@ -164,7 +146,7 @@ def _load_leaks(leak):
                                 "or leave acoustic.leak None") from None
 
 
-class AasEnv(gym.Env):
+class AasEnv(AcousticEnvMixin, gym.Env):
     """Base class: not registered. Subclasses define spaces, ``reset`` and ``step``; their
     docstrings carry a table of their own arguments, to which :data:`COMMON_ARGUMENTS`
     (``scene``, ``distractors``, ``acoustic``, ``grip_force_n``, ``randomization``,
@@ -215,7 +197,7 @@ class AasEnv(gym.Env):
         self.distractors = (object_list("distractors", distractors) if distractors is not None else
                             default_distractors([get_object(n) for n in DEFAULT_OBJECT_NAMES]))
         self.grip_force_n = check_grip_force(grip_force_n)
-        self.randomization = check_randomization(DomainRandomization.coerce(randomization))
+        self.randomization = DomainRandomization.coerce(randomization).checked()
         try:
             self.frame_skip = check_integer("frame_skip", frame_skip, 1)
         except TypeError:
@@ -245,33 +227,11 @@ class AasEnv(gym.Env):
         if self.acoustic.streaming and not self._step_is_probe:
             self.acoustic.check_samples(self.step_samples, f"one streamed step (frame_skip={self.frame_skip}, "
                                                            f"dt = {self.dt:g} s)")
-        if self.acoustic.streaming and not self._step_is_probe:
             exact = self.dt * self.excitation.sample_rate_hz
             if abs(exact - round(exact)) > 1e-6:
                 raise ValueError(f"a streamed step must hold a whole number of samples: dt = {self.dt} s gives "
                                  f"{exact:.3f} at {self.excitation.sample_rate_hz} Hz; choose frame_skip so "
                                  "that it does (the default 25 gives 2205)")
-
-    @property
-    def excitation(self):
-        """What the actuator plays (``acoustic.excitation``, a ``sensors.Excitation``)."""
-        return self.acoustic.excitation
-
-    @property
-    def duration_s(self) -> float:
-        """Length of one recording [s] (``acoustic.duration_s``)."""
-        return self.acoustic.duration_s
-
-    @property
-    def cadence(self) -> str:
-        """When the env records: ``acoustic.cadence``, or ``"never"`` when the sensor is off."""
-        return self.acoustic.active_cadence
-
-    @property
-    def sense_mode(self) -> str:
-        """Deprecated: :attr:`cadence`."""
-        warn_deprecated(f"{type(self).__name__}.sense_mode", "cadence")
-        return self.cadence
 
     @property
     def include_waveform(self) -> bool:

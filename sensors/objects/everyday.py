@@ -118,8 +118,8 @@ class EverydayObject:
 
 
 #: The source of the meshers (all structured): part of the modal alias key, so an edited mesher
-#: is never served an old model through the alias (meshing.py is already in every key through
-#: cache.CODE_VERSION; user meshes, pytetwild's, take no alias).
+#: is never served an old model through the alias (the tet meshers, sensors.mesh.tets and its
+#: kin, are already in every key through cache.CODE_VERSION; user meshes, pytetwild's, take no alias).
 _MESHER_VERSION = cache_mod.source_version("sensors.objects.everyday", "sensors.mesh.layered")
 
 

@@ -19,7 +19,8 @@ from ..synthesis.fingertip import FingertipModel
 from ..synthesis.stream import ContactTolerance
 from .checks import check_choice, check_flag, check_integer, check_number
 
-__all__ = ["AcousticConfig", "BYTES_PER_SAMPLE", "CADENCES", "LEGACY_KEYWORDS", "MAX_SAMPLES", "N_FEATURES",
+__all__ = ["AcousticConfig",
+           "AcousticEnvMixin", "BYTES_PER_SAMPLE", "CADENCES", "LEGACY_KEYWORDS", "MAX_SAMPLES", "N_FEATURES",
            "resolve_excitation"]
 
 #: Length of the spectral feature vector (3-10 kHz in 50 Hz steps).
@@ -287,3 +288,31 @@ def _same(a: Any, b: Any, field: str) -> bool:
     if field == "leak":
         return _leak_key(a) == _leak_key(b)
     return a == b
+
+
+class AcousticEnvMixin:
+    """The views an env with an ``acoustic`` (:class:`AcousticConfig`) attribute gives of it,
+    written once for the simulated envs (``aas_gym``) and the real one (``real``)."""
+
+    acoustic: AcousticConfig
+
+    @property
+    def excitation(self) -> Excitation:
+        """What the actuator plays (``acoustic.excitation``)."""
+        return self.acoustic.excitation
+
+    @property
+    def duration_s(self) -> float:
+        """Length of one recording [s] (``acoustic.duration_s``)."""
+        return self.acoustic.duration_s
+
+    @property
+    def cadence(self) -> str:
+        """When the env records: ``acoustic.cadence``, or ``"never"`` when the sensor is off."""
+        return self.acoustic.active_cadence
+
+    @property
+    def sense_mode(self) -> str:
+        """Deprecated: :attr:`cadence`."""
+        warn_deprecated(f"{type(self).__name__}.sense_mode", "cadence")
+        return self.cadence
