@@ -14,8 +14,7 @@ from .grasp import (HOME_TCP, MAX_DELTA, MAX_GRIP_FORCE_N, MAX_OPENING_M, STATE_
 from .reward import (GRASP_REWARD, GRASP_REWARD_TERMS, SUCCESS_REWARD, grasp_reward_terms, reward_total,
                      tcp_object_distance_m)
 
-__all__ = ["AcousticConfig",
-           "AcousticEnvMixin", "BYTES_PER_SAMPLE", "CADENCES", "MAX_SAMPLES", "check_choice", "check_flag",
+__all__ = ["AcousticConfig", "AcousticEnvMixin", "BYTES_PER_SAMPLE", "CADENCES", "MAX_SAMPLES", "check_choice", "check_flag",
            "check_integer", "check_number", "GRASP_REWARD", "GRASP_REWARD_TERMS", "GraspAction", "GraspHold",
            "HOME_TCP", "LEGACY_KEYWORDS", "MAX_DELTA", "MAX_GRIP_FORCE_N", "MAX_OPENING_M", "N_FEATURES",
            "RobotState", "STATE_LAYOUT", "STATE_SIZE", "SUCCESS_REWARD", "check_action", "check_grip_force",

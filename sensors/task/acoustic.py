@@ -19,8 +19,7 @@ from ..synthesis.fingertip import FingertipModel
 from ..synthesis.stream import ContactTolerance
 from .checks import check_choice, check_flag, check_integer, check_number
 
-__all__ = ["AcousticConfig",
-           "AcousticEnvMixin", "BYTES_PER_SAMPLE", "CADENCES", "LEGACY_KEYWORDS", "MAX_SAMPLES", "N_FEATURES",
+__all__ = ["AcousticConfig", "AcousticEnvMixin", "BYTES_PER_SAMPLE", "CADENCES", "LEGACY_KEYWORDS", "MAX_SAMPLES", "N_FEATURES",
            "resolve_excitation"]
 
 #: Length of the spectral feature vector (3-10 kHz in 50 Hz steps).
