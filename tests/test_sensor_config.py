@@ -224,6 +224,15 @@ def test_feature_modes_and_history_have_fixed_shapes_and_pass_check_env(features
         assert np.all(a["acoustic"][:-1] == -60.0) and not np.all(a["acoustic"][-1] == -60.0)
 
 
+@pytest.mark.parametrize("acoustic", [{"features": "spectrogram"}, {"features": "mel", "history": 2, "feature_scale": "db"},
+                                      {"corruption": [{"kind": "clipping", "full_scale": 0.5}]}])
+def test_stable_baselines3_check_env_accepts_the_options(acoustic):
+    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sb3_checker.check_env(gym.make("aas_gym/GraspPosition-v0", acoustic=acoustic, randomization=False))
+
+
 def test_history_is_oldest_first_and_shifts_by_one_frame():
     env = _make("aas_gym/AcousticGrasp-v0", cadence="every_step", history=3, duration_s=0.5, noise_std=1e-5)
     obs, _ = env.reset(seed=0)
