@@ -150,9 +150,10 @@ def plot(rows: list[dict], path: Path) -> None:
     for training, style in (("clean", "--"), ("corrupted", "-")):
         sel = [r for r in rows if r["training"] == training]
         for name, colour in zip(CLASSIFIERS, ("C0", "C1", "C2")):
-            a.plot(x, [r[name] for r in sel], style, color=colour, marker="o", ms=3, label=f"{name}, {training}")
-        b.plot(x, [r["rmse_mm"] for r in sel], style, color="k", marker="o", ms=3, label=f"KNN, {training}")
-    a.axhline(100 / 7, color="grey", lw=0.8)
+            a.plot(x, [r[name] for r in sel], style, color=colour, marker="o", ms=3, label=f"{name}, trained {training}")
+        b.plot(x, [r["rmse_mm"] for r in sel], style, color="k", marker="o", ms=3, label=f"KNN, trained {training}")
+    a.axhline(100 / 7, color="grey", lw=0.8)  # chance
+    b.axhline(5.0 * np.sqrt(14), color="grey", lw=0.8)  # always the middle position: 5 mm x sqrt((13^2 - 1) / 12)
     for ax, ylabel in ((a, "recognition accuracy (%)"), (b, "grasp-position RMSE (mm)")):
         ax.set_xticks(x, levels)
         ax.set_xlabel("background noise (dB-equivalent)")
