@@ -258,6 +258,25 @@ def test_update_period_holds_the_value_between_updates():
         check_env(env, skip_render_check=True)
 
 
+def test_streamed_history_and_update_period():
+    """Streamed (ContactFormation-v0): ``audio`` and ``acoustic`` stacked, updated every
+    other step (0.1 s at dt = 0.05 s), the history shifting by one frame at each update."""
+    env = gym.make("aas_gym/ContactFormation-v0", acoustic={"history": 2, "update_period_s": 0.1}).unwrapped
+    assert env.observation_space["audio"].shape == (2, 2205) and env.observation_space["acoustic"].shape == (2, 140)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        check_env(env, skip_render_check=True)
+    prev, _ = env.reset(seed=0)
+    for i in range(6):
+        obs, *_ = env.step(0)
+        assert env.observation_space.contains(obs)
+        if i % 2 == 0:  # an update: the newest frame moved one place back
+            assert np.array_equal(obs["audio"][0], prev["audio"][1]) and obs["audio"][1].any()
+        else:
+            assert np.array_equal(obs["audio"], prev["audio"]) and np.array_equal(obs["acoustic"], prev["acoustic"])
+        prev = obs
+
+
 def test_update_period_is_checked_against_dt_and_cadence():
     with pytest.raises(ValueError, match="whole multiple"):
         _make("aas_gym/AcousticGrasp-v0", cadence="every_step", update_period_s=0.07)
