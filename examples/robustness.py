@@ -8,7 +8,7 @@ scale plus 130 dB (:data:`SPL_EQUIVALENT_OF_0_DBFS`): the simulator's sensor flo
 30 dB, and 80 dB-equivalent (a loud workshop, VibeCheck's and SonicSense's test) is a noise
 of -50 dBFS at the microphone. The mapping is an assumption about how strongly airborne and
 structure-borne noise reaches a gripper-mounted piezo; calibrate it for a rig by recording
-its idle input (``aas real``) at a measured sound level. The background at a level is the
+its input, nothing played, at a measured sound level. The background at a level is the
 noise library's robot-motor and room noise, half the power each.
 
 Protocols as the paper's Table II (``aas_gym.experiments.protocols``): the three classifiers

@@ -59,6 +59,7 @@ class GainDrift(_Stage):
 
     gain_std_db: float = 0.0
     drift_db_per_s: float = 0.0
+    _ranges = {"gain_std_db": (0.0, 40.0), "drift_db_per_s": (0.0, 40.0)}
 
     def gain_db(self, n_samples: int, sample_rate_hz: float, rng: np.random.Generator) -> np.ndarray:
         """The per-sample gain [dB] this stage draws (same draws as :meth:`apply`)."""

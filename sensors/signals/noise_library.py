@@ -21,8 +21,8 @@ spectral density (PSD) over frequency ``f``:
 
 A folder of recordings (``load_noise_folder``) holds ``.wav`` files (any integer or float
 PCM, first channel) and ``.npz`` files with ``waveform`` and ``sample_rate_hz``; each is
-resampled to the sensor's rate and normalized to unit RMS. ``aas real`` idle recordings of
-the rig's own input (the microphone with nothing played) belong there.
+resampled to the sensor's rate and normalized to unit RMS. Recordings of the rig's own input
+while the robot moves and nothing is played belong there (the project ships none).
 """
 
 from __future__ import annotations
