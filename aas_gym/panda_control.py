@@ -83,6 +83,9 @@ class PandaArm(Hand):
         self.tcp_low, self.tcp_high = np.array(PANDA_TCP_LOW), np.array(PANDA_TCP_HIGH)
         base = ident(mujoco.mjtObj.mjOBJ_BODY, "panda_link0")
         self._robot_bodies = np.flatnonzero(np.asarray(model.body_rootid) == base)
+        # Arm links: a contact of one of them with any robot body is a self-collision. Contacts
+        # inside the hand (fingers closed on nothing) are the gripper's business, not the arm's.
+        self._arm_bodies = np.array([ident(mujoco.mjtObj.mjOBJ_BODY, f"panda_link{i}") for i in range(8)])
         self._ik = mujoco.MjData(model)
         self._jac = np.zeros((6, model.nv))
         self.target_q = np.array(PANDA_REST_Q)
@@ -212,7 +215,8 @@ class PandaArm(Hand):
         return q, err_m, err_rad
 
     def _self_collides(self, q: np.ndarray) -> bool:
-        """Whether two robot bodies touch at ``q`` (MuJoCo's collision detection)."""
+        """Whether an arm link touches another part of the robot at ``q`` (MuJoCo's
+        collision detection; parent and child links never collide)."""
         m, ik = self.model, self._ik
         ik.qpos[self.arm_qpos] = q
         mujoco.mj_kinematics(m, ik)
@@ -221,4 +225,5 @@ class PandaArm(Hand):
             return False
         bodies = m.geom_bodyid[ik.contact.geom[:ik.ncon]]
         robot = np.isin(bodies, self._robot_bodies)
-        return bool(np.any(robot[:, 0] & robot[:, 1]))
+        arm = np.isin(bodies, self._arm_bodies)
+        return bool(np.any(robot[:, 0] & robot[:, 1] & (arm[:, 0] | arm[:, 1])))

@@ -81,7 +81,7 @@ class AcousticGraspEnv(AasEnv):
         act = decode_grasp_action(action)
         sc = self._scene
         ctrl = sc.ctrl
-        ctrl[sc.tcp_ctrl] = next_tcp_target(ctrl[sc.tcp_ctrl].tolist(), act.tcp_delta, sc.tcp_low, sc.tcp_high)
+        sc.set_tcp_target(next_tcp_target(sc.tcp_target(), act.tcp_delta, sc.tcp_low, sc.tcp_high))
         ctrl[sc.gripper] = MAX_OPENING_M if act.open_gripper else SQUEEZE_TARGET_M
         self._simulate()
         grasped = self._is_grasped()
