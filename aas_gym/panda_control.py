@@ -174,7 +174,7 @@ class PandaArm(Hand):
         for q0 in seeds:
             q, err_m, err_rad = self._converge(tcp, np.clip(q0, self.q_low, self.q_high))
             if err_m <= IK_POSITION_TOL_M and err_rad <= IK_YAW_TOL_RAD:
-                if not self._self_collides(q):
+                if not self.self_collides(q):
                     return q
                 best = min(best, (0.0, "self-collision"), key=lambda b: b[0])
             else:
@@ -214,11 +214,11 @@ class PandaArm(Hand):
             q = np.clip(q + dq, self.q_low, self.q_high)
         return q, err_m, err_rad
 
-    def _self_collides(self, q: np.ndarray) -> bool:
+    def self_collides(self, q) -> bool:
         """Whether an arm link touches another part of the robot at ``q`` (MuJoCo's
         collision detection; parent and child links never collide)."""
         m, ik = self.model, self._ik
-        ik.qpos[self.arm_qpos] = q
+        ik.qpos[self.arm_qpos] = np.asarray(q, float)
         mujoco.mj_kinematics(m, ik)
         mujoco.mj_collision(m, ik)
         if ik.ncon == 0:
