@@ -18,6 +18,7 @@ from pathlib import Path
 import mujoco
 
 from aas_gym.assets import ASSETS_DIR, HAND_XML
+from aas_gym.stage import look_at
 
 __all__ = ["PANDA_ARM_XML", "PANDA_JOINTS", "PandaAssetsError", "franka_mesh_dir", "panda_spec"]
 
@@ -93,4 +94,8 @@ def panda_spec(base_pos_m=(-0.42, 0.0, 0.0)) -> mujoco.MjSpec:
     arm.find(".//body[@name='panda_link0']").set("pos", " ".join(f"{v:g}" for v in base_pos_m))
     arm.find("compiler").set("meshdir", str(franka_mesh_dir()))
     arm.set("model", "panda_aas")
-    return mujoco.MjSpec.from_string(ET.tostring(arm, encoding="unicode"))
+    spec = mujoco.MjSpec.from_string(ET.tostring(arm, encoding="unicode"))
+    # A view of the whole arm and the table in front of it.
+    eye = [0.55, -0.95, 0.62]
+    spec.worldbody.add_camera(name="panda_view", pos=eye, xyaxes=look_at(eye, [-0.12, 0.0, 0.18]))
+    return spec

@@ -162,3 +162,19 @@ def test_every_env_passes_gymnasium_and_sb3_check_env_with_both_robots(env_id, r
 def test_unknown_robot_is_refused():
     with pytest.raises(ValueError, match="robot must be one of"):
         gym.make("aas_gym/AcousticGrasp-v0", robot="ur5")
+
+
+def test_a_panda_dataset_records_its_robot(tmp_path):
+    import json
+
+    from aas_gym.experiments.config import DatasetConfig
+    from aas_gym.experiments.generate import generate_dataset, load_dataset
+
+    config = DatasetConfig(objects=("aluminium_bar",), excitations=("impulse",), scenes=("single",), single_grasps=1,
+                           multi_grasps=0, positions=0, position_repeats=0, duration_s=0.5, robot="panda")
+    out = generate_dataset(config, tmp_path / "ds", workers=1, progress=False)
+    manifest = json.loads((out / ".dataset.json").read_text())
+    assert manifest["robot"] == "panda" and manifest["config"]["robot"] == "panda"
+    assert len(load_dataset(out)) == 1
+    with pytest.raises(ValueError, match="robot must be one of"):
+        DatasetConfig(robot="ur5")
