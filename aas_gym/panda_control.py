@@ -45,9 +45,9 @@ class UnreachableError(ValueError):
     touching itself."""
 
 
-def _yaw_rotation(yaw: float) -> np.ndarray:
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+def _yaw_quat(yaw: float) -> np.ndarray:
+    """Quaternion (w, x, y, z) of a turn by ``yaw`` about world z."""
+    return np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
 
 
 class PandaArm(Hand):
@@ -83,9 +83,11 @@ class PandaArm(Hand):
         self.tcp_low, self.tcp_high = np.array(PANDA_TCP_LOW), np.array(PANDA_TCP_HIGH)
         base = ident(mujoco.mjtObj.mjOBJ_BODY, "panda_link0")
         self._robot_bodies = np.flatnonzero(np.asarray(model.body_rootid) == base)
-        # Arm links: a contact of one of them with any robot body is a self-collision. Contacts
-        # inside the hand (fingers closed on nothing) are the gripper's business, not the arm's.
-        self._arm_bodies = np.array([ident(mujoco.mjtObj.mjOBJ_BODY, f"panda_link{i}") for i in range(8)])
+        # Per geom: on the robot, on an arm link. A contact of an arm link with any robot part is a
+        # self-collision; contacts inside the hand (fingers closed on nothing) are the gripper's.
+        arm_bodies = [ident(mujoco.mjtObj.mjOBJ_BODY, f"panda_link{i}") for i in range(8)]
+        self._geom_on_robot = np.isin(model.geom_bodyid, self._robot_bodies)
+        self._geom_on_arm = np.isin(model.geom_bodyid, arm_bodies)
         self._ik = mujoco.MjData(model)
         self._jac = np.zeros((6, model.nv))
         self.target_q = np.array(PANDA_REST_Q)
@@ -163,15 +165,8 @@ class PandaArm(Hand):
                                    f"{list(self.tcp_low.round(4))} .. {list(self.tcp_high.round(4))}")
         ik = self._ik
         ik.qpos[:] = data.qpos  # the objects where they are, for the self-collision test
-        seeds = [np.asarray(seed if seed is not None else PANDA_REST_Q, float)]
-        # Then postures turned towards the target (shoulder) and its yaw (wrist), stretched and folded.
-        base = self.model.body_pos[self._robot_bodies[0]]
-        q1 = math.atan2(tcp[1] - base[1], tcp[0] - base[0])
-        q7 = math.pi / 4 + tcp[3] - q1
-        for shoulder, elbow, wrist in ((-0.2, -2.2, 2.0), (0.4, -2.6, 3.0), (-0.6, -1.6, 1.0)):
-            seeds.append(np.array([q1, shoulder, 0.0, elbow, 0.0, wrist, q7]))
         best = (np.inf, None)
-        for q0 in seeds:
+        for q0 in self._seeds(tcp, seed):
             q, err_m, err_rad = self._converge(tcp, np.clip(q0, self.q_low, self.q_high))
             if err_m <= IK_POSITION_TOL_M and err_rad <= IK_YAW_TOL_RAD:
                 if not self.self_collides(q):
@@ -183,34 +178,42 @@ class PandaArm(Hand):
         raise UnreachableError(f"the Panda cannot reach TCP {np.round(tcp, 4).tolist()} with the hand pointing "
                                f"down within its joint limits (closest: {best[1]})")
 
+    def _seeds(self, tcp: np.ndarray, seed):
+        """``seed`` (a warm start: usually enough), then postures turned towards the target
+        (shoulder) and its yaw (wrist), stretched and folded."""
+        yield np.asarray(seed if seed is not None else PANDA_REST_Q, float)
+        base = self.model.body_pos[self._robot_bodies[0]]
+        q1 = math.atan2(tcp[1] - base[1], tcp[0] - base[0])
+        q7 = math.pi / 4 + tcp[3] - q1
+        for shoulder, elbow, wrist in ((-0.2, -2.2, 2.0), (0.4, -2.6, 3.0), (-0.6, -1.6, 1.0)):
+            yield np.array([q1, shoulder, 0.0, elbow, 0.0, wrist, q7])
+
     def _converge(self, tcp: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, float, float]:
         m, ik, jac = self.model, self._ik, self._jac
-        target_pos, target_rot = tcp[:3], _yaw_rotation(float(tcp[3]))
+        target_pos, target_quat = tcp[:3], _yaw_quat(float(tcp[3]))
         rest = np.array(PANDA_REST_Q)
-        dofs = self.arm_qvel
+        dofs, qadr, site = self.arm_qvel, self.arm_qpos, self.tcp_site
+        e, quat = np.zeros(6), np.zeros(4)
+        damping, eye7 = _IK_DAMPING ** 2 * np.eye(6), np.eye(7)
         err_m = err_rad = np.inf
         for _ in range(_IK_ITERATIONS):
-            ik.qpos[self.arm_qpos] = q
+            ik.qpos[qadr] = q
             mujoco.mj_kinematics(m, ik)
             mujoco.mj_comPos(m, ik)
-            pos = ik.site_xpos[self.tcp_site]
-            rot = ik.site_xmat[self.tcp_site].reshape(3, 3)
-            e_pos = target_pos - pos
-            # Orientation error as a rotation vector (small-angle: half the sum of axis crosses).
-            e_rot = 0.5 * (np.cross(rot[:, 0], target_rot[:, 0]) + np.cross(rot[:, 1], target_rot[:, 1])
-                           + np.cross(rot[:, 2], target_rot[:, 2]))
-            err_m = float(np.linalg.norm(e_pos))
-            err_rad = float(np.linalg.norm(e_rot))
+            e[:3] = target_pos - ik.site_xpos[site]
+            # Orientation error: the rotation vector from the site's orientation to the target's.
+            mujoco.mju_mat2Quat(quat, ik.site_xmat[site])
+            mujoco.mju_subQuat(e[3:], target_quat, quat)
+            e[3:] = ik.site_xmat[site].reshape(3, 3) @ e[3:]  # site frame -> world
+            err_m, err_rad = math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2), math.sqrt(e[3] ** 2 + e[4] ** 2 + e[5] ** 2)
             if err_m <= IK_POSITION_TOL_M * 0.2 and err_rad <= IK_YAW_TOL_RAD * 0.2:
                 break
-            mujoco.mj_jacSite(m, ik, jac[:3], jac[3:], self.tcp_site)
+            mujoco.mj_jacSite(m, ik, jac[:3], jac[3:], site)
             J = jac[:, dofs]
-            e = np.concatenate([e_pos, e_rot])
-            JJt = J @ J.T + _IK_DAMPING ** 2 * np.eye(6)
-            dq = J.T @ np.linalg.solve(JJt, e)
-            # Null space: drift towards the rest posture (keeps the elbow up, away from limits).
-            null = np.eye(7) - J.T @ np.linalg.solve(JJt, J)
-            dq += null @ (_IK_NULLSPACE_GAIN * (rest - q))
+            # Damped least squares, plus a drift towards the rest posture in the null space
+            # (keeps the elbow up and the joints away from their limits).
+            solved = np.linalg.solve(J @ J.T + damping, np.column_stack([e, J]))
+            dq = J.T @ solved[:, 0] + (eye7 - J.T @ solved[:, 1:]) @ (_IK_NULLSPACE_GAIN * (rest - q))
             q = np.clip(q + dq, self.q_low, self.q_high)
         return q, err_m, err_rad
 
@@ -223,7 +226,6 @@ class PandaArm(Hand):
         mujoco.mj_collision(m, ik)
         if ik.ncon == 0:
             return False
-        bodies = m.geom_bodyid[ik.contact.geom[:ik.ncon]]
-        robot = np.isin(bodies, self._robot_bodies)
-        arm = np.isin(bodies, self._arm_bodies)
+        geoms = ik.contact.geom[:ik.ncon]
+        robot, arm = self._geom_on_robot[geoms], self._geom_on_arm[geoms]
         return bool(np.any(robot[:, 0] & robot[:, 1] & (arm[:, 0] | arm[:, 1])))
