@@ -178,3 +178,19 @@ def test_a_panda_dataset_records_its_robot(tmp_path):
     assert len(load_dataset(out)) == 1
     with pytest.raises(ValueError, match="robot must be one of"):
         DatasetConfig(robot="ur5")
+
+
+def test_a_user_written_mjcf_with_the_two_sites_senses():
+    """examples/custom_robot.py: a gripper owing nothing to aas_gym's hand gets the sensor."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "custom_robot.py"
+    spec = importlib.util.spec_from_file_location("custom_robot", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    out = example.main()
+    assert out["grasped"]
+    assert out["actuator_force_n"] == pytest.approx(40.0, rel=0.05)
+    assert out["mic_force_n"] == pytest.approx(40.0, rel=0.05)
+    assert out["features"].shape == (140,) and np.all(np.isfinite(out["features"])) and np.any(out["features"] != 0)
