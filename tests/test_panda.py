@@ -194,3 +194,21 @@ def test_a_user_written_mjcf_with_the_two_sites_senses():
     assert out["actuator_force_n"] == pytest.approx(40.0, rel=0.05)
     assert out["mic_force_n"] == pytest.approx(40.0, rel=0.05)
     assert out["features"].shape == (140,) and np.all(np.isfinite(out["features"])) and np.any(out["features"] != 0)
+
+
+def test_joint_space_control_option_of_acoustic_grasp():
+    env = gym.make("aas_gym/AcousticGrasp-v0", robot="panda", control="joint", acoustic={"cadence": "never"}).unwrapped
+    assert env.action_space.shape == (9,)
+    check_env(env, skip_render_check=True)
+    env.reset(seed=0)
+    q0 = env.hand.joint_positions(env.data)
+    action = np.zeros(9, np.float32)
+    action[0] = 1.0  # joint 1 by +0.05 rad per step
+    for _ in range(4):
+        env.step(action)
+    assert env.hand.target_q[0] - q0[0] == pytest.approx(0.2, abs=1e-9)
+    for _ in range(6):  # the servo catches up
+        env.step(np.zeros(9, np.float32))
+    assert env.hand.joint_positions(env.data)[0] - q0[0] == pytest.approx(0.2, abs=0.01)
+    with pytest.raises(ValueError, match="robot='panda'"):
+        gym.make("aas_gym/AcousticGrasp-v0", control="joint")
