@@ -154,9 +154,9 @@ class PandaArm(Hand):
     # --- inverse kinematics -----------------------------------------------------------------
     def solve_ik(self, data: mujoco.MjData, tcp, seed=None) -> np.ndarray:
         """Joint angles putting the TCP at ``tcp`` = (x, y, z [m], yaw [rad]) with the hand
-        pointing down, within the joint limits and free of self-collision. Tries ``seed``,
-        then the rest posture and turned variants; none converging raises
-        :class:`UnreachableError` naming the pose and the closest miss."""
+        pointing down, within the joint limits and free of self-collision. Tries ``seed``
+        (default the rest posture), then postures turned towards the target; none converging
+        raises :class:`UnreachableError` naming the pose and the closest miss."""
         tcp = np.asarray(tcp, float)
         if tcp.shape != (4,) or not np.all(np.isfinite(tcp)):
             raise ValueError(f"tcp must be 4 finite numbers (x, y, z [m], yaw [rad]), got {tcp!r}")
