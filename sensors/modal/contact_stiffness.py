@@ -26,7 +26,12 @@ R^(1/3), so a factor of 10 in R is a factor of 2.15 in k.
 
 from __future__ import annotations
 
+import logging
+
 from ..materials.solids import Material, get_material
+
+log = logging.getLogger(__name__)
+_WARNED: list = []
 
 __all__ = ["DEFAULT_CONTACT_RADIUS_M", "DEFAULT_COUNTER_MATERIAL", "effective_modulus_pa",
            "effective_shear_modulus_pa", "hertz_contact_radius_m", "hertz_normal_stiffness_n_per_m",
@@ -74,10 +79,17 @@ def contact_stiffnesses_n_per_m(contact, object_material) -> tuple[float, float]
     ``object_material``: the contact's own values where given, else Hertz (normal) and, for a
     contact with friction (it can stick), Mindlin (tangential) from its force, ``radius_m``
     and ``counter_material``.  A contact without force does not touch: no stiffness, even a
-    given one (as it has no damping)."""
+    given one (as it has no damping).  An object material without elastic constants (a
+    hand-made ``ModalBasis`` whose material holds only damping) derives none: 0, logged once."""
     if not contact.force_n > 0.0:
         return 0.0, 0.0
     kn, kt = contact.normal_stiffness_n_per_m, contact.tangential_stiffness_n_per_m
+    if (kn is None or kt is None) and not isinstance(object_material, (str, Material)):
+        if not _WARNED:
+            _WARNED.append(True)
+            log.warning("the object's material %r has no elastic constants: its contacts get no Hertz/Mindlin "
+                        "springs (give Contact.normal_stiffness_n_per_m to have them)", object_material)
+        return (0.0 if kn is None else float(kn)), (0.0 if kt is None else float(kt))
     if kn is None or kt is None:
         mine, other = get_material(object_material), get_material(contact.counter_material)
         if kn is None:

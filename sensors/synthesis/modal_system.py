@@ -194,9 +194,9 @@ class ModalSystem(DiscreteSystem):
         dn, mn = _unit(drive_normal, "drive_normal"), _unit(mic_normal, "mic_normal")
         contacts = _as_contacts(contacts)
         check_on_surface(model, np.array([dp, mp]), "drive/mic point")
-        if damping is None:
+        if damping is None:  # a given C_m is of the model's own modes: no springs then
             check_on_surface(model, np.array([c.position_m for c in contacts]).reshape(-1, 3), "contact")
-        model = contact_modal_model(model, contacts, contact_model)
+            model = contact_modal_model(model, contacts, contact_model)
 
         w_all = np.asarray(model.angular_frequencies_rad_s, dtype=float)
         r_all = len(w_all)
