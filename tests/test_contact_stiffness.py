@@ -264,3 +264,43 @@ def test_switching_every_sample_is_passive_and_matches_reference(bar, reference)
         x0 = sysm.final_state(np.zeros(2), x0)
         assert modal_state_energy(x0) <= before * (1 + 1e-12)
         modes = sysm.modes
+
+
+# ----------------------------------------------------------------------------- two bodies
+
+
+def test_two_bars_joined_by_a_spring_match_full_fem(bar, reference):
+    """Component mode synthesis (sensors.modal.coupled_bodies) of two free bars, the second
+    stacked on the first (25 mm up), joined at one point by a spring of 1e7 N/m normal and
+    5e6 N/m tangential, against the full FEM of both bars with the spring."""
+    from sensors.modal.coupled_bodies import BodyLink, coupled_bodies
+
+    K, M, V, dofs = reference
+    h = BAR["height_m"]
+    va, pa = vertex(reference, 0.05, 2, +1)                       # top of bar A
+    vb = int(np.argmin(np.linalg.norm(V - (pa - [0, 0, h]), axis=1)))  # bottom of bar B (B frame)
+    assert np.allclose(V[vb] + [0, 0, h], pa)
+    kn, kt = 1e7, 5e6
+    n = K.shape[0]
+    import scipy.sparse as sp
+
+    K2 = sp.block_diag([K, K]).tolil()
+    for j, k in ((0, kt), (1, kt), (2, kn)):
+        a, b = dofs[j, va], n + dofs[j, vb]
+        K2[a, a] += k
+        K2[b, b] += k
+        K2[a, b] -= k
+        K2[b, a] -= k
+    M2 = sp.block_diag([M, M]).tocsc()
+    lam = scipy.sparse.linalg.eigsh(K2.tocsc(), k=24, M=M2, sigma=-(2 * math.pi * 10) ** 2, which="LM",
+                                    return_eigenvectors=False)
+    true = np.sqrt(np.maximum(np.sort(lam), 0.0)) / (2 * math.pi)
+    true = true[true > 1.0]
+    link = BodyLink(0, 1, tuple(pa), (0.0, 0.0, 1.0), kn, kt)
+    both = coupled_bodies([(bar, np.eye(3), np.zeros(3)), (bar, np.eye(3), np.array([0.0, 0.0, h]))], [link])
+    free = np.sort(np.concatenate([bar.frequencies_hz, bar.frequencies_hz]))
+    check_shifts(free, both.frequencies_hz, true)
+    # the shapes: both bodies move in the coupled modes, mass-normalised over the assembly
+    s0 = both.mode_shapes_at(0, pa[None])
+    s1 = both.mode_shapes_at(1, (pa - [0, 0, h])[None])
+    assert s0.shape == s1.shape == (1, 3, both.frequencies_hz.size)

@@ -30,7 +30,8 @@ from .contact import Contact
 from .contact_stiffness import contact_stiffnesses_n_per_m
 from .static_correction import contact_flexibility, nodal_at
 
-__all__ = ["MIN_MODE_FREQUENCY_HZ", "SpringModes", "contact_springs", "spring_modes", "modal_transfer"]
+__all__ = ["MIN_MODE_FREQUENCY_HZ", "SpringModes", "contact_springs", "flexible_base", "spring_modes",
+           "modal_transfer"]
 
 log = logging.getLogger(__name__)
 
@@ -85,12 +86,13 @@ class SpringModes:
             K[6 + r:, 6 + r:] = Kpsi * frequency_scale ** 2
             K[6 + r:, 6:6 + r] = Kpsi_u * frequency_scale ** 2
             K[6:6 + r, 6 + r:] = K[6 + r:, 6:6 + r].T
-            self._split = (6, r, a)
+            self.split = (6, r, a)
         else:                                          # no mesh: the elastic modes alone
             self._flex, self.psi = None, None
             K = np.diag(w ** 2)
-            self._split = (0, r, 0)
-        S = self._ritz_at(np.array([p for p, _, _, _ in springs]).reshape(-1, 3))      # (P, 3, n)
+            self.split = (0, r, 0)
+        self.free_stiffness = K.copy()   # of the Ritz basis, before the springs
+        S = self.ritz_at(np.array([p for p, _, _, _ in springs]).reshape(-1, 3))      # (P, 3, n)
         for (p, nrm, kn, kt), Sp in zip(springs, S):
             W = kn * np.outer(nrm, nrm) + kt * (np.eye(3) - np.outer(nrm, nrm))
             K += Sp.T @ W @ Sp
@@ -101,8 +103,9 @@ class SpringModes:
         self.frequencies_hz = self.angular_frequencies_rad_s / (2 * np.pi)
 
     # -- ModalBasis ----------------------------------------------------------------------
-    def _ritz_at(self, points_m) -> np.ndarray:
-        """The Ritz basis [R, U, Psi] at points: (n, 3, 6 + r + a) (or U alone without a mesh)."""
+    def ritz_at(self, points_m) -> np.ndarray:
+        """The Ritz basis [R, U, Psi] at points: (n, 3, 6 + r + a) (or U alone without a mesh);
+        ``split`` holds the three column counts, ``free_stiffness`` its stiffness without springs."""
         U = np.asarray(self.base.mode_shapes_at(points_m), float)
         if self._flex is None:
             return U
@@ -113,7 +116,7 @@ class SpringModes:
 
     def mode_shapes_at(self, points_m) -> np.ndarray:
         """Mass-normalised coupled mode shapes at points (n, 3): (n, 3, r_c)."""
-        return self._ritz_at(points_m) @ self.V
+        return self.ritz_at(points_m) @ self.V
 
     def surface_distance_m(self, points_m) -> np.ndarray:
         return self.base.surface_distance_m(points_m)
@@ -150,7 +153,7 @@ def _directions(springs):
     return np.array(dirs).reshape(-1, 3), np.array(pts).reshape(-1, 3)
 
 
-def _flexible_base(model):
+def flexible_base(model):
     """``(mesh model, frequency_scale, shape_scale)`` of a ``ModalModel`` or a
     ``MaterialView`` of one; ``None`` for a model without a mesh."""
     from .basis import MaterialView  # basis imports damping -> contact: import here, no cycle
@@ -174,7 +177,7 @@ def spring_modes(model, contacts):
     hit = _CACHE.get(key)
     if hit is not None and hit.base is model:
         return hit
-    flex = _flexible_base(model)
+    flex = flexible_base(model)
     if flex is None:
         name = type(model).__name__
         if name not in _WARNED:
@@ -192,7 +195,7 @@ def _ritz_parts(modes):
     """``(free coefficients (6 + r, r_c), psi (n_dof, a) or None, psi coefficients (a, r_c),
     flexibility)`` of a model's coordinates in the common Ritz basis [R, U]."""
     if isinstance(modes, SpringModes):
-        n_rigid, r, a = modes._split
+        n_rigid, r, a = modes.split
         free = np.zeros((6 + r, modes.V.shape[1]))
         free[6 - n_rigid:] = modes.V[:n_rigid + r]
         return free, modes.psi, modes.V[n_rigid + r:], modes._flex
