@@ -14,9 +14,9 @@ against the contact damping; the contact damping on the coupled shapes).  Couple
 :data:`MIN_MODE_FREQUENCY_HZ` are rigid-body motions that no spring holds: they are not sound
 and are left out.
 
-The state of one contact set passes to the next by the M-orthogonal projection of the
-displacement and velocity fields (:func:`modal_transfer`): exact where the new basis spans the
-old motion, never adding kinetic energy.
+The state of one contact set passes to the next through the M-orthogonal projection
+:func:`modal_transfer` (``sensors.synthesis.modal_system.transfer_state``: no switch adds
+energy).
 """
 
 from __future__ import annotations

@@ -109,16 +109,23 @@ def contact_modal_model(model, contacts, contact_model: str = "spring_damper"):
 
 def transfer_state(x, from_modes, to_modes) -> np.ndarray:
     """The scaled state x = [w q; q'] of ``from_modes`` as a state of ``to_modes`` (the same
-    object under another contact set): displacement and velocity fields projected
-    M-orthogonally (:func:`sensors.modal.spring_modes.modal_transfer`); ``x`` itself when the
-    modes are the same."""
+    object under another contact set); ``x`` itself when the modes are the same.
+
+    Both halves are mapped by T = Phi_to^T M Phi_from (the M-orthogonal projection,
+    :func:`sensors.modal.spring_modes.modal_transfer`): the velocity field carries over, and so
+    does the displacement of every mode the switch leaves unchanged.  A mode whose frequency
+    the new springs change keeps its strain energy rather than its amplitude: a contact forms
+    unstretched, so a spring that engages on a displaced point (a bar rocking on its pads
+    touching the table) must not store 1/2 k u^2 out of nothing, which in a stream switching
+    every physics step would pump energy into the object.  As ||T|| <= 1 (orthonormal bases),
+    no switch adds energy.
+    """
     if from_modes is to_modes or x is None:
         return x
-    wa = np.asarray(from_modes.angular_frequencies_rad_s, float)
-    wb = np.asarray(to_modes.angular_frequencies_rad_s, float)
-    x = np.asarray(x, float).reshape(2, wa.size)
+    ra = len(from_modes.angular_frequencies_rad_s)
+    x = np.asarray(x, float).reshape(2, ra)
     T = modal_transfer(from_modes, to_modes)
-    return np.concatenate([wb * (T @ (x[0] / wa)), T @ x[1]])
+    return np.concatenate([T @ x[0], T @ x[1]])
 
 
 def modal_state_energy(x: np.ndarray) -> np.ndarray:
