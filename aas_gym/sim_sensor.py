@@ -219,7 +219,7 @@ class SimAcousticSensor:
                 "no object is pressed by both the actuator fingertip (site "
                 f"{self.actuator_site!r}) and the microphone fingertip ({self.mic_site!r}); "
                 f"current object contacts by kind: {touching or 'none'}")
-        grasp = contacts[body].sensor_grasp(self.min_force_n)
+        grasp = contacts[body].sensor_grasp(self.min_force_n, self.object_materials())
         for kind, tip in (("actuator", grasp.actuator), ("mic", grasp.mic)):
             if tip is None:  # forces on opposite faces cancel: not one fingertip patch
                 raise NoGraspError(f"the {kind} fingertip touches {body!r} on opposite sides; "
@@ -272,6 +272,13 @@ class SimAcousticSensor:
             "other_contacts": [o.to_dict() for o in others],
         })
         return obs
+
+    def object_materials(self) -> dict:
+        """Material name of each sensed object body (the other body of a contact between
+        objects, for its Hertz stiffness)."""
+        from sensors import MATERIALS
+
+        return {b: s.material for b, s in self._specs.items() if s is not None and s.material in MATERIALS}
 
     def leak_for(self, excitation, leak_scale: float = 1.0):
         """The leak recording for ``excitation`` (scaled by ``leak_scale``), or ``None``."""

@@ -138,7 +138,7 @@ class SimAcousticStream:
         body = self.sensor.grasped_body(contacts) or self._heard or self.bodies[0]
         self._heard = body
         self._heard_index = self.bodies.index(body)
-        grasp = contacts[body].sensor_grasp(self._min_force_n)
+        grasp = contacts[body].sensor_grasp(self._min_force_n, self.sensor.object_materials())
         model = self.sensor.scaled_model(body, self.variation)
         return GraspState(model, grasp.actuator, grasp.mic, tuple(grasp.others), object_key=body)
 
