@@ -76,7 +76,7 @@ class SpringModes:
         w = np.asarray(base.angular_frequencies_rad_s, float)
         r = w.size
         if flexible is not None:                       # ModalModel (or a view of one): [R, U, Psi]
-            self._flex = flexible
+            self._flex = flexible.geometry()           # not the factorization (see its LRU)
             dirs, pts = _directions(springs)
             self.psi, Kpsi, Kpsi_u = flexible.attachment_modes(pts, dirs)
             a = self.psi.shape[1]

@@ -37,7 +37,7 @@ from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
 from .basis import check_points_m
 
-__all__ = ["MAX_ATTACHMENT_VECTORS", "ContactFlexibility", "contact_flexibility", "nodal_at"]
+__all__ = ["MAX_ATTACHMENT_VECTORS", "ContactFlexibility", "RitzGeometry", "contact_flexibility", "nodal_at"]
 
 #: The most attachment vectors (constrained directions, up to 3 per contact) one contact set
 #: may add: 20 contacts with normal and tangential springs.  Each costs one solve with the
@@ -85,6 +85,11 @@ class ContactFlexibility:
         self.factor = factorize((self.K + _SHIFT * lam1 * self.M).tocsc())
         self.n_dof = 3 * n_nodes
 
+    def geometry(self) -> "RitzGeometry":
+        """What the coupled modes keep of this (the mesh model, rigid-body modes and M): not
+        the factorization, K or the mode matrices, which only the construction needs."""
+        return RitzGeometry(self.model, self.centroid_m, self.rigid_transform, self.M)
+
     def rigid_at(self, points_m) -> np.ndarray:
         """The mass-normalised rigid-body modes at points (n, 3): (n, 3, 6)."""
         p = np.atleast_2d(np.asarray(points_m, float)) - self.centroid_m
@@ -130,6 +135,15 @@ class ContactFlexibility:
         Psi = X @ (Q[:, keep] / np.sqrt(d[keep]))
         Kpsi = Psi.T @ (self.K @ Psi)
         return Psi, 0.5 * (Kpsi + Kpsi.T), Psi.T @ self.KU
+
+
+class RitzGeometry:
+    """The light part of a :class:`ContactFlexibility`: ``model``, ``M`` and ``rigid_at``."""
+
+    def __init__(self, model, centroid_m, rigid_transform, M) -> None:
+        self.model, self.centroid_m, self.rigid_transform, self.M = model, centroid_m, rigid_transform, M
+
+    rigid_at = ContactFlexibility.rigid_at
 
 
 def contact_flexibility(model) -> ContactFlexibility:
