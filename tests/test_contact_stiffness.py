@@ -304,3 +304,32 @@ def test_two_bars_joined_by_a_spring_match_full_fem(bar, reference):
     s0 = both.mode_shapes_at(0, pa[None])
     s1 = both.mode_shapes_at(1, (pa - [0, 0, h])[None])
     assert s0.shape == s1.shape == (1, 3, both.frequencies_hz.size)
+
+
+# ----------------------------------------------------------------------------- the option, recorded
+
+
+def test_contact_model_is_an_option_recorded_and_keyed(bar):
+    from aas_gym.experiments.config import DatasetConfig
+    from sensors import ContactTolerance, GraspState
+    from sensors.task import AcousticConfig
+
+    assert DatasetConfig().to_dict()["contact_model"] == "spring_damper"
+    assert DatasetConfig(objects=("aluminium_bar",), contact_model="damping").fingerprint() != \
+        DatasetConfig(objects=("aluminium_bar",)).fingerprint()
+    with pytest.raises(ValueError):
+        AcousticConfig(contact_model="glue")
+    assert AcousticConfig(contact_model="damping") != AcousticConfig()
+    act, mic = Contact([0.04, 0.0125, 0.0], [0, 1, 0], 40.0, 0.8), Contact([0.04, -0.0125, 0.0], [0, -1, 0], 40.0, 0.8)
+    ex = sensors.Excitation.by_name("impulse")
+    rec = {cm: sensors.simulate_recording(bar, ex, ex.period_s, act, mic, contact_model=cm)
+           for cm in ("damping", "spring_damper")}
+    assert {cm: r.metadata["contact_model"] for cm, r in rec.items()} == {"damping": "damping",
+                                                                         "spring_damper": "spring_damper"}
+    assert not np.allclose(rec["damping"].waveform, rec["spring_damper"].waveform)
+    # a contact set with other springs is another system (cache keys)
+    table = Contact([0.0, 0.0, -0.0125], [0, 0, -1], 5.0, 0.5)
+    stiff = Contact([0.0, 0.0, -0.0125], [0, 0, -1], 5.0, 0.5, normal_stiffness_n_per_m=1e8)
+    a, b = GraspState(bar, act, mic, (table,)), GraspState(bar, act, mic, (stiff,))
+    assert not ContactTolerance().tables_match(a.contact_table(), b.contact_table())
+    assert ContactTolerance().tables_match(a.contact_table(), GraspState(bar, act, mic, (table,)).contact_table())
