@@ -327,6 +327,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
     def _new_scene(self, objects: tuple[ObjectSpec, ...]) -> _Scene:
         scene = _Scene(objects, contact_signature=self.acoustic.streaming, robot=self.robot)
         scene.sensor.leak, scene.sensor.fingertip = self._leaks, self.acoustic.fingertip
+        scene.sensor.contact_model = self.acoustic.contact_model
         return scene
 
     @property

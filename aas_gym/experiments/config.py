@@ -51,6 +51,8 @@ class DatasetConfig:
         grasp_jitter_m: half-range of the uniform error of each grasp along the main axis.
         noise_std: microphone noise standard deviation (full scale 1; 1e-5 is -100 dBFS,
             a good sound card's floor).
+        contact_model: how contacts act on the objects' modes: ``"spring_damper"`` (default,
+            issue 26) or ``"damping"`` (the paper's model); in the manifest and fingerprint.
         store_waveforms: also store raw waveforms (about 176 kB per row).
         seed: root of every random stream.
         shard_size: tasks per output file.
@@ -70,6 +72,7 @@ class DatasetConfig:
     grip_force_n: float = 40.0
     grasp_jitter_m: float = 0.0005
     noise_std: float = 1e-5
+    contact_model: str = "spring_damper"
     store_waveforms: bool = False
     seed: int = 0
     shard_size: int = 16
@@ -101,6 +104,10 @@ class DatasetConfig:
         from aas_gym.robots import check_robot
 
         check_robot(self.robot)
+        from sensors.synthesis.modal_system import CONTACT_MODELS
+
+        if self.contact_model not in CONTACT_MODELS:
+            raise ValueError(f"contact_model must be one of {CONTACT_MODELS}, got {self.contact_model!r}")
         samples = self.duration_s * 44_100
         if samples > MAX_SAMPLES:
             raise ValueError(f"duration_s={self.duration_s:g} s would record {samples:,.0f} samples per recording "
