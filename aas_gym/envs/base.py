@@ -412,7 +412,8 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         excitation = self.excitation if excitation is None else excitation
         if self.acoustic.streaming:
             return self._stream_hold(excitation)
-        rec = self.sensor.sense(excitation, self.duration_s, variation=self._variation, rng=self.np_random)
+        rec = self.sensor.sense(excitation, self.duration_s, variation=self._variation, rng=self.np_random,
+                                waveform=self.acoustic.waveform)  # features only: closed form
         return self.acoustic.entries(rec), rec
 
     def _empty_acoustic(self) -> dict:
