@@ -20,6 +20,7 @@ from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
 from aas_gym.contact_sensors import touch_sensor_name
 from aas_gym.object_names import DEFAULT_OBJECT_NAMES
+from aas_gym.physics_memo import PhysicsMemo
 from aas_gym.scene import build_scene
 from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, place_objects, settle,
                               target_grasp)
@@ -59,6 +60,8 @@ class _Scene:
         self.model = build_scene(list(objects), contact_signature=contact_signature)
         self.data = mujoco.MjData(self.model)
         self.hand = Hand(self.model)
+        # settled placements and grasps by start state (a reset redoes only what differs)
+        self.memo = PhysicsMemo(self.model)
         self.sensor = SimAcousticSensor(self.model, self.data, on_no_grasp="silence")
         self.bodies = self.sensor.bodies
         self.stream: ContactStream = self.sensor.stream
@@ -345,7 +348,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         sc.hand.teleport(d, HOME_TCP, MAX_OPENING_M)
         self._layout = place_objects(m, d, sc.objects, sc.free_joints, self.np_random, self.randomization,
                                      far_end_only=self._far_end_only)
-        settle(m, d, settle_s)
+        sc.memo.run(d, ("settle", settle_s), lambda: settle(m, d, settle_s))
 
     def _episode_grip_force(self) -> float:
         r = self.randomization.grip_force_rel
@@ -371,11 +374,17 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         """Scripted planar grasp of the target at ``position_m`` (+ noise) along its axis."""
         r = self.randomization
         noise = float(self.np_random.normal(0.0, r.position_noise_m)) if r.position_noise_m > 0 else 0.0
-        release(self.model, self.data, self.hand, retreat_m=0.0, duration_s=0.06)
         grasp = target_grasp(self._scene.objects[0], position_m, self._layout, shift_m=noise,
                              min_width_m=self._min_grasp_width_m)
-        result = planar_grasp(self.model, self.data, self._scene.bodies[0], position_m + noise, grip_force_n,
-                              hand=self.hand, stream=self._scene.stream, grasp=grasp)
+
+        def section():
+            release(self.model, self.data, self.hand, retreat_m=0.0, duration_s=0.06)
+            return planar_grasp(self.model, self.data, self._scene.bodies[0], position_m + noise, grip_force_n,
+                                hand=self.hand, stream=self._scene.stream, grasp=grasp)
+
+        grasp_key = None if grasp is None else (np.asarray(grasp.centre_m).tobytes(), np.asarray(grasp.axis).tobytes(),
+                                                grasp.width_m, grasp.position_m)
+        result = self._scene.memo.run(self.data, ("grasp", position_m + noise, grip_force_n, grasp_key), section)
         return {"grasp_position_m": result.grasp_position_m, "grasp_success": result.success,
                 "grip_force_n": grip_force_n}
 

@@ -31,6 +31,7 @@ CACHE_SIZES: dict[str, int] = {
     "sim.material_views": 16,        # randomized material views of those models
     "sim.grasp_sets": 64,            # antipodal grasps of surface objects the hand can take
     "env.scenes": 8,                 # compiled MuJoCo scenes per env
+    "env.physics_runs": 128,         # settled placements and grasps per scene (~0.5 MB each)
     "dataset.scenes": 16,            # compiled MuJoCo scenes of one dataset worker
 }
 
