@@ -68,7 +68,10 @@ class PhysicsMemo:
             self.model.actuator_forcerange[:] = forcerange
             return result
         result = section()
-        end = mujoco.MjData(self.model)
+        if len(self._lru) >= self._lru.max_size:   # the oldest run is dropped below: reuse its MjData
+            end = next(iter(self._lru.values()))[0]
+        else:
+            end = mujoco.MjData(self.model)
         mujoco.mj_copyData(end, self.model, data)
         self._lru.put(key, (end, self.model.actuator_forcerange.copy(), result))
         return result

@@ -33,7 +33,6 @@ from ..signals.excitation import Excitation
 from ..signals.features import feature_frequencies_hz
 from ..signals.leak import LeakRecording
 from .caches import IdentityKey, SynthesisCache
-from .drive import grasp_fingertip
 from .fingertip import FingertipModel
 from .grasp_state import GraspState
 from .microphone import mic_gain
@@ -68,16 +67,20 @@ class FeatureObservation:
         return self.window_amplitudes.mean(axis=0) if average else self.window_amplitudes.copy()
 
 
+_BINS: dict = {}
+
+
 def _feature_bins(excitation: Excitation) -> np.ndarray | None:
     """The feature frequencies as DFT bins of one excitation period, or None if they are not
     whole bins (the time-domain chain's chirp-z path then applies)."""
-    P = excitation.period_samples
-    if int(round(excitation.period_s * excitation.sample_rate_hz)) != P:
-        return None
-    bins = feature_frequencies_hz() * P / excitation.sample_rate_hz
-    if not np.allclose(bins, np.round(bins), rtol=0, atol=1e-9):
-        return None
-    return np.round(bins).astype(int)
+    key = (excitation.sample_rate_hz, excitation.period_s)
+    if key not in _BINS:                      # one entry per (rate, period): a handful at most
+        P = excitation.period_samples
+        bins = feature_frequencies_hz() * P / excitation.sample_rate_hz
+        whole = int(round(excitation.period_s * excitation.sample_rate_hz)) == P and \
+            np.allclose(bins, np.round(bins), rtol=0, atol=1e-9)
+        _BINS[key] = np.round(bins).astype(int) if whole else None
+    return _BINS[key]
 
 
 @dataclass(frozen=True)
@@ -91,6 +94,8 @@ class _DriveSpectrum:
 
 
 def _drive_spectrum(stream: AcousticStream, tip: FingertipModel, from_rest: bool) -> _DriveSpectrum | None:
+    """The drive's periodic steady state (as the time-domain chain computes it) and its
+    transient from rest, a sum of its modes."""
     sy = stream.drive.systems(tip)
     act, mic = sy.steady()
     lowest = min(act.output.min(), mic.output.min())
@@ -125,7 +130,7 @@ def simulate_features(model, excitation: Excitation, duration_s: float,
     if not np.isfinite(noise_std) or noise_std < 0:
         raise ValueError(f"noise_std must be >= 0, got {noise_std!r}")
     sample_rate_hz = excitation.sample_rate_hz
-    n = len(excitation.loop(duration_s))
+    n = excitation.loop_samples(duration_s)
     P = excitation.period_samples
     bins = _feature_bins(excitation)
     others = tuple(other_contacts)
@@ -160,34 +165,34 @@ def simulate_features(model, excitation: Excitation, duration_s: float,
 def _object_spectra(grasp: GraspState, excitation: Excitation, fingertip, output, method, steady_state,
                     cache: SynthesisCache, bins: np.ndarray, n_windows: int):
     """The motion at the microphone as window spectra (``None`` where the closed form does not
-    apply) and its metadata; cached per (system, fingertip model, excitation, windows)."""
+    apply) and its metadata.  Cached per contact table (the spectra of the system the table was
+    first resolved to), fingertip model, excitation and windows: sensing a grasp again costs
+    only its noise."""
     if not grasp.closed:
         return np.zeros((n_windows, len(bins)), complex), {}
+    table = grasp.contact_table()
+    key = (IdentityKey(grasp.model), table.shape, table.tobytes(), fingertip, excitation, output, method,
+           n_windows, bool(steady_state), bins.tobytes())
+    grip = grasp.actuator.force_n
+    hit = cache.window_spectra.get(key)
+    if hit is None:
+        hit = cache.window_spectra.put(key, _build_spectra(grasp, excitation, fingertip, output, method,
+                                                           steady_state, cache, bins, n_windows))
+    spectra, drive, tip = hit
+    if spectra is None or grip + drive.lowest_dynamic_n < 0:
+        return None, {}     # no closed form, or the contact may separate: the time-domain chain decides
+    fingertip_meta = {k: float(v) for k, v in tip.__dict__.items()}
+    fingertip_meta["grip_force_n"] = float(grip)        # grasp_fingertip(fingertip, model, grip)
+    return spectra, {"fingertip_separated": False, "fingertip": fingertip_meta}
+
+
+def _build_spectra(grasp, excitation, fingertip, output, method, steady_state, cache, bins, n_windows):
+    """(window spectra or None, drive spectrum, fingertip model with grip force 0)."""
     stream = AcousticStream(excitation, fingertip, output=output, method=method, cache=cache, carry_state=False)
     system, tip = stream.grasp_systems(grasp)
-    grip = grasp.actuator.force_n
-    if steady_state:
-        try:
-            stream.drive.settle(tip, grip)              # the same ValueError where it would separate
-        except ValueError as exc:
-            raise ValueError(f"{exc}; use steady_state=False") from None
-    key = (IdentityKey(system), tip, excitation, n_windows, bool(steady_state), tuple(bins))
-
-    def build():
-        drive = cache.drive_spectra.get_or_build((tip, excitation, bool(steady_state)),
-                                                 lambda: _drive_spectrum(stream, tip, not steady_state))
-        if drive is None:
-            return None
-        spectra = window_spectra(system, drive.period, drive.transient, bins, n_windows, from_rest=not steady_state)
-        return None if spectra is None else (spectra, drive)
-
-    hit = cache.window_spectra.get_or_build(key, build)
-    if hit is None:
-        return None, {}
-    spectra, drive = hit
-    lowest = grip + drive.lowest_dynamic_n
-    if lowest < 0:       # the contact may separate: the time-domain chain decides exactly
-        return None, {}
-    tip_full = grasp_fingertip(fingertip, grasp.model, grip)
-    meta = {"fingertip_separated": False, "fingertip": {k: float(v) for k, v in tip_full.__dict__.items()}}
-    return spectra, meta
+    drive = cache.drive_spectra.get_or_build((tip, excitation, bool(steady_state)),
+                                             lambda: _drive_spectrum(stream, tip, not steady_state))
+    if drive is None:
+        return None, None, tip
+    spectra = window_spectra(system, drive.period, drive.transient, bins, n_windows, from_rest=not steady_state)
+    return spectra, drive, tip
