@@ -75,3 +75,45 @@ def test_cached_probes_equal_full_probes():
             _same(out_c, out_f)
             _assert_same_state(cached, full)
     assert cached._scene.memo.hits >= 3
+
+
+def test_memo_keys_on_model_edits_and_survives_eviction():
+    """A run under another body mass (FillLevel-v0's liquid) or grip force is not replayed;
+    a one-entry memo recomputes after eviction and still replays exactly."""
+    import mujoco
+
+    from aas_gym.physics_memo import PhysicsMemo
+    from aas_gym.scene import build_scene
+
+    model = build_scene(["wood_bar"])
+    data = mujoco.MjData(model)
+    start = mujoco.MjData(model)
+    mujoco.mj_copyData(start, model, data)
+    memo = PhysicsMemo(model, max_size=1)
+    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "wood_bar")
+
+    def settle_from_start():
+        mujoco.mj_copyData(data, model, start)
+        return memo.run(data, ("settle",), lambda: mujoco.mj_step(model, data, nstep=50))
+
+    def fresh(mass):
+        d = mujoco.MjData(model)
+        mujoco.mj_copyData(d, model, start)
+        m0 = model.body_mass[bid]
+        model.body_mass[bid] = mass
+        mujoco.mj_step(model, d, nstep=50)
+        model.body_mass[bid] = m0
+        return d.qpos.copy(), d.qacc.copy()
+
+    m0 = float(model.body_mass[bid])
+    ref_light, ref_heavy = fresh(m0), fresh(3 * m0)
+    settle_from_start()
+    settle_from_start()
+    assert memo.hits == 1 and np.array_equal(data.qacc, ref_light[1])
+    model.body_mass[bid] = 3 * m0
+    settle_from_start()                         # another mass: computed, evicts the light run
+    assert memo.hits == 1 and np.array_equal(data.qpos, ref_heavy[0]) and np.array_equal(data.qacc, ref_heavy[1])
+    model.body_mass[bid] = m0
+    settle_from_start()                         # recomputed into the reused MjData
+    settle_from_start()
+    assert memo.hits == 2 and np.array_equal(data.qpos, ref_light[0]) and np.array_equal(data.qacc, ref_light[1])
