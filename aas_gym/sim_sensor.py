@@ -226,7 +226,8 @@ class SimAcousticSensor:
         return body, grasp.actuator, grasp.mic, grasp.others
 
     def sense(self, excitation, duration_s: float = 1.0, *, variation: SensorVariation | None = None,
-              rng: np.random.Generator | None = None, waveform: bool = True):
+              rng: np.random.Generator | None = None, waveform: bool = True,
+              contacts: Mapping[str, ObjectContacts] | None = None):
         """Play ``excitation`` (a ``sensors.Excitation`` or its name) for ``duration_s`` seconds
         through the current grasp and return the ``sensors.AcousticObservation``.
 
@@ -236,6 +237,7 @@ class SimAcousticSensor:
         ``waveform=False``: only the features are wanted; returns a
         ``sensors.synthesis.FeatureObservation`` computed in closed form where it applies
         (``sensors.synthesis.simulate_features``: the same features, no samples synthesized).
+        ``contacts``: :meth:`contacts` of the current state if the caller read them already.
         """
         record = sensors.simulate_recording if waveform else simulate_features
         variation = NO_VARIATION if variation is None else variation
@@ -250,7 +252,7 @@ class SimAcousticSensor:
         duration_s = float(duration_s)
         if not (np.isfinite(duration_s) and duration_s > 0):
             raise ValueError(f"duration_s must be > 0, got {duration_s!r}")
-        contacts = self.contacts()
+        contacts = self.contacts() if contacts is None else contacts
         leak = self.leak_for(excitation, variation.leak_scale)
         try:
             body, act, mic, others = self.grasp_contacts(contacts)

@@ -414,16 +414,27 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         """Proprioception only (see ``_state_obs``)."""
         return self._state_obs(False)[0]
 
-    def _sense(self, excitation=None) -> tuple[dict, object]:
+    def _sense(self, excitation=None, contacts=None) -> tuple[dict, object]:
         """Record through the current grasp with this episode's variation: observation
-        entries (per ``acoustic``) and the AcousticObservation. Streamed, the hand holds
-        the grasp for ``duration_s`` while the physics runs and the microphone records."""
+        entries (per ``acoustic``) and the AcousticObservation (features only unless the
+        waveform is observed). Streamed, the hand holds the grasp for ``duration_s`` while
+        the physics runs and the microphone records. ``contacts``: the current state's, if read."""
         excitation = self.excitation if excitation is None else excitation
         if self.acoustic.streaming:
             return self._stream_hold(excitation)
         rec = self.sensor.sense(excitation, self.duration_s, variation=self._variation, rng=self.np_random,
-                                waveform=self.acoustic.waveform)  # features only: closed form
+                                waveform=self.acoustic.waveform, contacts=contacts)
         return self.acoustic.entries(rec), rec
+
+    def _sense_and_truth(self, excitation=None) -> tuple[dict, object, dict]:
+        """``_sense`` then ``_ground_truth(contacts=True)`` of the state it leaves; a probe
+        that runs no physics reads the contacts once for both."""
+        if self.acoustic.streaming:
+            acoustic, rec = self._sense(excitation)
+            return acoustic, rec, self._ground_truth(contacts=True)
+        contacts = self._scene.stream.read(self.data)
+        acoustic, rec = self._sense(excitation, contacts)
+        return acoustic, rec, self._ground_truth(contacts=contacts)
 
     def _empty_acoustic(self) -> dict:
         return self.acoustic.empty(self.audio_samples)
@@ -465,7 +476,9 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         a, m = sc.touch_adr
         return sc.sensordata[a] > 0 and sc.sensordata[m] > 0
 
-    def _ground_truth(self, contacts: bool = True) -> dict:
+    def _ground_truth(self, contacts=True) -> dict:
+        """Labels, pose and variation; with ``contacts`` (True, or the contacts already read
+        from the current state) the target's contact datastream under ``contacts``."""
         sc = self._scene
         target = sc.objects[0]
         info = {"label": target.label, "material": target.material, "shape": target.shape,
@@ -473,8 +486,9 @@ class AasEnv(AcousticEnvMixin, gym.Env):
                 "object_pose": np.concatenate([self.data.xpos[sc.body_ids[0]],
                                                self.data.xquat[sc.body_ids[0]]]).astype(np.float64)}
         info["randomization"] = self._variation.to_dict()
-        if contacts:
-            info["contacts"] = {b: c.to_dict() for b, c in sc.stream.read(self.data).items()}
+        if contacts is not False:
+            read = sc.stream.read(self.data) if contacts is True else contacts
+            info["contacts"] = {b: c.to_dict() for b, c in read.items()}
         return info
 
     # --- rendering --------------------------------------------------------------------------
