@@ -202,7 +202,7 @@ def _features_error(env) -> tuple[float, float]:
 
         u._grasp(grasp_position(np.random.default_rng(0), u._scene.objects[0], u._layout), u.grip_force_n)
     ex = u.excitation
-    rec = u.sensor.sense(ex, u.duration_s, variation=u._variation, rng=np.random.default_rng(0), waveform=True)
+    rec = u.sensor.sense(ex, u.duration_s, variation=u._variation, rng=np.random.default_rng(0))  # the samples
     try:
         fast = u.sensor.sense(ex, u.duration_s, variation=u._variation, rng=np.random.default_rng(0), waveform=False)
     except TypeError:                        # a tree without the closed form
