@@ -104,3 +104,29 @@ def test_leak_takes_the_time_domain_chain(grasp):
     assert fast.metadata["features_path"] == "time_domain"
     ref = simulate_recording(model, ex, 1.0, act, mic, others, leak=leak).features()
     assert np.array_equal(fast.features(), ref)
+
+
+def test_window_spectra_of_any_lti_system():
+    """The closed form needs only a system's poles, input and output vectors: a small random
+    stable system with a direct term, driven by a periodic input plus decaying exponentials
+    from rest, against its sampled response; a dense (matrix-exponential) system is refused."""
+    from sensors.synthesis.lti import lti_system
+    from sensors.synthesis.window_spectra import Exponentials, window_spectra
+
+    rng = np.random.default_rng(0)
+    n, P, W = 6, 400, 3
+    A = rng.standard_normal((n, n)) * 2000.0 - 3000.0 * np.eye(n)
+    B, C = rng.standard_normal(n), rng.standard_normal(n)
+    system = lti_system(A, B, C, 0.3, 44100)
+    period = rng.standard_normal(P)
+    s = np.array([-0.01 + 0.2j, -0.01 - 0.2j, -0.003 + 0j])
+    g = np.array([0.5 - 0.1j, 0.5 + 0.1j, 0.7 + 0j])
+    transient = Exponentials(g, s)
+    u = np.tile(period, W) + np.array([transient.at(k) for k in range(W * P)])
+    y = system.response(u)
+    bins = np.arange(1, P // 2, 7)
+    want = np.fft.rfft(y.reshape(W, P), axis=1)[:, bins]
+    got = window_spectra(system, period, transient, bins, W)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
+    dense = lti_system(A, B, C, 0.3, 44100, method="dense")
+    assert window_spectra(dense, period, transient, bins, W) is None
