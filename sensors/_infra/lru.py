@@ -20,7 +20,8 @@ CACHE_SIZES: dict[str, int] = {
     "synthesis.systems": 8,          # grasp systems of a batch recording (SynthesisCache)
     "synthesis.forces": 8,           # fingertip drive forces of a batch recording
     "synthesis.drive_spectra": 8,    # fingertip drive steady period + transient (closed-form features)
-    "synthesis.window_spectra": 8,   # a grasp's window spectra at the feature bins (closed-form features)
+    "synthesis.window_spectra": 8,   # models whose grasps' feature-window spectra are kept (closed form)
+    "synthesis.grasp_spectra": 64,   # ... and per model, its grasps' spectra (4.5 kB each)
     "stream.systems": 16,            # streamed contact systems (SystemCache)
     "stream.drive_systems": 4,       # fingertip drive systems per fingertip model
     "stream.steady_states": 8,       # periodic steady states per (system, drive)

@@ -119,7 +119,7 @@ class SynthesisCache:
             ContactTolerance.exact(), CACHE_SIZES["synthesis.systems"] if maxsize is None else int(maxsize))
         self.forces: LRU = LRU(CACHE_SIZES["synthesis.forces"] if maxsize is None else int(maxsize))
         # closed-form features (sensors.synthesis.feature_recording): the drive's steady period and
-        # transient per fingertip model, and each grasp's noiseless window spectra
+        # transient per fingertip model, and per model an LRU of its grasps' noiseless window spectra
         self.drive_spectra: LRU = LRU(CACHE_SIZES["synthesis.drive_spectra"] if maxsize is None else int(maxsize))
         self.window_spectra: LRU = LRU(CACHE_SIZES["synthesis.window_spectra"] if maxsize is None else int(maxsize))
 

@@ -28,6 +28,7 @@ from typing import Sequence
 
 import numpy as np
 
+from .._infra.lru import CACHE_SIZES, LRU
 from ..modal.contact import Contact
 from ..signals.excitation import Excitation
 from ..signals.features import feature_frequencies_hz
@@ -171,13 +172,16 @@ def _object_spectra(grasp: GraspState, excitation: Excitation, fingertip, output
     if not grasp.closed:
         return np.zeros((n_windows, len(bins)), complex), {}
     table = grasp.contact_table()
-    key = (IdentityKey(grasp.model), table.shape, table.tobytes(), fingertip, excitation, output, method,
-           n_windows, bool(steady_state), bins.tobytes())
+    # per model (a few: they can be large), then per grasp (many: a task's grasp positions)
+    grasps = cache.window_spectra.get_or_build(IdentityKey(grasp.model),
+                                               lambda: LRU(CACHE_SIZES["synthesis.grasp_spectra"]))
+    key = (table.shape, table.tobytes(), fingertip, excitation, output, method, n_windows, bool(steady_state),
+           bins.tobytes())
     grip = grasp.actuator.force_n
-    hit = cache.window_spectra.get(key)
+    hit = grasps.get(key)
     if hit is None:
-        hit = cache.window_spectra.put(key, _build_spectra(grasp, excitation, fingertip, output, method,
-                                                           steady_state, cache, bins, n_windows))
+        hit = grasps.put(key, _build_spectra(grasp, excitation, fingertip, output, method, steady_state, cache,
+                                             bins, n_windows))
     spectra, drive, tip = hit
     if spectra is None or grip + drive.lowest_dynamic_n < 0:
         return None, {}     # no closed form, or the contact may separate: the time-domain chain decides
