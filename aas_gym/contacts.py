@@ -77,8 +77,12 @@ class ObjectContacts:
 
     def total_normal_force_n(self, kind: str | None = None) -> float:
         """Sum of normal forces, optionally of one kind only."""
-        sel = self if kind is None else self.select(kind)
-        return float(np.sum(sel.normal_forces_n))
+        if kind is None:
+            return float(np.sum(self.normal_forces_n))
+        if not isinstance(kind, str) or kind not in KINDS:
+            return float(np.sum(self.select(kind).normal_forces_n))   # several kinds, or the ValueError
+        # the same elements select(kind) keeps, summed in the same order (no subset built)
+        return float(np.sum(self.normal_forces_n[self.kinds == kind]))
 
     def to_sensor_contacts(self, min_force_n: float = 0.0, materials=None) -> list:
         """Each contact as a ``sensors.Contact`` (object frame, outward normal); ``materials``

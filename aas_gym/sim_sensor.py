@@ -29,6 +29,7 @@ from sensors._infra.lru import CACHE_SIZES, LRU
 from sensors.materials import scaled_material
 from sensors.modal.basis import ModalBasis, with_material
 from sensors.objects.catalog import ObjectSpec, get_object
+from sensors.synthesis import simulate_features
 
 
 #: Modal models of this process by (object, build options), ``ObjectSpec.modal_model`` built once:
@@ -227,14 +228,20 @@ class SimAcousticSensor:
         return body, grasp.actuator, grasp.mic, grasp.others
 
     def sense(self, excitation, duration_s: float = 1.0, *, variation: SensorVariation | None = None,
-              rng: np.random.Generator | None = None):
+              rng: np.random.Generator | None = None, waveform: bool = True,
+              contacts: Mapping[str, ObjectContacts] | None = None):
         """Play ``excitation`` (a ``sensors.Excitation`` or its name) for ``duration_s`` seconds
         through the current grasp and return the ``sensors.AcousticObservation``.
 
         ``variation``: this episode's :class:`SensorVariation` (default none); ``rng``: the
         noise generator for this call (default the sensor's own). The grasp is taken as
         constant during the recording (the paper records a static grasp).
+        ``waveform=False``: only the features are wanted; returns a
+        ``sensors.synthesis.FeatureObservation`` computed in closed form where it applies
+        (``sensors.synthesis.simulate_features``: the same features, no samples synthesized).
+        ``contacts``: :meth:`contacts` of the current state if the caller read them already.
         """
+        record = sensors.simulate_recording if waveform else simulate_features
         variation = NO_VARIATION if variation is None else variation
         if not isinstance(variation, SensorVariation):
             raise TypeError(f"variation must be a SensorVariation, got {type(variation).__name__}")
@@ -247,7 +254,7 @@ class SimAcousticSensor:
         duration_s = float(duration_s)
         if not (np.isfinite(duration_s) and duration_s > 0):
             raise ValueError(f"duration_s must be > 0, got {duration_s!r}")
-        contacts = self.contacts()
+        contacts = self.contacts() if contacts is None else contacts
         leak = self.leak_for(excitation, variation.leak_scale)
         try:
             body, act, mic, others = self.grasp_contacts(contacts)
@@ -255,12 +262,11 @@ class SimAcousticSensor:
             if self.on_no_grasp == "raise":
                 raise
             # Nothing between the fingertips: the microphone hears the leak and its noise.
-            obs = sensors.simulate_recording(None, excitation, duration_s, None, None, leak=leak,
-                                             noise_std=noise_std, rng=rng)
+            obs = record(None, excitation, duration_s, None, None, leak=leak, noise_std=noise_std, rng=rng)
             obs.metadata.update({"grasped": False})
             return obs
         spec = self._specs.get(body)
-        obs = sensors.simulate_recording(
+        obs = record(
             self.scaled_model(body, variation), excitation, duration_s, act, mic, other_contacts=others,
             fingertip=self.fingertip, leak=leak, noise_std=noise_std, rng=rng, cache=self.cache,
             contact_model=self.contact_model)

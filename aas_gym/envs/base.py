@@ -21,6 +21,7 @@ from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
 from aas_gym.robots import DEFAULT_ROBOT, check_robot, robot_controller
 from aas_gym.contact_sensors import touch_sensor_name
 from aas_gym.object_names import DEFAULT_OBJECT_NAMES
+from aas_gym.physics_memo import PhysicsMemo
 from aas_gym.scene import build_scene
 from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, place_objects, settle,
                               target_grasp)
@@ -66,6 +67,8 @@ class _Scene:
         # The floating hand's TCP is its carriage's joints and servo targets; an arm's is
         # computed from its tcp site and commanded through its controller (inverse kinematics).
         self.carriage = type(self.hand) is Hand
+        # settled placements and grasps by start state (a reset redoes only what differs)
+        self.memo = PhysicsMemo(self.model)
         self.sensor = SimAcousticSensor(self.model, self.data, on_no_grasp="silence")
         self.bodies = self.sensor.bodies
         self.stream: ContactStream = self.sensor.stream
@@ -373,7 +376,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         sc.hand.teleport(d, HOME_TCP, MAX_OPENING_M)
         self._layout = place_objects(m, d, sc.objects, sc.free_joints, self.np_random, self.randomization,
                                      far_end_only=self._far_end_only)
-        settle(m, d, settle_s)
+        sc.memo.run(d, ("settle", settle_s), lambda: settle(m, d, settle_s))
 
     def _episode_grip_force(self) -> float:
         r = self.randomization.grip_force_rel
@@ -399,11 +402,17 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         """Scripted planar grasp of the target at ``position_m`` (+ noise) along its axis."""
         r = self.randomization
         noise = float(self.np_random.normal(0.0, r.position_noise_m)) if r.position_noise_m > 0 else 0.0
-        release(self.model, self.data, self.hand, retreat_m=0.0, duration_s=0.06)
         grasp = target_grasp(self._scene.objects[0], position_m, self._layout, shift_m=noise,
                              min_width_m=self._min_grasp_width_m)
-        result = planar_grasp(self.model, self.data, self._scene.bodies[0], position_m + noise, grip_force_n,
-                              hand=self.hand, stream=self._scene.stream, grasp=grasp)
+
+        def section():
+            release(self.model, self.data, self.hand, retreat_m=0.0, duration_s=0.06)
+            return planar_grasp(self.model, self.data, self._scene.bodies[0], position_m + noise, grip_force_n,
+                                hand=self.hand, stream=self._scene.stream, grasp=grasp)
+
+        grasp_key = None if grasp is None else (np.asarray(grasp.centre_m).tobytes(), np.asarray(grasp.axis).tobytes(),
+                                                grasp.width_m, grasp.position_m)
+        result = self._scene.memo.run(self.data, ("grasp", position_m + noise, grip_force_n, grasp_key), section)
         return {"grasp_position_m": result.grasp_position_m, "grasp_success": result.success,
                 "grip_force_n": grip_force_n}
 
@@ -436,15 +445,27 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         """Proprioception only (see ``_state_obs``)."""
         return self._state_obs(False)[0]
 
-    def _sense(self, excitation=None) -> tuple[dict, object]:
+    def _sense(self, excitation=None, contacts=None) -> tuple[dict, object]:
         """Record through the current grasp with this episode's variation: observation
-        entries (per ``acoustic``) and the AcousticObservation. Streamed, the hand holds
-        the grasp for ``duration_s`` while the physics runs and the microphone records."""
+        entries (per ``acoustic``) and the AcousticObservation (features only unless the
+        waveform is observed). Streamed, the hand holds the grasp for ``duration_s`` while
+        the physics runs and the microphone records. ``contacts``: the current state's, if read."""
         excitation = self.excitation if excitation is None else excitation
         if self.acoustic.streaming:
             return self._stream_hold(excitation)
-        rec = self.sensor.sense(excitation, self.duration_s, variation=self._variation, rng=self.np_random)
+        rec = self.sensor.sense(excitation, self.duration_s, variation=self._variation, rng=self.np_random,
+                                waveform=self.acoustic.needs_waveform, contacts=contacts)
         return self._recording_entries(rec), rec
+
+    def _sense_and_truth(self, excitation=None) -> tuple[dict, object, dict]:
+        """``_sense`` then ``_ground_truth(contacts=True)`` of the state it leaves; a probe
+        that runs no physics reads the contacts once for both."""
+        if self.acoustic.streaming:
+            acoustic, rec = self._sense(excitation)
+            return acoustic, rec, self._ground_truth(contacts=True)
+        contacts = self._scene.stream.read(self.data)
+        acoustic, rec = self._sense(excitation, contacts)
+        return acoustic, rec, self._ground_truth(contacts=contacts)
 
     def _empty_acoustic(self) -> dict:
         """The acoustic entries of an empty history (zeros)."""
@@ -487,7 +508,9 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         a, m = sc.touch_adr
         return sc.sensordata[a] > 0 and sc.sensordata[m] > 0
 
-    def _ground_truth(self, contacts: bool = True) -> dict:
+    def _ground_truth(self, contacts=True) -> dict:
+        """Labels, pose and variation; with ``contacts`` (True, or the contacts already read
+        from the current state) the target's contact datastream under ``contacts``."""
         sc = self._scene
         target = sc.objects[0]
         info = {"label": target.label, "material": target.material, "shape": target.shape,
@@ -495,8 +518,9 @@ class AasEnv(AcousticEnvMixin, gym.Env):
                 "object_pose": np.concatenate([self.data.xpos[sc.body_ids[0]],
                                                self.data.xquat[sc.body_ids[0]]]).astype(np.float64)}
         info["randomization"] = self._variation.to_dict()
-        if contacts:
-            info["contacts"] = {b: c.to_dict() for b, c in sc.stream.read(self.data).items()}
+        if contacts is not False:
+            read = sc.stream.read(self.data) if contacts is True else contacts
+            info["contacts"] = {b: c.to_dict() for b, c in read.items()}
         return info
 
     # --- rendering --------------------------------------------------------------------------

@@ -105,10 +105,10 @@ class FillLevelEnv(AasEnv):
 
     def _reset_episode(self, options: dict):
         grasp = self._grasp(self._grasp_position(), self._episode_grip_force())
-        acoustic, rec = self._sense()
+        acoustic, rec, truth = self._sense_and_truth()
         obs = self._proprio()
         obs.update(acoustic)
-        info = self._ground_truth(contacts=True)
+        info = truth
         info.update(grasp, **self._truth, recording_grasped=bool(rec.metadata.get("grasped", False)))
         return obs, info
 

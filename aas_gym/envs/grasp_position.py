@@ -85,11 +85,11 @@ class GraspPositionEnv(AasEnv):
         start = 0.0 if self._scene.objects[0].is_prism else grasp_span_m(self._scene.objects[0])[0]
         grasp = self._grasp(start + float(self.positions_m[k]), self._episode_grip_force())
         grasp["grasp_position_m"] -= start
-        acoustic, rec = self._sense()
+        acoustic, rec, truth = self._sense_and_truth()
         self._true_position = grasp["grasp_position_m"]
         obs = self._proprio()
         obs.update(acoustic)
-        info = self._ground_truth(contacts=True)
+        info = truth
         info.update(grasp, position_index=k, nominal_position_m=float(self.positions_m[k]),
                     recording_grasped=bool(rec.metadata.get("grasped", False)))
         return obs, info

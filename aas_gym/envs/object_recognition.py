@@ -129,11 +129,11 @@ class ObjectRecognitionEnv(AasEnv):
             lo, hi = grasp_span_m(target)
             position = lo + (fraction + 1.0) / 2.0 * (hi - lo)
         grasp = self._grasp(position, self._grip)
-        self._acoustic, rec = self._sense(self.excitations[e])
+        self._acoustic, rec, truth = self._sense_and_truth(self.excitations[e])
         self._probe = np.zeros_like(self._probe)
         self._probe[0], self._probe[1 + e] = fraction, 1.0
         self._n_probes += 1
-        info = self._ground_truth(contacts=True)
+        info = truth
         info.update(grasp, label_index=self._label_index, excitation=EXCITATION_NAMES[e],
                     recording_grasped=bool(rec.metadata.get("grasped", False)),
                     reward_terms={"probe": -self.probe_cost, "answer": 0.0})

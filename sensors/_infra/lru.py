@@ -19,6 +19,9 @@ V = TypeVar("V")
 CACHE_SIZES: dict[str, int] = {
     "synthesis.systems": 8,          # grasp systems of a batch recording (SynthesisCache)
     "synthesis.forces": 8,           # fingertip drive forces of a batch recording
+    "synthesis.drive_spectra": 8,    # fingertip drive steady period + transient (closed-form features)
+    "synthesis.window_spectra": 8,   # models whose grasps' feature-window spectra are kept (closed form)
+    "synthesis.grasp_spectra": 64,   # ... and per model, its grasps' spectra (4.5 kB each)
     "stream.systems": 16,            # streamed contact systems (SystemCache)
     "stream.drive_systems": 4,       # fingertip drive systems per fingertip model
     "stream.steady_states": 8,       # periodic steady states per (system, drive)
@@ -31,6 +34,7 @@ CACHE_SIZES: dict[str, int] = {
     "sim.material_views": 16,        # randomized material views of those models
     "sim.grasp_sets": 64,            # antipodal grasps of surface objects the hand can take
     "env.scenes": 8,                 # compiled MuJoCo scenes per env
+    "env.physics_runs": 128,         # settled placements and grasps per scene (~0.5 MB each)
     "dataset.scenes": 16,            # compiled MuJoCo scenes of one dataset worker
     "signals.noise_folders": 4,      # folders of background-noise recordings (corruption)
 }

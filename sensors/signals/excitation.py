@@ -239,12 +239,15 @@ class Excitation:
         out[:n] = active
         return out
 
-    def loop(self, duration_s: float) -> np.ndarray:
-        """The excitation looped for ``duration_s`` seconds (``round(duration_s * sample_rate_hz)`` samples)."""
+    def loop_samples(self, duration_s: float) -> int:
+        """Samples in :meth:`loop` ``(duration_s)``, validated as it validates them."""
         _require_finite_positive("duration_s", duration_s)
         _check_samples("duration_s", duration_s, self.sample_rate_hz)
-        n = int(round(duration_s * self.sample_rate_hz))
-        return np.resize(self.signal, n)
+        return int(round(duration_s * self.sample_rate_hz))
+
+    def loop(self, duration_s: float) -> np.ndarray:
+        """The excitation looped for ``duration_s`` seconds (``round(duration_s * sample_rate_hz)`` samples)."""
+        return np.resize(self.signal, self.loop_samples(duration_s))
 
     # -- metadata -------------------------------------------------------------------------
 

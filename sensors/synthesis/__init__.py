@@ -4,6 +4,7 @@ recording chain: a stream across contact changes, of which a batch recording is 
 
 from .caches import SynthesisCache, SystemCache
 from .contact_modes import contact_modes
+from .feature_recording import FeatureObservation, simulate_features
 from .fingertip import FingertipModel
 from .grasp_state import ContactTolerance, GraspState
 from .microphone import MIC_GAIN_PER_M, mic_gain
@@ -12,5 +13,6 @@ from .recording import simulate_recording
 from .stream import AcousticStream
 
 __all__ = ["contact_modes", "FingertipModel", "ModalSystem", "modal_response", "modal_state_matrix", "periodic_response",
-           "SynthesisCache", "simulate_recording", "AcousticStream", "ContactTolerance", "GraspState",
+           "SynthesisCache", "simulate_recording", "simulate_features", "FeatureObservation",
+           "AcousticStream", "ContactTolerance", "GraspState",
            "SystemCache", "MIC_GAIN_PER_M", "mic_gain"]

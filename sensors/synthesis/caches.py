@@ -118,6 +118,10 @@ class SynthesisCache:
         self.systems = systems if systems is not None else SystemCache(
             ContactTolerance.exact(), CACHE_SIZES["synthesis.systems"] if maxsize is None else int(maxsize))
         self.forces: LRU = LRU(CACHE_SIZES["synthesis.forces"] if maxsize is None else int(maxsize))
+        # closed-form features (sensors.synthesis.feature_recording): the drive's steady period and
+        # transient per fingertip model, and per model an LRU of its grasps' noiseless window spectra
+        self.drive_spectra: LRU = LRU(CACHE_SIZES["synthesis.drive_spectra"] if maxsize is None else int(maxsize))
+        self.window_spectra: LRU = LRU(CACHE_SIZES["synthesis.window_spectra"] if maxsize is None else int(maxsize))
 
     def __len__(self) -> int:
         return self.systems.size + len(self.forces)
@@ -137,3 +141,5 @@ class SynthesisCache:
     def clear(self) -> None:
         self.systems.clear()
         self.forces.clear()
+        self.drive_spectra.clear()
+        self.window_spectra.clear()

@@ -255,6 +255,14 @@ class AcousticStream:
         st.modes = res.system.modes
         st.geometry = (grasp.actuator.position_m, grasp.actuator.normal, grasp.mic.position_m, grasp.mic.normal)
 
+    def grasp_systems(self, grasp: GraspState) -> tuple[ModalSystem, FingertipModel]:
+        """The modal system (from this stream's cache) and the fingertip drive model (grip
+        force 0) a closed ``grasp`` is synthesized with."""
+        if not grasp.closed:
+            raise ValueError("only a closed grasp (both fingertips pressing) is driven")
+        res = self._resolve(grasp)
+        return res.system, res.fingertip
+
     def latest_features(self) -> np.ndarray | None:
         """The 140-d features (``sensors.spectral_features``) of the latest complete loop
         period (samples [kP, (k+1)P) of the stream), or ``None`` before the first one ends.

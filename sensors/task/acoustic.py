@@ -359,12 +359,21 @@ class AcousticConfig:
         return AcousticObservation(w.astype(np.float32), recording.sample_rate_hz, recording.excitation,
                                    recording.start_time_s, dict(recording.metadata, corrupted=True))
 
+    @property
+    def needs_waveform(self) -> bool:
+        """Whether a recording's samples are needed (observed, corrupted, or a spectrogram made
+        of them); otherwise its 140 features are enough (the closed form, no audio)."""
+        return self.waveform or self.corruption is not None or self.features != "fft140"
+
     def entries(self, recording, rng: np.random.Generator | None = None) -> dict[str, np.ndarray]:
         """The acoustic entries of a ``sensors.AcousticObservation`` (one frame): after
         :meth:`corrupt` (with ``rng``), its features in :attr:`features` mode and, with
-        ``waveform``, its samples zero-padded or cut to ``duration_s``."""
+        ``waveform``, its samples zero-padded or cut to ``duration_s``. Without
+        :attr:`needs_waveform`, a features-only recording (``sensors.FeatureObservation``)."""
         if not self.enabled:
             return {}
+        if not self.needs_waveform:
+            return {"acoustic": self.scale_features(recording.features())}
         recording = self.corrupt(recording, rng)
         n = int(round(self.duration_s * recording.sample_rate_hz))
         w = np.zeros(n, np.float32)
