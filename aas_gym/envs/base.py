@@ -19,6 +19,7 @@ from aas_gym import has_display
 from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
 from aas_gym.contact_sensors import touch_sensor_name
+from aas_gym.envs.info import contacts_info
 from aas_gym.object_names import DEFAULT_OBJECT_NAMES
 from aas_gym.scene import build_scene
 from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, place_objects, settle,
@@ -41,6 +42,9 @@ __all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "MAX
 MAX_FRAME_SKIP = 5000
 
 EXCITATION_NAMES = ("impulse", "linear", "exponential")
+#: ``metadata["render_fps"]`` of the probe envs: a viewing rate for frames that are one probe
+#: each (Gymnasium's turn-based toy_text envs use 4), not a physical rate.
+PROBE_RENDER_FPS = 4
 # Where the proprioceptive entries sit in the state vector (sensors.task.grasp.STATE_LAYOUT),
 # as plain ints for the per-step code.
 _TCP = STATE_LAYOUT["tcp"].start
@@ -153,8 +157,12 @@ class AasEnv(AcousticEnvMixin, gym.Env):
     ``frame_skip``, ``render_mode``, ``width``, ``height``, ``camera_name``) is appended.
 
     ``frame_skip``, ``dt``, ``render_mode``, ``width``/``height``/``camera_name`` follow
-    Gymnasium's MuJoCo envs. Every env with a reward reports its terms in
-    ``info["reward_terms"]`` (fixed keys, plain floats, summing to the reward).
+    Gymnasium's MuJoCo envs; the probe envs (a step is a scripted grasp and recording, or an
+    answer) have no ``dt`` and render at :data:`PROBE_RENDER_FPS`, as Gymnasium's turn-based
+    envs. Every step's ``info`` holds ``is_success``, the ground truth the task is scored
+    against, and ``reward_terms`` (the keys :attr:`reward_term_names`, plain floats, summing to
+    the reward); every entry has a fixed shape, so ``gym.make_vec`` stacks it
+    (``aas_gym.envs.info``).
     """
 
     # 20 Hz control (timestep 2 ms x frame_skip 25), like Gymnasium's Ant and HalfCheetah.
@@ -166,6 +174,9 @@ class AasEnv(AcousticEnvMixin, gym.Env):
 
     #: A step is one scripted grasp and recording (a probe), not one control period.
     _step_is_probe = False
+
+    #: The keys of ``info["reward_terms"]``, in the order they are summed.
+    reward_term_names: tuple[str, ...] = ()
 
     #: The acoustic observation's defaults for this task (subclasses override ``cadence``).
     _acoustic_defaults: dict = {}
@@ -223,7 +234,10 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         if self.width > vis.offwidth or self.height > vis.offheight:
             raise ValueError(f"width x height = {self.width} x {self.height} exceeds the scene's offscreen buffer "
                              f"{vis.offwidth} x {vis.offheight} pixels (aas_gym.stage): render smaller")
-        self.metadata = dict(self.metadata, render_fps=max(1, int(round(1.0 / self.dt))))
+        # render_fps: the control rate; a probe env's frames are probes, shown at a viewing rate
+        # as Gymnasium's turn-based toy_text envs do (no physical time passes between them).
+        self.metadata = dict(self.metadata, render_fps=PROBE_RENDER_FPS if self._step_is_probe
+                             else max(1, int(round(1.0 / self.dt))))
         if self.acoustic.streaming and not self._step_is_probe:
             self.acoustic.check_samples(self.step_samples, f"one streamed step (frame_skip={self.frame_skip}, "
                                                            f"dt = {self.dt:g} s)")
@@ -320,6 +334,11 @@ class AasEnv(AcousticEnvMixin, gym.Env):
 
     @property
     def dt(self) -> float:
+        """Simulated time per env step [s] (``frame_skip`` x the 2 ms timestep). A probe env
+        (a step is one scripted grasp and recording, or an answer) has none: ``AttributeError``."""
+        if self._step_is_probe:
+            raise AttributeError(f"{type(self).__name__} has no dt: a step is a whole probe (a scripted grasp "
+                                 "and recording) or an answer, not a control period")
         return self._scene.model.opt.timestep * self.frame_skip
 
     def _target_object(self, options: dict) -> ObjectSpec:
@@ -464,7 +483,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
                                                self.data.xquat[sc.body_ids[0]]]).astype(np.float64)}
         info["randomization"] = self._variation.to_dict()
         if contacts:
-            info["contacts"] = {b: c.to_dict() for b, c in sc.stream.read(self.data).items()}
+            info["contacts"] = contacts_info(sc.stream.read(self.data))
         return info
 
     # --- rendering --------------------------------------------------------------------------
