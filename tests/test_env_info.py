@@ -1,0 +1,110 @@
+"""``info`` that explains itself (success, ground truth, reward terms), the timing metadata of
+the probe envs, ``copy.deepcopy`` of an env, and the documented count of registered envs."""
+
+from __future__ import annotations
+
+import copy
+import math
+import re
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import aas_gym  # noqa: F401  (registers the envs)
+from aas_gym.envs.base import PROBE_RENDER_FPS
+
+ROOT = Path(__file__).resolve().parent.parent
+OFF = {"acoustic": {"enabled": False}}
+
+# env id, kwargs, the ground-truth keys of a step's info
+CASES = [
+    ("AcousticGrasp-v0", {"acoustic": {"cadence": "never"}}, ("label", "distance_m", "grasped")),
+    ("GraspPosition-v0", OFF, ("label", "grasp_position_m", "position_index", "abs_error_m")),
+    ("ObjectRecognition-v0", OFF, ("label", "label_index")),
+    ("ContactFormation-v0", OFF, ("label", "formation", "formation_index")),
+    ("FillLevel-v0", OFF, ("label", "fill_fraction", "liquid", "abs_error")),
+]
+
+
+@pytest.mark.parametrize("env_id, kwargs, truth", CASES, ids=[c[0] for c in CASES])
+def test_step_info_has_success_truth_and_reward_terms(env_id, kwargs, truth):
+    env = gym.make(f"aas_gym/{env_id}", **kwargs)
+    try:
+        env.reset(seed=1)
+        env.action_space.seed(1)
+        names = env.unwrapped.reward_term_names
+        assert names
+        for _ in range(3):
+            _, reward, terminated, truncated, info = env.step(env.action_space.sample())
+            assert type(info["is_success"]) is bool
+            assert set(truth) <= set(info)
+            assert tuple(info["reward_terms"]) == names
+            assert math.isclose(sum(info["reward_terms"].values()), reward, abs_tol=1e-12)
+            if terminated or truncated:
+                env.reset()
+    finally:
+        env.close()
+
+
+def test_success_means_what_the_docs_say():
+    env = gym.make("aas_gym/GraspPosition-v0", **OFF)
+    try:
+        u = env.unwrapped
+        _, info = env.reset(seed=2, options={"position_index": 4})
+        true_m = info["grasp_position_m"]
+        # the action that names the true position exactly, then one a whole spacing off
+        for offset_m, success in ((0.0, True), (u.spacing_m, False)):
+            env.reset(seed=2, options={"position_index": 4})
+            target_m = true_m + offset_m
+            action = np.array([target_m / u.positions_m[-1] * 2 - 1], np.float32)
+            _, _, _, _, step_info = env.step(action)
+            assert step_info["abs_error_m"] == pytest.approx(offset_m, abs=1e-6)
+            assert step_info["is_success"] is success
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("env_id", ["GraspPosition-v0", "ObjectRecognition-v0", "FillLevel-v0"])
+def test_probe_envs_have_no_control_period(env_id):
+    env = gym.make(f"aas_gym/{env_id}", **OFF)
+    try:
+        assert not hasattr(env.unwrapped, "dt")
+        assert env.unwrapped.metadata["render_fps"] == PROBE_RENDER_FPS
+    finally:
+        env.close()
+
+
+def test_control_envs_keep_their_period():
+    env = gym.make("aas_gym/AcousticGrasp-v0", **OFF)
+    try:
+        assert env.unwrapped.dt == pytest.approx(0.002 * 25)
+        assert env.unwrapped.metadata["render_fps"] == 20
+    finally:
+        env.close()
+
+
+def test_deepcopy_after_reset_gives_an_independent_equal_env():
+    env = gym.make("aas_gym/GraspPosition-v0", objects=["wood_bar"])
+    try:
+        obs, _ = env.reset(seed=0)
+        twin = copy.deepcopy(env)  # recursed forever in MaterialView.__getattr__
+        action = np.array([0.1], np.float32)
+        a, b = env.step(action), twin.step(action)
+        assert a[1] == b[1] and a[4]["grasp_position_m"] == b[4]["grasp_position_m"]
+        assert twin.unwrapped.sensor is not env.unwrapped.sensor
+        twin.close()
+    finally:
+        env.close()
+
+
+def test_documented_env_count_matches_the_registry():
+    ids = sorted(k for k in gym.registry if k.startswith("aas_gym/"))
+    words = {3: "three", 4: "four", 5: "five", 6: "six", 7: "seven"}
+    text = (ROOT / "docs" / "envs.md").read_text()
+    said = re.search(r"`import aas_gym` registers (\w+) environments", text)
+    assert said and said.group(1) == words[len(ids)], (said and said.group(1), ids)
+    for env_id in ids:
+        assert env_id.removeprefix("aas_gym/") in text[:600]
+        assert f"``{env_id}``" in aas_gym.__doc__
