@@ -76,7 +76,7 @@ class RealGraspEnv(AcousticEnvMixin, gym.Env):
     |---|---|---|---|
     | `robot` | :class:`RobotInterface` | (required) | the robot driver |
     | `sensor` | `sensors.AcousticSensor` | (required) | :class:`real.RealAcousticSensor`, or any other |
-    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the same configuration as the simulated envs': `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `enabled`; its simulation-only fields (`noise_std`, `leak`, `fingertip`, `stream_tolerance`) are not used |
+    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the same configuration as the simulated envs': `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `enabled`, `features`, `history`, `update_period_s` (a multiple of `control_period_s`), `corruption` (the same pipeline and seeding as in simulation); its simulation-only fields (`noise_std`, `leak`, `fingertip`, `stream_tolerance`) are not used |
     | `grip_force_n` | float | 40.0 | grasp force [N], in (0, 140] |
     | `control_period_s` | float | 0.05 | time each step lets the robot move [s] (the simulated env's step) |
     | `max_episode_steps` | int | 200 | truncation (as the simulated env) |
@@ -126,6 +126,7 @@ class RealGraspEnv(AcousticEnvMixin, gym.Env):
                                  f"{self.excitation.sample_rate_hz} Hz")
         self.observation_space = spaces.Dict({**proprio_spaces(), **self.acoustic.spaces(
             self.audio_samples if self.acoustic.streaming else None)})
+        self._init_acoustic_frames(self.audio_samples if self.acoustic.streaming else None, self.control_period_s)
         self._acoustic = self._empty_acoustic()
         self._target = self.home_tcp.copy()
         self._gripper_closed: bool | None = None
@@ -135,7 +136,7 @@ class RealGraspEnv(AcousticEnvMixin, gym.Env):
         self._hold = GraspHold(self.excitation.period_samples)
 
     def _empty_acoustic(self) -> dict[str, np.ndarray]:
-        return self.acoustic.empty(self.audio_samples if self.acoustic.streaming else None)
+        return self.acoustic_frames.zeros()
 
     def _obs(self, s: RobotState) -> dict[str, np.ndarray]:
         obs = {
@@ -150,6 +151,7 @@ class RealGraspEnv(AcousticEnvMixin, gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
+        self._reset_acoustic()
         reset = getattr(self.robot, "reset", None)
         if callable(reset):
             reset(seed=seed, options=options)
@@ -183,6 +185,7 @@ class RealGraspEnv(AcousticEnvMixin, gym.Env):
         self.robot.move(self._target, self.control_period_s)
         s = self.robot.state()
         self._steps += 1
+        due = self._acoustic_due()  # acoustic.update_period_s
         distance_m = tcp_object_distance_m(s.tcp, s.object_pose)
         grasped = bool(s.grasped)
         info: dict[str, Any] = {"grasped": grasped, "is_success": False}
@@ -190,16 +193,18 @@ class RealGraspEnv(AcousticEnvMixin, gym.Env):
         success = False
         if cadence == "stream":
             audio = self.stream.read(self.audio_samples)
-            self._acoustic = self.acoustic.stream_entries(self.stream.latest_features(), audio)
+            if due:
+                self._acoustic = self.acoustic_frames.push(self.acoustic.stream_entries(self.stream.latest_features(),
+                                                                                        audio))
             info["audio_phase_samples"] = audio_start % self.excitation.period_samples
             info["stream_problems"] = self.stream.problems
             self._hold.update(grasped, self.stream.position)
             success = step_success(cadence, sense=act.sense, grasped=grasped,
                                    heard_whole_period=self._hold.heard_whole_period(self.stream.latest_features_period))
-        elif records_this_step(cadence, act.sense):
+        elif due and records_this_step(cadence, act.sense):
             rec = self.sensor.sense(self.excitation, self.duration_s)
             self.last_recording = rec
-            self._acoustic = self.acoustic.entries(rec)
+            self._acoustic = self._recording_entries(rec)
             info["recording_metadata"] = rec.metadata
             s = self.robot.state()  # the grasp may have changed while recording
             info["recording_grasped"] = grasped and bool(s.grasped)

@@ -90,18 +90,20 @@ class AcousticGraspEnv(AasEnv):
         ctrl[sc.tcp_ctrl] = next_tcp_target(ctrl[sc.tcp_ctrl].tolist(), act.tcp_delta, sc.tcp_low, sc.tcp_high)
         ctrl[sc.gripper] = MAX_OPENING_M if act.open_gripper else SQUEEZE_TARGET_M
         self._simulate()
+        due = self._acoustic_due()  # acoustic.update_period_s
         grasped = self._is_grasped()
         cadence = self.cadence
         info = {"grasped": bool(grasped), "is_success": False, "label": sc.objects[0].label}
         success = False
         if cadence == "stream":
-            self._last_acoustic = self._stream_entries()
+            if due:
+                self._last_acoustic = self._stream_entries()
             stream = self._stream.stream
             info["heard_fraction"] = float(stream.latest_features_heard)
             self._hold.update(grasped, stream.sample_index)
             success = step_success(cadence, sense=act.sense, grasped=grasped,
                                    heard_whole_period=self._hold.heard_whole_period(stream.latest_features_period))
-        elif records_this_step(cadence, act.sense):
+        elif due and records_this_step(cadence, act.sense):
             acoustic, rec = self._sense()
             self._last_acoustic = acoustic
             info.update(self._ground_truth(contacts=True))

@@ -111,7 +111,7 @@ class _Scene:
 COMMON_ARGUMENTS = """
     | `scene` | str | `"single"` | `"single"`: the target alone on the table; `"multi"`: one or two `distractors` lean across its ends (random object contacts) |
     | `distractors` | sequence of str or `ObjectSpec`, or None | None | objects that may lean on the target; None: the bars of the default objects |
-    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `enabled`, `max_samples` (the longest recording or streamed step, default 60 s at 44.1 kHz); None or missing fields: this env's defaults |
+    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `enabled`, `features` (`"fft140"`, `"spectrogram"`, `"mel"`), `history`, `update_period_s`, `corruption`, `max_samples` (the longest recording or streamed step, default 60 s at 44.1 kHz); None or missing fields: this env's defaults |
     | `grip_force_n` | float | 40.0 | nominal grip force [N], in (0, 140] |
     | `randomization` | `DomainRandomization`, dict of its knobs, None or False | None | domain randomization; None: its defaults; False: none |
     | `frame_skip` | int | 25 | MuJoCo steps (2 ms) per env step, 1 to `AasEnv.max_frame_skip` (5000) |
@@ -246,6 +246,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
                 raise ValueError(f"a streamed step must hold a whole number of samples: dt = {self.dt} s gives "
                                  f"{exact:.3f} at {self.excitation.sample_rate_hz} Hz; choose frame_skip so "
                                  "that it does (the default 25 gives 2205)")
+        self._init_acoustic_frames(self.audio_samples, None if self._step_is_probe else self.dt)
 
     @property
     def include_waveform(self) -> bool:
@@ -275,6 +276,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         (``mj_resetData`` first), draw the sensor's variation, then the task's own
         ``_reset_episode(options)``; renders for ``render_mode="human"``."""
         super().reset(seed=seed)
+        self._reset_acoustic()
         options = self._check_options(options)
         target = self._target_object(options)
         self._get_scene(self._choose_objects(target))
@@ -432,10 +434,11 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         if self.acoustic.streaming:
             return self._stream_hold(excitation)
         rec = self.sensor.sense(excitation, self.duration_s, variation=self._variation, rng=self.np_random)
-        return self.acoustic.entries(rec), rec
+        return self._recording_entries(rec), rec
 
     def _empty_acoustic(self) -> dict:
-        return self.acoustic.empty(self.audio_samples)
+        """The acoustic entries of an empty history (zeros)."""
+        return self.acoustic_frames.zeros()
 
     # --- streaming --------------------------------------------------------------------------
     def _new_stream(self, excitation=None) -> SimAcousticStream:
@@ -452,7 +455,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
 
     def _stream_entries(self) -> dict:
         """The streamed observation entries after ``_simulate``."""
-        return self.acoustic.stream_entries(self._stream.latest_features(), self._stream_audio)
+        return self.acoustic_frames.push(self.acoustic.stream_entries(self._stream.latest_features(), self._stream_audio))
 
     def _stream_hold(self, excitation) -> tuple[dict, object]:
         """A probe streamed: a new stream (the hand was placed anew) records while the
@@ -465,7 +468,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         meta = stream.metadata
         meta.update({"grasped": stream.stream.latest_features_heard > 0.99, "heard_body": stream.heard_body})
         rec = AcousticObservation(audio, stream.sample_rate_hz, stream.stream.excitation, metadata=meta)
-        return self.acoustic.stream_entries(stream.latest_features(), audio), rec
+        return self.acoustic_frames.push(self.acoustic.stream_entries(stream.latest_features(), audio)), rec
 
     def _is_grasped(self) -> bool:
         """Both sensor fingertips touch the target (this runs every step: MuJoCo's contact

@@ -190,7 +190,8 @@ class ContactFormationEnv(AasEnv):
             raise ValueError(f"action must be a formation index in [0, {len(FORMATIONS)}), got {report}")
         self._advance_script()
         self._simulate()
-        if self._stream is not None:
+        due = self._acoustic_due()  # acoustic.update_period_s
+        if self._stream is not None and due:
             self._last_acoustic = self._stream_entries()
         truth = self._truth()
         reward = 1.0 if report == truth["formation_index"] else 0.0

@@ -30,6 +30,7 @@ CACHE_SIZES: dict[str, int] = {
     "sim.grasp_sets": 64,            # antipodal grasps of surface objects the hand can take
     "env.scenes": 8,                 # compiled MuJoCo scenes per env
     "dataset.scenes": 16,            # compiled MuJoCo scenes of one dataset worker
+    "signals.noise_folders": 4,      # folders of background-noise recordings (corruption)
 }
 
 

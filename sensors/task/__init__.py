@@ -4,8 +4,9 @@ state, checks), its acoustic observation (``acoustic``: :class:`AcousticConfig`)
 of an episode written once (``action``: what an action means; ``reward``: the reward terms;
 ``cadence``: when to record and when an episode succeeds)."""
 
-from .acoustic import (BYTES_PER_SAMPLE, CADENCES, LEGACY_KEYWORDS, MAX_SAMPLES, N_FEATURES, AcousticConfig,
-                       AcousticEnvMixin, resolve_excitation)
+from .acoustic import (BYTES_PER_SAMPLE, CADENCES, FEATURE_MODES, LEGACY_KEYWORDS, MAX_HISTORY, MAX_SAMPLES, N_FEATURES,
+                       AcousticConfig, AcousticEnvMixin, resolve_excitation)
+from .frames import AcousticFrames
 from .checks import check_choice, check_flag, check_integer, check_number
 from .action import GraspAction, decode_grasp_action, next_tcp_target
 from .cadence import GraspHold, records_this_step, step_success
@@ -14,7 +15,7 @@ from .grasp import (HOME_TCP, MAX_DELTA, MAX_GRIP_FORCE_N, MAX_OPENING_M, STATE_
 from .reward import (GRASP_REWARD, GRASP_REWARD_TERMS, SUCCESS_REWARD, grasp_reward_terms, reward_total,
                      tcp_object_distance_m)
 
-__all__ = ["AcousticConfig", "AcousticEnvMixin", "BYTES_PER_SAMPLE", "CADENCES", "MAX_SAMPLES", "check_choice", "check_flag",
+__all__ = ["AcousticConfig", "AcousticEnvMixin", "AcousticFrames", "FEATURE_MODES", "MAX_HISTORY", "BYTES_PER_SAMPLE", "CADENCES", "MAX_SAMPLES", "check_choice", "check_flag",
            "check_integer", "check_number", "GRASP_REWARD", "GRASP_REWARD_TERMS", "GraspAction", "GraspHold",
            "HOME_TCP", "LEGACY_KEYWORDS", "MAX_DELTA", "MAX_GRIP_FORCE_N", "MAX_OPENING_M", "N_FEATURES",
            "RobotState", "STATE_LAYOUT", "STATE_SIZE", "SUCCESS_REWARD", "check_action", "check_grip_force",

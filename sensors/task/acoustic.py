@@ -12,20 +12,29 @@ from typing import Any
 import numpy as np
 
 from .._infra.deprecation import warn_deprecated
+from ..signals.corruption import CorruptionPipeline
 from ..signals.excitation import KINDS, Excitation
 from ..signals.features import FEATURE_SCALES, feature_frequencies_hz, scale_features
 from ..signals.leak import LeakRecording
+from ..signals.observation import AcousticObservation
+from ..signals.spectrogram import (N_MELS, mel_spectrogram, n_frames, spectrogram, spectrogram_frequencies_hz)
 from ..synthesis.fingertip import FingertipModel
 from ..synthesis.stream import ContactTolerance
 from .checks import check_choice, check_flag, check_integer, check_number
+from .frames import AcousticFrames
 
-__all__ = ["AcousticConfig", "AcousticEnvMixin", "BYTES_PER_SAMPLE", "CADENCES", "LEGACY_KEYWORDS", "MAX_SAMPLES", "N_FEATURES",
-           "resolve_excitation"]
+__all__ = ["AcousticConfig", "AcousticEnvMixin", "BYTES_PER_SAMPLE", "CADENCES", "FEATURE_MODES", "LEGACY_KEYWORDS",
+           "MAX_HISTORY", "MAX_SAMPLES", "N_FEATURES", "resolve_excitation"]
 
 #: Length of the spectral feature vector (3-10 kHz in 50 Hz steps).
 N_FEATURES = int(feature_frequencies_hz().size)
 
 CADENCES = ("action", "every_step", "never", "stream")
+#: What ``acoustic`` holds: the paper's 140 FFT amplitudes, an amplitude spectrogram or a mel
+#: spectrogram of the recording (``sensors.signals.spectrogram``).
+FEATURE_MODES = ("fft140", "spectrogram", "mel")
+#: The most frames ``AcousticConfig.history`` may stack.
+MAX_HISTORY = 256
 
 #: Default of ``AcousticConfig.max_samples``: 60 s at 44.1 kHz, the longest recording (or
 #: streamed step) an env accepts unless told otherwise.
@@ -107,6 +116,26 @@ class AcousticConfig:
             (``sensors.FingertipModel``); ``None``: its defaults at the env's grip force.
         stream_tolerance: simulation only, with ``cadence="stream"``: when contacts count as
             unchanged (``sensors.ContactTolerance``); ``None``: its defaults.
+        features: what ``acoustic`` holds (:data:`FEATURE_MODES`): ``"fft140"`` (default, the
+            paper's 140 amplitudes at 3000, 3050, ..., 9950 Hz), ``"spectrogram"`` (time x
+            163 STFT bins of 43 Hz in 3-10 kHz) or ``"mel"`` (time x 64 HTK-mel bands in
+            3-10 kHz) of the recording cut or padded to ``duration_s``; both time-first with
+            85 frames for 1 s (``sensors.signals.spectrogram``). Per recording only, not with
+            cadence ``"stream"``.
+        history: the last N acoustic frames (each entry gets a leading axis of N, oldest
+            first, zeros before the first recordings); 1 (default) keeps the single frame's
+            shape. A frame enters at each sensor update.
+        update_period_s: with cadence ``"every_step"`` or ``"stream"``, the sensor updates
+            every this many seconds of simulated (or control) time, a whole multiple of the
+            env's ``dt`` (updates at steps 0, k, 2k, ... of an episode); between updates the
+            observation holds the last value. ``None``: every step.
+        corruption: a ``sensors.signals.corruption.CorruptionPipeline`` (or a sequence of its
+            stages, or of dicts with a ``kind``) applied to each recording before its
+            features: gain drift, DC offset, latency and jitter, dropped buffers, clipping,
+            background noise; seeded from the env's ``np_random`` (a generator spawned from its
+            seed at each reset, so the clean signal's random stream is unchanged). Same in
+            simulation and on ``real.RealGraspEnv``; per recording only, not with cadence
+            ``"stream"``. ``None``: none.
         max_samples: the most samples one recording (``duration_s``) or one streamed step
             may hold (default :data:`MAX_SAMPLES`, 60 s at 44.1 kHz; each sample costs about
             :data:`BYTES_PER_SAMPLE` bytes to simulate): a longer one is refused at
@@ -124,6 +153,10 @@ class AcousticConfig:
     leak: Any = None
     fingertip: FingertipModel | None = None
     stream_tolerance: ContactTolerance | None = None
+    features: str = "fft140"
+    history: int = 1
+    update_period_s: float | None = None
+    corruption: CorruptionPipeline | None = None
     max_samples: int = MAX_SAMPLES
 
     def __post_init__(self) -> None:
@@ -148,6 +181,39 @@ class AcousticConfig:
         if self.stream_tolerance is not None and not isinstance(self.stream_tolerance, ContactTolerance):
             raise TypeError("stream_tolerance must be a sensors.ContactTolerance or None, "
                             f"got {type(self.stream_tolerance).__name__}")
+        self._check_sensing()
+
+    def _check_sensing(self) -> None:
+        """The sensor-configuration fields: feature mode, history, update period, corruption."""
+        check_choice("acoustic.features", self.features, FEATURE_MODES)
+        object.__setattr__(self, "history", check_integer("acoustic.history", self.history, 1, MAX_HISTORY))
+        if self.update_period_s is not None:
+            object.__setattr__(self, "update_period_s", check_number("acoustic.update_period_s", self.update_period_s,
+                                                                     0.0, low_open=True, unit="s"))
+            if self.cadence not in ("every_step", "stream"):
+                raise ValueError("acoustic.update_period_s paces a sensor that records by itself: it needs cadence "
+                                 f"'every_step' or 'stream', got {self.cadence!r}")
+        pipeline = CorruptionPipeline.coerce(self.corruption)
+        object.__setattr__(self, "corruption", pipeline if pipeline else None)
+        if self.cadence == "stream" and (self.features != "fft140" or self.corruption is not None):
+            raise ValueError("acoustic.features other than 'fft140' and acoustic.corruption work on whole "
+                             "recordings: not with cadence 'stream'")
+        if self.features != "fft140":
+            n_frames(self.n_samples)  # at least one STFT window
+
+    def steps_per_update(self, dt_s: float | None) -> int:
+        """Env steps per sensor update for an env step of ``dt_s`` seconds: 1 without
+        ``update_period_s``; ``ValueError`` unless the period is a whole multiple of ``dt_s``
+        (``dt_s=None``: an env whose step is a probe, where no period applies)."""
+        if self.update_period_s is None:
+            return 1
+        if dt_s is None:
+            raise ValueError("acoustic.update_period_s does not apply to an env whose step is one probe")
+        k = self.update_period_s / dt_s
+        if round(k) < 1 or abs(k - round(k)) > 1e-6 * max(1.0, k):
+            raise ValueError(f"acoustic.update_period_s={self.update_period_s:g} s must be a whole multiple of the "
+                             f"env's dt = {dt_s:g} s")
+        return int(round(k))
 
     def check_samples(self, n_samples: int, what: str) -> None:
         """Refuse, before anything is simulated, ``what`` holding more than :attr:`max_samples`
@@ -162,7 +228,8 @@ class AcousticConfig:
 
     def _key(self) -> tuple:
         return (self.enabled, self.cadence, self.waveform, self.feature_scale, self.noise_std, self.duration_s,
-                self.excitation, _leak_key(self.leak), self.fingertip, self.stream_tolerance)
+                self.excitation, _leak_key(self.leak), self.fingertip, self.stream_tolerance, self.features,
+                self.history, self.update_period_s, self.corruption)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, AcousticConfig):
@@ -235,18 +302,28 @@ class AcousticConfig:
         if not self.enabled:
             return {}
         low = -np.inf if self.feature_scale == "db" else 0.0
-        out = {"acoustic": spaces.Box(low, np.inf, (N_FEATURES,), np.float32)}
+        stack = (self.history,) if self.history > 1 else ()
+        out = {"acoustic": spaces.Box(low, np.inf, stack + self.frame_shape, np.float32)}
         if self.waveform:
-            out["waveform"] = spaces.Box(-np.inf, np.inf, (self.n_samples,), np.float32)
+            out["waveform"] = spaces.Box(-np.inf, np.inf, stack + (self.n_samples,), np.float32)
         if self.streaming:
-            out["audio"] = spaces.Box(-np.inf, np.inf, (self._audio_samples(audio_samples),), np.float32)
+            out["audio"] = spaces.Box(-np.inf, np.inf, stack + (self._audio_samples(audio_samples),), np.float32)
         return out
+
+    @property
+    def frame_shape(self) -> tuple[int, ...]:
+        """Shape of one ``acoustic`` frame: ``(140,)``, or ``(frames, bins)`` for a spectrogram
+        (163 bins) or mel (64 bands) observation."""
+        if self.features == "fft140":
+            return (N_FEATURES,)
+        bins = spectrogram_frequencies_hz(self.sample_rate_hz).size if self.features == "spectrogram" else N_MELS
+        return (n_frames(self.n_samples), bins)
 
     def empty(self, audio_samples: int | None = None) -> dict[str, np.ndarray]:
         """The acoustic entries before the first recording: zeros."""
         if not self.enabled:
             return {}
-        out = {"acoustic": self.scale_features(np.zeros(N_FEATURES))}
+        out = {"acoustic": self.scale_features(np.zeros(self.frame_shape))}
         if self.waveform:
             out["waveform"] = np.zeros(self.n_samples, np.float32)
         if self.streaming:
@@ -265,17 +342,36 @@ class AcousticConfig:
         self.check_samples(int(audio_samples), "one streamed step")
         return int(audio_samples)
 
-    def entries(self, recording) -> dict[str, np.ndarray]:
-        """The acoustic entries of a ``sensors.AcousticObservation``: its features and, with
+    def corrupt(self, recording, rng: np.random.Generator | None):
+        """``recording`` through :attr:`corruption` with ``rng`` (the same recording without
+        one); ``ValueError`` if a corruption is configured and ``rng`` is None."""
+        if self.corruption is None:
+            return recording
+        if rng is None:
+            raise ValueError("acoustic.corruption needs a random generator (the env's corruption_rng)")
+        w = self.corruption.apply(recording.waveform, recording.sample_rate_hz, rng)
+        return AcousticObservation(w.astype(np.float32), recording.sample_rate_hz, recording.excitation,
+                                   recording.start_time_s, dict(recording.metadata, corrupted=True))
+
+    def entries(self, recording, rng: np.random.Generator | None = None) -> dict[str, np.ndarray]:
+        """The acoustic entries of a ``sensors.AcousticObservation`` (one frame): after
+        :meth:`corrupt` (with ``rng``), its features in :attr:`features` mode and, with
         ``waveform``, its samples zero-padded or cut to ``duration_s``."""
         if not self.enabled:
             return {}
-        out = {"acoustic": self.scale_features(recording.features())}
+        recording = self.corrupt(recording, rng)
+        n = int(round(self.duration_s * recording.sample_rate_hz))
+        w = np.zeros(n, np.float32)
+        m = min(n, recording.waveform.size)
+        w[:m] = recording.waveform[:m]
+        if self.features == "fft140":
+            features = recording.features()
+        elif self.features == "spectrogram":
+            features = spectrogram(w, recording.sample_rate_hz)
+        else:
+            features = mel_spectrogram(w, recording.sample_rate_hz)
+        out = {"acoustic": self.scale_features(features)}
         if self.waveform:
-            n = int(round(self.duration_s * recording.sample_rate_hz))
-            w = np.zeros(n, np.float32)
-            m = min(n, recording.waveform.size)
-            w[:m] = recording.waveform[:m]
             out["waveform"] = w
         return out
 
@@ -315,3 +411,29 @@ class AcousticEnvMixin:
         """Deprecated: :attr:`cadence`."""
         warn_deprecated(f"{type(self).__name__}.sense_mode", "cadence")
         return self.cadence
+
+    # --- history, update period, corruption (AcousticConfig's sensor configuration) ----------
+    def _init_acoustic_frames(self, audio_samples: int | None, dt_s: float | None) -> None:
+        """The env's :class:`AcousticFrames` (call once in ``__init__``); ``dt_s``: the env's
+        step [s], None for an env whose step is one probe."""
+        self.acoustic_frames = AcousticFrames(self.acoustic.empty(audio_samples), self.acoustic.history,
+                                              self.acoustic.steps_per_update(dt_s))
+        self.corruption_rng: np.random.Generator | None = None
+
+    def _reset_acoustic(self) -> dict[str, np.ndarray]:
+        """At ``reset`` (after seeding): a new corruption generator spawned from ``np_random``'s
+        seed (the clean random stream is not drawn from), an empty history; its observation."""
+        if self.acoustic.corruption is not None:
+            seq = getattr(self.np_random.bit_generator, "seed_seq", None)
+            self.corruption_rng = np.random.default_rng(seq.spawn(1)[0] if seq is not None
+                                                        else self.np_random.integers(2**63))
+        return self.acoustic_frames.reset()
+
+    def _acoustic_due(self) -> bool:
+        """Whether the sensor updates this step (``acoustic.update_period_s``); call once per step."""
+        return self.acoustic_frames.due()
+
+    def _recording_entries(self, recording) -> dict[str, np.ndarray]:
+        """A recording's frame (corrupted with :attr:`corruption_rng`) pushed to the history;
+        the observation's acoustic entries."""
+        return self.acoustic_frames.push(self.acoustic.entries(recording, rng=self.corruption_rng))
