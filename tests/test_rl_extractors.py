@@ -47,6 +47,22 @@ def test_audio_net_kind_by_shape():
     assert audio_net_kind((2, 64, 32)) == "spectrogram"
 
 
+@pytest.mark.parametrize("acoustic, kind", [({}, FeatureCNN), ({"history": 3}, FeatureCNN),
+                                            ({"features": "mel"}, SpectrogramCNN),
+                                            ({"features": "spectrogram", "history": 2}, SpectrogramCNN)])
+def test_extractor_fits_every_acoustic_option_of_the_envs(acoustic, kind):
+    env = gym.make("aas_gym/GraspPosition-v0", acoustic=acoustic)
+    try:
+        space = env.observation_space
+        ex = AcousticExtractor(space, audio_features_dim=16)
+        assert isinstance(ex.extractors["acoustic"], kind)
+        batch = {k: torch.as_tensor(np.stack([space[k].sample() for _ in range(3)]), dtype=torch.float32)
+                 for k in space.spaces}
+        assert tuple(ex(batch).shape) == (3, ex.features_dim)
+    finally:
+        env.close()
+
+
 def test_combined_extractor_routes_the_acoustic_key_and_flattens_the_rest():
     space = spaces.Dict({"tcp": _box(4), "acoustic": _box(3, 40, 16), "n": spaces.Discrete(3)})
     ex = AcousticExtractor(space, audio_features_dim=10)

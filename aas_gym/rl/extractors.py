@@ -5,8 +5,10 @@ shape the env's ``acoustic`` options produce:
 
 * :class:`FeatureCNN` (a small 1-D CNN): the 140 spectral features, shape ``(140,)``, or a
   history of frames, ``(history, 140)`` (the frames are its input channels);
-* :class:`SpectrogramCNN` (a small 2-D CNN): a spectrogram or mel image, ``(freq, time)``, or
-  a history of them, ``(history, freq, time)`` (the history is its input channels);
+* :class:`SpectrogramCNN` (a small 2-D CNN): a spectrogram or mel image, 2-D (the envs'
+  ``acoustic={"features": "spectrogram" | "mel"}`` give ``(frames, bins)``; the convolutions
+  treat both axes alike, so ``(bins, frames)`` fits too), or a history of them, 3-D (the
+  history is its input channels);
 * :class:`AcousticExtractor`: a ``Dict`` observation; the acoustic keys go through one of
   the two (chosen from their shape, see :func:`audio_net_kind`), every other key is
   flattened, and the results are concatenated (SB3's ``CombinedExtractor`` pattern).
@@ -97,8 +99,8 @@ class SpectrogramCNN(BaseFeaturesExtractor):
     """A small 2-D CNN over a time-frequency image.
 
     Args:
-        observation_space: Box of shape ``(freq, time)`` or ``(history, freq, time)`` (the
-            history as input channels).
+        observation_space: Box of shape ``(frames, bins)`` or ``(history, frames, bins)`` (the
+            history as input channels); the two image axes may come in either order.
         features_dim: size of the output.
         channels: output channels of the two 3 x 3 convolutions (stride 2 each).
         pooled: the feature maps are average-pooled to ``pooled`` (freq, time) cells before the
@@ -126,7 +128,7 @@ class SpectrogramCNN(BaseFeaturesExtractor):
 def audio_net_kind(shape: tuple[int, ...], n_bins: int = N_FEATURES) -> str:
     """``"features"`` (:class:`FeatureCNN`) or ``"spectrogram"`` (:class:`SpectrogramCNN`) for
     an acoustic entry of ``shape``: 1-D is a feature frame; 2-D whose last axis holds ``n_bins``
-    (140) is a history of frames, any other 2-D a (freq, time) image; 3-D a history of images."""
+    (140) is a history of frames, any other 2-D a time-frequency image; 3-D a history of images."""
     if len(shape) == 1 or (len(shape) == 2 and shape[-1] == n_bins):
         return "features"
     if len(shape) in (2, 3):
