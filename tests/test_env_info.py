@@ -108,3 +108,32 @@ def test_documented_env_count_matches_the_registry():
     for env_id in ids:
         assert env_id.removeprefix("aas_gym/") in text[:600]
         assert f"``{env_id}``" in aas_gym.__doc__
+
+
+def _bodies_in_frame(env, camera: str) -> set[str]:
+    """Names of the bodies whose geoms cover a pixel of ``camera``'s image (segmentation)."""
+    import mujoco
+
+    u = env.unwrapped
+    renderer = mujoco.Renderer(u.model, 240, 320)
+    try:
+        renderer.enable_segmentation_rendering()
+        renderer.update_scene(u.data, camera=camera)
+        seg = renderer.render()
+    finally:
+        renderer.close()
+    geoms = np.unique(seg[..., 0][seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM)])
+    return {mujoco.mj_id2name(u.model, mujoco.mjtObj.mjOBJ_BODY, int(u.model.geom_bodyid[g])) for g in geoms}
+
+
+def test_acoustic_grasp_default_camera_shows_the_hand_and_the_object_at_reset():
+    env = gym.make("aas_gym/AcousticGrasp-v0", render_mode="rgb_array", width=320, height=240, **OFF)
+    try:
+        env.reset(seed=0)
+        assert env.unwrapped.camera_name == "workspace"
+        assert env.render().shape == (240, 320, 3)
+        seen = _bodies_in_frame(env, env.unwrapped.camera_name)
+        assert {"hand", "left_fingertip", "right_fingertip", "aluminium_bar"} <= seen, seen
+        assert "hand" not in _bodies_in_frame(env, "closeup")  # the old default missed the hand
+    finally:
+        env.close()

@@ -114,7 +114,7 @@ def _randomization_fields():
 
 COMMON_VALID = {"frame_skip": st.integers(1, 50), "grip_force_n": st.floats(1.0, 140.0),
                 "width": st.integers(1, 480), "height": st.integers(1, 480),
-                "camera_name": st.sampled_from(["closeup", "overview"]),
+                "camera_name": st.sampled_from(["closeup", "overview", "workspace"]),
                 "render_mode": st.sampled_from([None, "rgb_array"]),
                 "randomization": _randomization_fields(),
                 "acoustic": _fields({k: ACOUSTIC_VALID[k] for k in ("enabled", "waveform", "duration_s",

@@ -60,6 +60,8 @@ class AcousticGraspEnv(AasEnv):
 
     _acoustic_defaults = {"cadence": "action"}
     reward_term_names = GRASP_REWARD_TERMS
+    # The episode starts with the hand 0.3 m above the object: the closeup would miss the reach.
+    _default_camera = "workspace"
 
     def __init__(self, objects=("aluminium_bar",), **kwargs) -> None:
         super().__init__(objects, **kwargs)

@@ -42,6 +42,8 @@ __all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "MAX
 MAX_FRAME_SKIP = 5000
 
 EXCITATION_NAMES = ("impulse", "linear", "exponential")
+#: The scene's cameras (``aas_gym.stage``).
+CAMERA_NAMES = ("closeup", "overview", "workspace")
 #: ``metadata["render_fps"]`` of the probe envs: a viewing rate for frames that are one probe
 #: each (Gymnasium's turn-based toy_text envs use 4), not a physical rate.
 PROBE_RENDER_FPS = 4
@@ -117,7 +119,7 @@ COMMON_ARGUMENTS = """
     | `frame_skip` | int | 25 | MuJoCo steps (2 ms) per env step, 1 to `AasEnv.max_frame_skip` (5000) |
     | `render_mode` | str or None | None | `"rgb_array"`, `"depth_array"` or `"human"` |
     | `width`, `height` | int | 480, 480 | rendered image size [pixels], at most the scene's offscreen buffer (640 x 480) |
-    | `camera_name` | str | `"closeup"` | `"closeup"` or `"overview"` |
+    | `camera_name` | str or None | None | `"closeup"` (the fingertips and the grasped part), `"overview"` or `"workspace"` (the hand at home above the object); None: this env's default (`"workspace"` for AcousticGrasp-v0, else `"closeup"`) |
 
     Deprecated (one more release, with a `DeprecationWarning`): the keywords `excitation`,
     `duration_s`, `include_waveform`, `sense_mode`, `leak`, `fingertip`, `stream_tolerance`
@@ -175,6 +177,9 @@ class AasEnv(AcousticEnvMixin, gym.Env):
     #: A step is one scripted grasp and recording (a probe), not one control period.
     _step_is_probe = False
 
+    #: The camera ``render`` uses unless ``camera_name`` says otherwise (``CAMERA_NAMES``).
+    _default_camera = "closeup"
+
     #: The keys of ``info["reward_terms"]``, in the order they are summed.
     reward_term_names: tuple[str, ...] = ()
 
@@ -197,7 +202,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
                  scene: str = "single", distractors: Sequence[str | ObjectSpec] | None = None,
                  acoustic: AcousticConfig | dict | None = None, grip_force_n: float = DEFAULT_GRIP_FORCE_N,
                  randomization=None, frame_skip: int = 25, render_mode: str | None = None,
-                 width: int = 480, height: int = 480, camera_name: str = "closeup", **deprecated) -> None:
+                 width: int = 480, height: int = 480, camera_name: str | None = None, **deprecated) -> None:
         unknown = sorted(set(deprecated) - set(LEGACY_KEYWORDS))
         if unknown:
             raise TypeError(f"{type(self).__name__}() got an unexpected keyword argument {unknown[0]!r}")
@@ -221,7 +226,8 @@ class AasEnv(AcousticEnvMixin, gym.Env):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
         self.width, self.height = check_integer("width", width, 1), check_integer("height", height, 1)
-        self.camera_name = check_choice("camera_name", camera_name, ("closeup", "overview"))
+        self.camera_name = check_choice("camera_name", self._default_camera if camera_name is None else camera_name,
+                                        CAMERA_NAMES)
         self._leaks = _load_leaks(self.acoustic.leak)
         self._variation = SensorVariation()
         self._stream: SimAcousticStream | None = None
