@@ -9,8 +9,9 @@ is ``aas_gym/GraspPosition-v0`` (one grasp per episode, estimate where from the 
 ``is_success`` (within half a grid spacing) is logged as ``rollout/success_rate``. The budget
 is short: a demonstration that the extractor trains, not a tuned result.
 
-Writes the TensorBoard run and the trained model to ``--out`` (default: ``outputs/`` beside
-this script). Needs the ``rl`` extra (stable-baselines3, torch, tensorboard).
+Writes the TensorBoard run and the trained model to ``--out`` (default: the repository's
+``outputs/train_with_extractor``, whatever the current folder). Needs the ``rl`` extra
+(stable-baselines3, torch, tensorboard).
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ def main(argv=None) -> Path:
     ap.add_argument("--env", default="GraspPosition-v0", help="an aas_gym env id (without the aas_gym/ prefix)")
     ap.add_argument("--timesteps", type=int, default=2048)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", type=Path, default=HERE / "outputs" / "train_with_extractor",
+    ap.add_argument("--out", type=Path, default=HERE.parent / "outputs" / "train_with_extractor",
                     help="folder of the TensorBoard run and the saved model")
     args = ap.parse_args(argv)
     # SB3 on a small CPU: one intra-op thread trains faster than several fighting for 2 cores.
