@@ -11,16 +11,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from aas_gym.contacts import KINDS, ObjectContacts
+from aas_gym.contacts import ObjectContacts
 
-__all__ = ["CONTACT_KIND_DTYPE", "MAX_INFO_CONTACTS", "contacts_info", "padded_contacts"]
+__all__ = ["MAX_INFO_CONTACTS", "contacts_info", "padded_contacts"]
 
 #: Rows of every contact array in ``info["contacts"][body]`` (a grasped bar on the table has
 #: 8-16 contacts; a convex-decomposed everyday object more). Beyond it the weakest (smallest
 #: normal force) are left out and counted in ``n_dropped``.
 MAX_INFO_CONTACTS = 64
-#: One fixed string dtype for the contact kinds, so that every env's array has the same dtype.
-CONTACT_KIND_DTYPE = f"<U{max(len(k) for k in KINDS)}"
 
 
 def padded_contacts(contacts: ObjectContacts, max_contacts: int = MAX_INFO_CONTACTS) -> dict:
@@ -30,8 +28,9 @@ def padded_contacts(contacts: ObjectContacts, max_contacts: int = MAX_INFO_CONTA
     left out above ``max_contacts``), ``positions_m`` (rows x 3, object frame [m]), ``normals``
     (rows x 3, outward unit normals), ``normal_forces_n`` (rows [N]), ``forces_n`` (rows x 3,
     force on the object [N]), ``friction`` (rows), ``kinds`` (rows, one of
-    ``aas_gym.contacts.KINDS``), ``other_bodies`` (rows, object array of body names). Padding
-    rows hold zeros and empty strings.
+    ``aas_gym.contacts.KINDS``), ``other_bodies`` (rows, body names). The names are object
+    arrays of ``str`` (Gymnasium's ``check_env`` compares a fixed-width string array as
+    numbers and fails). Padding rows hold zeros and empty strings.
     """
     n = len(contacts)
     keep = np.arange(n)
@@ -49,7 +48,7 @@ def padded_contacts(contacts: ObjectContacts, max_contacts: int = MAX_INFO_CONTA
             "positions_m": pad(contacts.positions_m, 3), "normals": pad(contacts.normals, 3),
             "normal_forces_n": pad(contacts.normal_forces_n), "forces_n": pad(contacts.forces_n, 3),
             "friction": pad(contacts.friction),
-            "kinds": pad(contacts.kinds, dtype=CONTACT_KIND_DTYPE, fill=""),
+            "kinds": pad(contacts.kinds, dtype=object, fill=""),
             "other_bodies": pad(contacts.other_bodies, dtype=object, fill="")}
 
 
