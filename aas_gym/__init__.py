@@ -57,6 +57,8 @@ _LAZY = {
     "release": "aas_gym.grasp",
     "DomainRandomization": "aas_gym.scenario",
     "MujocoRobot": "aas_gym.robot",
+    "PandaArm": "aas_gym.panda_control",
+    "UnreachableError": "aas_gym.panda_control",
     "SimAcousticStream": "aas_gym.sim_stream",
 }
 

@@ -80,19 +80,26 @@ class ObjectContacts:
         sel = self if kind is None else self.select(kind)
         return float(np.sum(sel.normal_forces_n))
 
-    def to_sensor_contacts(self, min_force_n: float = 0.0) -> list:
-        """Each contact as a ``sensors.Contact`` (object frame, outward normal)."""
+    def to_sensor_contacts(self, min_force_n: float = 0.0, materials=None) -> list:
+        """Each contact as a ``sensors.Contact`` (object frame, outward normal); ``materials``
+        maps a touching body's name to its material name, the other body of the contact's
+        Hertz stiffness (others: the ``Contact`` default, a wooden table)."""
         from sensors.modal.contact import Contact
+        from sensors.modal.contact_stiffness import DEFAULT_COUNTER_MATERIAL
 
-        return [Contact(position_m=p, normal=n, force_n=float(f), friction=float(mu))
-                for p, n, f, mu in zip(self.positions_m, self.normals, self.normal_forces_n, self.friction)
+        materials = materials or {}
+        return [Contact(position_m=p, normal=n, force_n=float(f), friction=float(mu),
+                        counter_material=materials.get(str(b), DEFAULT_COUNTER_MATERIAL))
+                for p, n, f, mu, b in zip(self.positions_m, self.normals, self.normal_forces_n, self.friction,
+                                          self.other_bodies)
                 if f > min_force_n]
 
-    def sensor_grasp(self, min_force_n: float = 0.0) -> SensorGrasp:
+    def sensor_grasp(self, min_force_n: float = 0.0, materials=None) -> SensorGrasp:
         """The contacts the acoustic sensor synthesizes from: each fingertip's contacts
         :meth:`merged` into one, and every other contact carrying more than ``min_force_n``
-        (hand links, table, other objects). The one place MuJoCo contacts become
-        ``sensors.Contact`` for the simulated sensor and its stream."""
+        (hand links, table, other objects; ``materials``: see :meth:`to_sensor_contacts`).
+        The one place MuJoCo contacts become ``sensors.Contact`` for the simulated sensor
+        and its stream."""
         from sensors.modal.contact import Contact
 
         tips = []
@@ -100,7 +107,7 @@ class ObjectContacts:
             patch = self.merged(kind)
             tips.append(None if patch is None else Contact(position_m=patch[0], normal=patch[1], force_n=patch[2],
                                                            friction=patch[3]))
-        others = self.select(~np.isin(self.kinds, ("actuator", "mic"))).to_sensor_contacts(min_force_n)
+        others = self.select(~np.isin(self.kinds, ("actuator", "mic"))).to_sensor_contacts(min_force_n, materials)
         return SensorGrasp(tips[0], tips[1], others)
 
     def merged(self, kind: str) -> tuple[np.ndarray, np.ndarray, float, float] | None:

@@ -14,11 +14,12 @@ from pathlib import Path
 
 import mujoco
 
-from aas_gym.assets import HAND_XML, OBJECTS_DIR, SCENES_DIR
+from aas_gym.assets import OBJECTS_DIR, SCENES_DIR
 from aas_gym.contact_sensors import add_contact_signature_sensors, add_touch_sensors
 from aas_gym.fingertips import FingertipSpec, replace_fingertips
 from aas_gym.object_bodies import Placement, add_object
 from aas_gym.object_names import DEFAULT_OBJECT_NAMES
+from aas_gym.robots import DEFAULT_ROBOT, robot_spec
 from aas_gym.stage import add_lights_and_cameras, add_table
 from sensors.objects.catalog import ObjectSpec, get_object, known_material_names
 
@@ -43,8 +44,10 @@ def unique_body_names(objects: Sequence[ObjectSpec]) -> list[str]:
 def build_scene_spec(objects: Iterable[str | ObjectSpec] = ("aluminium_bar",),
                      placements: Sequence[Placement] | None = None,
                      fingertip: FingertipSpec | None = None,
-                     table: bool = True, contact_signature: bool = False) -> mujoco.MjSpec:
-    """Compose hand, table and objects into an ``MjSpec`` (compile it with ``.compile()``).
+                     table: bool = True, contact_signature: bool = False,
+                     robot: str = DEFAULT_ROBOT) -> mujoco.MjSpec:
+    """Compose the robot (``aas_gym.robots``: ``"floating_hand"`` or ``"panda"``), table and
+    objects into an ``MjSpec`` (compile it with ``.compile()``).
 
     Without ``placements`` objects lie on the table side by side along y, 80 mm apart.
     ``contact_signature`` adds the sensors a streaming microphone watches every physics step
@@ -55,7 +58,7 @@ def build_scene_spec(objects: Iterable[str | ObjectSpec] = ("aluminium_bar",),
         placements = [Placement(0.0, 0.08 * (i - (len(objs) - 1) / 2)) for i in range(len(objs))]
     if len(placements) != len(objs):
         raise ValueError(f"{len(objs)} objects but {len(placements)} placements")
-    spec = mujoco.MjSpec.from_file(str(HAND_XML))
+    spec = robot_spec(robot)
     spec.modelname = "aas_scene"
     if fingertip is not None:
         replace_fingertips(spec, fingertip)

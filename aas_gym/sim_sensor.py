@@ -120,7 +120,8 @@ class SimAcousticSensor:
                  mic_site: str = "aas_mic", fingertip=None, leak=None, noise_std: float = 0.0,
                  seed: int | None = None, rng: np.random.Generator | None = None,
                  min_force_n: float = 1e-3, on_no_grasp: str = "raise",
-                 modal_options: Mapping[str, Any] | None = None, models: LRU | None = None) -> None:
+                 modal_options: Mapping[str, Any] | None = None, models: LRU | None = None,
+                 contact_model: str = "spring_damper") -> None:
         missing = [s for s in (actuator_site, mic_site)
                    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, s) < 0]
         if missing:
@@ -152,6 +153,7 @@ class SimAcousticSensor:
                                 f"sensors.ModalModel, got {type(desc).__name__}")
         self.actuator_site, self.mic_site = actuator_site, mic_site
         self.fingertip, self.leak = fingertip, leak
+        self.contact_model = contact_model  # sensors.synthesis.modal_system.CONTACT_MODELS
         self.noise_std = float(noise_std)
         self.rng = rng if rng is not None else np.random.default_rng(seed)
         self.min_force_n = float(min_force_n)
@@ -217,7 +219,7 @@ class SimAcousticSensor:
                 "no object is pressed by both the actuator fingertip (site "
                 f"{self.actuator_site!r}) and the microphone fingertip ({self.mic_site!r}); "
                 f"current object contacts by kind: {touching or 'none'}")
-        grasp = contacts[body].sensor_grasp(self.min_force_n)
+        grasp = contacts[body].sensor_grasp(self.min_force_n, self.object_materials())
         for kind, tip in (("actuator", grasp.actuator), ("mic", grasp.mic)):
             if tip is None:  # forces on opposite faces cancel: not one fingertip patch
                 raise NoGraspError(f"the {kind} fingertip touches {body!r} on opposite sides; "
@@ -260,7 +262,8 @@ class SimAcousticSensor:
         spec = self._specs.get(body)
         obs = sensors.simulate_recording(
             self.scaled_model(body, variation), excitation, duration_s, act, mic, other_contacts=others,
-            fingertip=self.fingertip, leak=leak, noise_std=noise_std, rng=rng, cache=self.cache)
+            fingertip=self.fingertip, leak=leak, noise_std=noise_std, rng=rng, cache=self.cache,
+            contact_model=self.contact_model)
         obs.metadata.update({
             "source": "sim", "grasped": True, "object_body": body,
             "material": spec.material if spec else None, "shape": spec.shape if spec else None,
@@ -269,6 +272,13 @@ class SimAcousticSensor:
             "other_contacts": [o.to_dict() for o in others],
         })
         return obs
+
+    def object_materials(self) -> dict:
+        """Material name of each sensed object body (the other body of a contact between
+        objects, for its Hertz stiffness)."""
+        from sensors import MATERIALS
+
+        return {b: s.material for b, s in self._specs.items() if s is not None and s.material in MATERIALS}
 
     def leak_for(self, excitation, leak_scale: float = 1.0):
         """The leak recording for ``excitation`` (scaled by ``leak_scale``), or ``None``."""

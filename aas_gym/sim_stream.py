@@ -69,7 +69,8 @@ class SimAcousticStream:
         self.tolerance = tolerance or ContactTolerance()
         self.stream = AcousticStream(excitation, fingertip=sensor.fingertip,
                                      leak=sensor.leak_for(excitation, variation.leak_scale), noise_std=noise,
-                                     rng=rng if rng is not None else sensor.rng, tolerance=self.tolerance)
+                                     rng=rng if rng is not None else sensor.rng, tolerance=self.tolerance,
+                                     contact_model=sensor.contact_model)
         self.bodies = sensor.bodies
         self._vec_adr, self._grasp_adr = _signature_addresses(self.model, self.bodies)
         self._n_partners = self._vec_adr.shape[1] // 2
@@ -137,7 +138,7 @@ class SimAcousticStream:
         body = self.sensor.grasped_body(contacts) or self._heard or self.bodies[0]
         self._heard = body
         self._heard_index = self.bodies.index(body)
-        grasp = contacts[body].sensor_grasp(self._min_force_n)
+        grasp = contacts[body].sensor_grasp(self._min_force_n, self.sensor.object_materials())
         model = self.sensor.scaled_model(body, self.variation)
         return GraspState(model, grasp.actuator, grasp.mic, tuple(grasp.others), object_key=body)
 

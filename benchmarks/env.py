@@ -7,7 +7,10 @@
    stepped bare with the same controls from the same states. Timed in interleaved chunks so
    that load from other processes hits both alike; the ratio is the median over chunks
    (goal >= 0.9: a scene pays only for what it uses).
-2. Acoustics: one 1 s observation of a grasped object with warm caches (modal model built
+2. Robots: ``aas_gym/AcousticGrasp-v0`` env steps per second with each robot (``robot=
+   "floating_hand"`` and ``"panda"``), sensing off (``cadence "never"``) and on (``cadence
+   "stream"``: the microphone records through every physics step), in one run.
+3. Acoustics: one 1 s observation of a grasped object with warm caches (modal model built
    once beforehand), per excitation and object, as a real-time factor = 1 s / wall time
    (goal >= 20x). The cold first call (modal model built or loaded from the disk cache) is
    reported separately.
@@ -92,6 +95,34 @@ def physics_ratio(chunks: int, steps: int) -> dict:
             "ratio": statistics.median(ratios), "env_dt_s": u.dt, "frame_skip": skip}
 
 
+ROBOTS = ("floating_hand", "panda")
+SENSING = {"off": {"cadence": "never"}, "on (stream)": {"cadence": "stream"}}
+
+
+def robot_throughput(chunks: int, steps: int) -> list[dict]:
+    """Env steps/s (median over ``chunks`` of ``steps`` steps, process CPU time) of
+    AcousticGrasp-v0 with each robot, sensing off and on, the same small random actions."""
+    rng = np.random.default_rng(1)
+    actions = [(rng.uniform(-1, 1, 6) * [0.3, 0.3, 0.3, 0.3, 1, -1]).astype(np.float32) for _ in range(steps)]
+    rows = []
+    for robot in ROBOTS:
+        for sensing, acoustic in SENSING.items():
+            env = gym.make("aas_gym/AcousticGrasp-v0", robot=robot, acoustic=acoustic, max_episode_steps=10**9)
+            rates = []
+            for chunk in range(chunks):
+                env.reset(seed=chunk)
+                t0 = _clock()
+                for a in actions:
+                    env.step(a)
+                rates.append(steps / (_clock() - t0))
+            env.close()
+            rows.append({"robot": robot, "sensing": sensing, "steps_s": statistics.median(rates)})
+    base = {r["sensing"]: r["steps_s"] for r in rows if r["robot"] == ROBOTS[0]}
+    for r in rows:
+        r["relative"] = r["steps_s"] / base[r["sensing"]]
+    return rows
+
+
 def acoustic_cost(objects: list[str], excitations: list[str], repeats: int) -> list[dict]:
     """Per object and excitation: CPU time of ``sense`` for 1 s, (a) sensing the same grasp
     again (the synthesis reuses its per-grasp system) and (b) a new grasp every time (the
@@ -172,6 +203,7 @@ def main() -> None:
     parser.add_argument("--chunks", type=int, default=40)
     parser.add_argument("--steps", type=int, default=50, help="env steps per chunk")
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--robot-chunks", type=int, default=5, help="chunks per robot and sensing mode")
     parser.add_argument("--objects", nargs="+", default=list(DEFAULT_OBJECT_NAMES))
     parser.add_argument("--excitations", nargs="+", default=["impulse", "linear", "exponential"])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "benchmarks" / "env.md")
@@ -183,6 +215,7 @@ def main() -> None:
         return
 
     phys = physics_ratio(args.chunks, args.steps)
+    robots = robot_throughput(args.robot_chunks, args.steps)
     acoustic = acoustic_cost(args.objects, args.excitations, args.repeats)
 
     lines = [
@@ -202,6 +235,17 @@ def main() -> None:
         "| MuJoCo steps/s (env) | MuJoCo steps/s (bare) | ratio env/bare | goal |",
         "|---:|---:|---:|---:|",
         f"| {phys['env_steps_s']:.0f} | {phys['bare_steps_s']:.0f} | {phys['ratio']:.3f} | >= 0.9 |",
+        "",
+        "## Env steps/s per robot, sensing off and on",
+        "",
+        f"`aas_gym/AcousticGrasp-v0` via `gymnasium.make`, the same {args.steps} small random actions per chunk, "
+        f"median of {args.robot_chunks} chunks (each after a reset); process CPU time. Sensing *on*: "
+        "`acoustic={\"cadence\": \"stream\"}` (the microphone records through every physics step); *off*: "
+        "`\"never\"`. Relative: against the floating hand with the same sensing.",
+        "",
+        "| robot | sensing | env steps/s | relative |",
+        "|---|---|---:|---:|",
+        *[f"| {r['robot']} | {r['sensing']} | {r['steps_s']:.0f} | {r['relative']:.2f} |" for r in robots],
         "",
         "## One 1 s acoustic observation (warm caches)",
         "",

@@ -36,6 +36,7 @@ from .signals.observation import AcousticObservation, AcousticSensor
 from .modal.contact import Contact
 from .modal.damping import modal_damping_matrix
 from .synthesis.modal_system import ModalSystem, modal_response, modal_state_matrix, periodic_response
+from .synthesis.contact_modes import contact_modes
 from .synthesis.fingertip import FingertipModel
 from .signals.leak import LeakRecording, align_leak, load_leak, save_leak
 from .synthesis.caches import SynthesisCache

@@ -58,41 +58,74 @@ def _object_ss(model, C, act, mic):
     return A, B, Cm
 
 
-def _reference(model, exc, tip, schedule):
+def _reference(model, exc, tip, schedule, contact_model="damping"):
     """Segment-by-segment lsim of the fingertip model and the object, states carried.
 
     Span [s, e) covers the steps s -> e: lsim over samples s..e (X0 = state at s), outputs
     s..e-1, the state at e carried on.  Open spans: no drive, no output, the object rings
-    down under the damping of the contacts it still has; the drive restarts from rest."""
+    down under the damping of the contacts it still has; the drive restarts from rest.
+    With ``contact_model="spring_damper"`` each span's modes are the object's with its
+    contacts' springs (the fingertip pads' from ``tip``); the displacement and velocity
+    carry over between spans (``transfer_state``, the stream's convention)."""
+    from sensors.synthesis.modal_system import contact_modal_model, transfer_state
+
     n = sum(k for k, _ in schedule)
     e_loop = tip.actuator_force_n * np.resize(exc.signal, n + 1)
     Af, Bf, Cf = tip.state_space()
-    r = len(model.angular_frequencies_rad_s)
     y = np.zeros(n)
-    x_obj = np.zeros(2 * r)
+    x_obj, modes = None, None
     x_tip = np.zeros(8)
     last = None
     s = 0
     for k, g in schedule:
         e = s + k
         t = np.arange(k + 1) / FS
-        C = sensors.modal_damping_matrix(model, [c for c in g.damping_contacts() if c.force_n > 0])
+        tips = [tip.pad(c) for c in (g.actuator, g.mic) if c is not None]
+        contacts = [c for c in (*tips, *g.others) if c.force_n > 0]
+        span_modes = contact_modal_model(model, contacts, contact_model)
+        w = np.asarray(span_modes.angular_frequencies_rad_s, float)
+        if x_obj is None:
+            x_obj = np.zeros(2 * w.size)
+        elif span_modes is not modes:  # plain [q; q'] here, the transfer takes [w q; q']
+            wo = np.asarray(modes.angular_frequencies_rad_s, float)
+            xs = transfer_state(np.concatenate([wo * x_obj[:wo.size], x_obj[wo.size:]]), modes, span_modes)
+            x_obj = np.concatenate([xs[:w.size] / w, xs[w.size:]])
+        modes = span_modes
+        # modes at or above Nyquist are left out, as the synthesis does (the springs' stiff
+        # attachment modes are up there): their state stays zero
+        keep = np.flatnonzero(w < np.pi * FS)
+        sub = _Kept(span_modes, keep)
+        both = np.concatenate([keep, w.size + keep])
+        C = sensors.modal_damping_matrix(span_modes, contacts)[np.ix_(keep, keep)]
         if g.closed:
             _, f, xt = ss.lsim((Af, Bf[:, None], Cf[None], np.zeros((1, 1))), e_loop[s:e + 1], t, X0=x_tip)
             x_tip = xt[-1]
-            A, B, Cm = _object_ss(model, C, g.actuator, g.mic)
+            A, B, Cm = _object_ss(sub, C, g.actuator, g.mic)
             last = (g.actuator, g.mic)
-            _, yy, xo = ss.lsim((A, B, Cm, np.zeros((1, 1))), f, t, X0=x_obj)
+            _, yy, xo = ss.lsim((A, B, Cm, np.zeros((1, 1))), f, t, X0=x_obj[both])
             y[s:e] = yy[:k]
-            x_obj = xo[-1]
+            x_obj = np.zeros_like(x_obj)
+            x_obj[both] = xo[-1]
         else:
             x_tip = np.zeros(8)
             if last is not None:
-                A, B, Cm = _object_ss(model, C, *last)
-                _, _, xo = ss.lsim((A, B, Cm, np.zeros((1, 1))), np.zeros(k + 1), t, X0=x_obj)
-                x_obj = xo[-1]
+                A, B, Cm = _object_ss(sub, C, *last)
+                _, _, xo = ss.lsim((A, B, Cm, np.zeros((1, 1))), np.zeros(k + 1), t, X0=x_obj[both])
+                x_obj = np.zeros_like(x_obj)
+                x_obj[both] = xo[-1]
         s = e
     return y
+
+
+class _Kept:
+    """The modes ``keep`` of a modal model."""
+
+    def __init__(self, modes, keep):
+        self.modes, self.keep = modes, keep
+        self.angular_frequencies_rad_s = np.asarray(modes.angular_frequencies_rad_s)[keep]
+
+    def mode_shapes_at(self, points_m):
+        return self.modes.mode_shapes_at(points_m)[..., self.keep]
 
 
 def _switching_schedule(model, act, mic, tab):
@@ -117,8 +150,9 @@ def _switching_schedule(model, act, mic, tab):
     return sched
 
 
+@pytest.mark.parametrize("contact_model", ["damping", "spring_damper"])
 @pytest.mark.parametrize("model_name", ["box", "bar"])
-def test_matches_segmentwise_lsim_with_switching_contacts(model_name, bar):
+def test_matches_segmentwise_lsim_with_switching_contacts(model_name, bar, contact_model):
     model = BoxModel(np.linspace(700, 15000, 16), "wood", seed=4) if model_name == "box" else bar
     act, mic = fingers()
     if model_name == "box":
@@ -127,12 +161,12 @@ def test_matches_segmentwise_lsim_with_switching_contacts(model_name, bar):
     exc = Excitation.linear_sweep()
     tip = FingertipModel()
     sched = _switching_schedule(model, act, mic, tab)
-    stream = AcousticStream(exc, tip, tolerance=ContactTolerance.exact())
+    stream = AcousticStream(exc, tip, tolerance=ContactTolerance.exact(), contact_model=contact_model)
     # one call per physics step, and one per env step (25 physics steps): both exact
     y1 = np.concatenate([stream.advance(k, g) for k, g in sched]).astype(float) / mic_gain()
-    stream2 = AcousticStream(exc, tip, tolerance=ContactTolerance.exact())
+    stream2 = AcousticStream(exc, tip, tolerance=ContactTolerance.exact(), contact_model=contact_model)
     y2 = np.concatenate([stream2.advance(sched[i:i + 25]) for i in range(0, len(sched), 25)]) / mic_gain()
-    ref = _reference(model, exc, tip, sched)
+    ref = _reference(model, exc, tip, sched, contact_model)
     scale = np.abs(ref).max()
     assert scale > 0
     assert np.abs(y1 - ref).max() / scale <= 1e-6
@@ -141,7 +175,8 @@ def test_matches_segmentwise_lsim_with_switching_contacts(model_name, bar):
     open_mask = np.concatenate([np.full(k, not g.closed) for k, g in sched])
     assert np.all(y1[open_mask] == 0) and np.abs(y1[~open_mask]).max() > 0
     # the carried state matters: without it (each span from rest) the signal is far off
-    fresh = np.concatenate([AcousticStream(exc, tip).advance(k, g) for k, g in sched[:60]]) / mic_gain()
+    fresh = np.concatenate([AcousticStream(exc, tip, contact_model=contact_model).advance(k, g)
+                            for k, g in sched[:60]]) / mic_gain()
     assert np.abs(fresh - ref[:len(fresh)]).max() / scale > 1e-2
     # each of the five distinct contact sets was discretised once, revisits reuse it
     assert stream.systems.misses == 5 and stream.systems.hits >= 5
@@ -170,11 +205,14 @@ def test_static_grasp_chunks_equal_one_recording(bar, kind):
     # long enough for the drive and the steel bar (slowest mode 12 /s: 30 e-folds in 2.5 s) to
     # reach their periodic steady state, from where
     # the stream repeats one precomputed period instead of synthesizing
+    # The paper's damping-only contacts: with the pads' springs the bar's suspension modes
+    # (rigid-body motion on the pads, damped by alpha only) need ~10 s to settle; chunking does
+    # not depend on the contact model (spring_damper: test_batch_recording_is_the_stream...).
     rec = simulate_recording(bar, exc, 4.5, act, mic, tab, fingertip=tip, leak=leak, noise_std=1e-4,
-                             rng=np.random.default_rng(11))
+                             rng=np.random.default_rng(11), contact_model="damping")
     ref = rec.waveform.astype(float)
     stream = AcousticStream(exc, tip, leak=leak, noise_std=1e-4, rng=np.random.default_rng(11),
-                            leak_lag_samples=rec.metadata["leak_target_lag"])
+                            leak_lag_samples=rec.metadata["leak_target_lag"], contact_model="damping")
     g = GraspState(bar, act, mic, tab)
     sizes = [88, 2205, 1, 89, 17, 5000, 88, 2205, 3, 22050]
     out, n, i = [], len(ref), 0
@@ -218,7 +256,8 @@ def test_batch_recording_is_the_stream_over_one_span(bar, with_table, settled):
         i += 1
     y = np.concatenate(out).astype(float)
     assert len(y) == len(ref) and np.abs(ref).max() > 1e-3
-    assert np.abs(y - ref).max() <= 1e-9 * np.abs(ref).max()
+    # one float32 rounding step: the batch system keeps only the modes it needs, the stream all
+    assert np.abs(y - ref).max() <= np.finfo(np.float32).eps * np.abs(ref).max()
     assert stream.systems.misses == 1 and (stream.steady_samples == len(ref)) == settled
     # and the object is heard: without it the same chain records far less
     silent = sensors.simulate_recording(bar, exc, 1.2, act, None, others, leak=leak, noise_std=1e-4,
@@ -308,7 +347,9 @@ def test_jittering_forces_reuse_one_system_and_stay_close(bar):
     ref = exact.advance(steps).astype(float)
     assert tol.systems.misses == 1 and tol.systems.hits == 99
     assert exact.systems.misses == 100
-    assert np.abs(y - ref).max() / np.abs(ref).max() < 1e-2
+    # 2 %: with springs the jitter also moves the frequencies a little (the table contacts'
+    # Hertz stiffness goes as F^(1/3)), a phase drift over the 0.2 s (damping only: < 1 %)
+    assert np.abs(y - ref).max() / np.abs(ref).max() < 2e-2
     # a real change (lifted off the table) is not absorbed by the tolerance
     tol.advance(88, GraspState(bar, *fingers(), (), object_key="bar"))
     assert tol.systems.misses == 2

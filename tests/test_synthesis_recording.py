@@ -90,7 +90,9 @@ def test_recording_chain(grasp_setup):
     clean = simulate_recording(m, ex, 1.0, act, mic)
     from sensors import modal_response
     f = FingertipModel().contact_force(ex.loop(1.0), FS)
-    y = modal_response(m, f, FS, act.position_m, act.normal, mic.position_m, mic.normal, [act, mic])
+    # the recording's fingertip contacts carry the pads' springs (FingertipModel.pad)
+    pads = [FingertipModel().pad(act), FingertipModel().pad(mic)]
+    y = modal_response(m, f, FS, act.position_m, act.normal, mic.position_m, mic.normal, pads)
     np.testing.assert_allclose(clean.waveform, (mic_gain() * y).astype(np.float32), rtol=1e-6, atol=1e-9)
     noise = obs.waveform - clean.waveform
     assert 0.9e-3 < np.std(noise) < 1.1e-3

@@ -8,13 +8,15 @@ from gymnasium import spaces
 from aas_gym.envs.base import AasEnv
 from aas_gym.grasp import SQUEEZE_TARGET_M
 from aas_gym.scenario import position_along_path
-from sensors.task import (GRASP_REWARD_TERMS, HOME_TCP, MAX_OPENING_M, STATE_LAYOUT, GraspHold, decode_grasp_action,
-                          grasp_reward_terms,
-                          next_tcp_target, records_this_step, reward_total, step_success, tcp_object_distance_m)
+from sensors.task import (GRASP_REWARD_TERMS, HOME_TCP, MAX_OPENING_M, STATE_LAYOUT, GraspHold, check_action,
+                          check_choice, decode_grasp_action, grasp_reward_terms, next_tcp_target, records_this_step,
+                          reward_total, step_success, tcp_object_distance_m)
 
 # The TCP position and the object's centre in the state vector.
 _TCP = slice(STATE_LAYOUT["tcp"].start, STATE_LAYOUT["tcp"].start + 3)
 _OBJECT = slice(STATE_LAYOUT["object"].start, STATE_LAYOUT["object"].start + 3)
+#: Joint-space control (``control="joint"``): the largest joint-target change per step [rad].
+MAX_JOINT_DELTA_RAD = 0.05
 
 
 class AcousticGraspEnv(AasEnv):
@@ -56,6 +58,7 @@ class AcousticGraspEnv(AasEnv):
     | Parameter | Type | Default | Description |
     |---|---|---|---|
     | `objects` | sequence of str or `ObjectSpec` | `("aluminium_bar",)` | candidate targets, one drawn per episode (`"<material>_<shape>"`, an everyday object, `"<file>:<material>"`) |
+    | `control` | str | `"cartesian"` | `"cartesian"`: the Box(6) action above (any robot); `"joint"` (`robot="panda"` only): Box(9), seven joint-target deltas (scaled by 0.05 rad, kept within the joint limits), gripper, sense |
     """
 
     _acoustic_defaults = {"cadence": "action"}
@@ -63,9 +66,12 @@ class AcousticGraspEnv(AasEnv):
     # The episode starts with the hand 0.3 m above the object: the closeup would miss the reach.
     _default_camera = "workspace"
 
-    def __init__(self, objects=("aluminium_bar",), **kwargs) -> None:
+    def __init__(self, objects=("aluminium_bar",), *, control: str = "cartesian", **kwargs) -> None:
+        self.control = check_choice("control", control, ("cartesian", "joint"))
+        if control == "joint" and kwargs.get("robot", "floating_hand") != "panda":
+            raise ValueError("control='joint' needs an arm: pass robot='panda'")
         super().__init__(objects, **kwargs)
-        self.action_space = spaces.Box(-1.0, 1.0, (6,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (9 if control == "joint" else 6,), np.float32)
         self.observation_space = spaces.Dict({**self._proprio_spaces(with_object=True), **self._acoustic_spaces()})
         self._last_acoustic = self._empty_acoustic()
         self._hold = GraspHold(self.excitation.period_samples)
@@ -86,10 +92,17 @@ class AcousticGraspEnv(AasEnv):
         return self._obs_and_values()[0], info
 
     def step(self, action):
-        act = decode_grasp_action(action)
         sc = self._scene
+        if self.control == "joint":
+            a = check_action(action, (9,))
+            act = decode_grasp_action(np.concatenate([np.zeros(4), a[7:]]))
+            arm = sc.hand
+            step = np.clip(a[:7], -1.0, 1.0) * MAX_JOINT_DELTA_RAD
+            arm.command_joints(sc.data, np.clip(arm.target_q + step, arm.q_low, arm.q_high))
+        else:
+            act = decode_grasp_action(action)
+            sc.set_tcp_target(next_tcp_target(sc.tcp_target(), act.tcp_delta, sc.tcp_low, sc.tcp_high))
         ctrl = sc.ctrl
-        ctrl[sc.tcp_ctrl] = next_tcp_target(ctrl[sc.tcp_ctrl].tolist(), act.tcp_delta, sc.tcp_low, sc.tcp_high)
         ctrl[sc.gripper] = MAX_OPENING_M if act.open_gripper else SQUEEZE_TARGET_M
         self._simulate()
         due = self._acoustic_due()  # acoustic.update_period_s

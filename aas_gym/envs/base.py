@@ -18,6 +18,7 @@ import numpy as np
 from aas_gym import has_display
 from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
+from aas_gym.robots import DEFAULT_ROBOT, check_robot, robot_controller
 from aas_gym.contact_sensors import touch_sensor_name
 from aas_gym.envs.info import contacts_info
 from aas_gym.object_names import DEFAULT_OBJECT_NAMES
@@ -50,6 +51,7 @@ PROBE_RENDER_FPS = 4
 # Where the proprioceptive entries sit in the state vector (sensors.task.grasp.STATE_LAYOUT),
 # as plain ints for the per-step code.
 _TCP = STATE_LAYOUT["tcp"].start
+_TCP_VELOCITY = STATE_LAYOUT["tcp_velocity"].start
 _OBJECT = STATE_LAYOUT["object"].start
 _MOTOR_FORCE = STATE_LAYOUT["gripper"].stop - 1
 
@@ -58,13 +60,18 @@ _LAYOUT_ITEMS = tuple(STATE_LAYOUT.items())
 
 
 class _Scene:
-    """One compiled scene (model, data, hand, sensor) for a tuple of objects."""
+    """One compiled scene (model, data, hand, sensor) for a tuple of objects, held by
+    ``robot`` (``aas_gym.robots``; ``hand`` is its controller)."""
 
-    def __init__(self, objects: tuple[ObjectSpec, ...], contact_signature: bool = False):
+    def __init__(self, objects: tuple[ObjectSpec, ...], contact_signature: bool = False,
+                 robot: str = DEFAULT_ROBOT):
         self.objects = objects
-        self.model = build_scene(list(objects), contact_signature=contact_signature)
+        self.model = build_scene(list(objects), contact_signature=contact_signature, robot=robot)
         self.data = mujoco.MjData(self.model)
-        self.hand = Hand(self.model)
+        self.hand = robot_controller(self.model)
+        # The floating hand's TCP is its carriage's joints and servo targets; an arm's is
+        # computed from its tcp site and commanded through its controller (inverse kinematics).
+        self.carriage = type(self.hand) is Hand
         self.sensor = SimAcousticSensor(self.model, self.data, on_no_grasp="silence")
         self.bodies = self.sensor.bodies
         self.stream: ContactStream = self.sensor.stream
@@ -84,7 +91,8 @@ class _Scene:
         d = self.data
         self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl
         self.actuator_force, self.xpos, self.site_xpos = d.actuator_force, d.xpos, d.site_xpos
-        self.tcp_ctrl = slice(int(self.hand.tcp_actuators[0]), int(self.hand.tcp_actuators[0]) + 4) \
+        self.tcp_ctrl = None if not self.carriage else \
+            slice(int(self.hand.tcp_actuators[0]), int(self.hand.tcp_actuators[0]) + 4) \
             if np.array_equal(self.hand.tcp_actuators, np.arange(self.hand.tcp_actuators[0], self.hand.tcp_actuators[0] + 4)) \
             else self.hand.tcp_actuators
         self.gripper = int(self.hand.gripper_actuator)
@@ -99,7 +107,7 @@ class _Scene:
         nq, nv = self.model.nq, self.model.nv
         obs_map = np.zeros((STATE_SIZE, nq + nv))
         tcp, vel, grip, obj = (STATE_LAYOUT[k] for k in ("tcp", "tcp_velocity", "gripper", "object"))
-        for row, (qa, va) in enumerate(zip(self.hand.tcp_qpos, self.hand.tcp_qvel)):
+        for row, (qa, va) in enumerate(zip(self.hand.tcp_qpos, self.hand.tcp_qvel) if self.carriage else ()):
             obs_map[tcp.start + row, qa] = 1.0
             obs_map[vel.start + row, nq + va] = 1.0
         obs_map[grip.start, self.hand.finger_qpos] = 1.0
@@ -108,12 +116,27 @@ class _Scene:
         self.obs_map = obs_map
         self.state = np.empty(nq + nv)
 
+    def tcp_target(self) -> list[float]:
+        """The commanded TCP (x, y, z [m], yaw [rad])."""
+        if self.carriage:
+            return self.ctrl[self.tcp_ctrl].tolist()
+        return self.hand.tcp_target(self.data).tolist()
+
+    def set_tcp_target(self, tcp) -> None:
+        """Command the TCP (x, y, z [m], yaw [rad]): the carriage's servo targets, or the
+        arm's joint targets by inverse kinematics (``UnreachableError`` if it cannot)."""
+        if self.carriage:
+            self.ctrl[self.tcp_ctrl] = tcp
+        else:
+            self.hand.command(self.data, tcp=tcp)
+
 
 #: The rows every env's argument table ends with (appended to each env's docstring).
 COMMON_ARGUMENTS = """
     | `scene` | str | `"single"` | `"single"`: the target alone on the table; `"multi"`: one or two `distractors` lean across its ends (random object contacts) |
     | `distractors` | sequence of str or `ObjectSpec`, or None | None | objects that may lean on the target; None: the bars of the default objects |
     | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `enabled`, `features` (`"fft140"`, `"spectrogram"`, `"mel"`), `history`, `update_period_s`, `corruption`, `max_samples` (the longest recording or streamed step, default 60 s at 44.1 kHz); None or missing fields: this env's defaults |
+    | `robot` | str | `"floating_hand"` | `"floating_hand"`: the Franka hand on a Cartesian carriage (fast); `"panda"`: the Franka Panda arm with the same hand (needs `gymnasium-robotics` for its meshes), Cartesian TCP actions through inverse kinematics |
     | `grip_force_n` | float | 40.0 | nominal grip force [N], in (0, 140] |
     | `randomization` | `DomainRandomization`, dict of its knobs, None or False | None | domain randomization; None: its defaults; False: none |
     | `frame_skip` | int | 25 | MuJoCo steps (2 ms) per env step, 1 to `AasEnv.max_frame_skip` (5000) |
@@ -200,7 +223,8 @@ class AasEnv(AcousticEnvMixin, gym.Env):
 
     def __init__(self, objects: Sequence[str | ObjectSpec] = DEFAULT_OBJECT_NAMES, *,
                  scene: str = "single", distractors: Sequence[str | ObjectSpec] | None = None,
-                 acoustic: AcousticConfig | dict | None = None, grip_force_n: float = DEFAULT_GRIP_FORCE_N,
+                 acoustic: AcousticConfig | dict | None = None, robot: str = DEFAULT_ROBOT,
+                 grip_force_n: float = DEFAULT_GRIP_FORCE_N,
                  randomization=None, frame_skip: int = 25, render_mode: str | None = None,
                  width: int = 480, height: int = 480, camera_name: str | None = None, **deprecated) -> None:
         unknown = sorted(set(deprecated) - set(LEGACY_KEYWORDS))
@@ -209,6 +233,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         self.acoustic = AcousticConfig.coerce(acoustic, legacy=deprecated, owner=type(self).__name__,
                                               **self._acoustic_defaults)
         self.objects = object_list("objects", objects)
+        self.robot = check_robot(robot)
         self.scene_kind = check_choice("scene", scene, ("single", "multi"))
         self.distractors = (object_list("distractors", distractors) if distractors is not None else
                             default_distractors([get_object(n) for n in DEFAULT_OBJECT_NAMES]))
@@ -320,8 +345,9 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         return scene
 
     def _new_scene(self, objects: tuple[ObjectSpec, ...]) -> _Scene:
-        scene = _Scene(objects, contact_signature=self.acoustic.streaming)
+        scene = _Scene(objects, contact_signature=self.acoustic.streaming, robot=self.robot)
         scene.sensor.leak, scene.sensor.fingertip = self._leaks, self.acoustic.fingertip
+        scene.sensor.contact_model = self.acoustic.contact_model
         return scene
 
     @property
@@ -424,6 +450,9 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         state[nq:] = sc.qvel
         values = sc.obs_map @ state if with_object else sc.obs_map[:_OBJECT] @ state
         values[_MOTOR_FORCE] = -sc.actuator_force[sc.gripper]
+        if not sc.carriage:
+            values[_TCP:_TCP + 4] = sc.hand.tcp(sc.data)
+            values[_TCP_VELOCITY:_TCP_VELOCITY + 4] = sc.hand.tcp_velocity(sc.data)
         buf = values.astype(np.float32)
         obs = {name: buf[sl] for name, sl in _LAYOUT_ITEMS if with_object or name != "object"}
         return obs, values

@@ -216,7 +216,7 @@ class ContactFormationEnv(AasEnv):
             delta *= MAX_STEP_M / dist
         self._target[:3] += delta
         sc = self._scene
-        sc.ctrl[sc.tcp_ctrl] = self._target
+        sc.set_tcp_target(self._target)
 
     def _truth(self) -> dict:
         """The formation from the target's external contact forces after the step."""

@@ -27,6 +27,8 @@ def _config(args: argparse.Namespace) -> DatasetConfig:
     for name in ("single_grasps", "multi_grasps", "positions", "position_repeats", "seed", "shard_size"):
         if getattr(args, name) is not None:
             kw[name] = getattr(args, name)
+    if args.robot is not None:
+        kw["robot"] = args.robot
     for name in ("objects", "excitations", "scenes"):
         if getattr(args, name) is not None:
             kw[name] = _split_names(f"--{name}", getattr(args, name))
@@ -94,6 +96,8 @@ def _add_config_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, help="root seed (default 0)")
     p.add_argument("--shard-size", type=int, help="grasps per output file (default 16)")
     p.add_argument("--waveforms", action="store_true", help="also store raw waveforms")
+    p.add_argument("--robot", choices=("floating_hand", "panda"),
+                   help="who grasps: the floating Franka hand (default, the paper's figures) or the Franka Panda arm")
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="local worker processes")
     p.add_argument("--ray-address", help="run on Ray: 'local' starts a local instance, or a cluster address")
     p.add_argument("--overwrite", action="store_true", help="replace a dataset with another configuration or begun by other code")

@@ -51,9 +51,13 @@ class DatasetConfig:
         grasp_jitter_m: half-range of the uniform error of each grasp along the main axis.
         noise_std: microphone noise standard deviation (full scale 1; 1e-5 is -100 dBFS,
             a good sound card's floor).
+        contact_model: how contacts act on the objects' modes: ``"spring_damper"`` (default,
+            issue 26) or ``"damping"`` (the paper's model); in the manifest and fingerprint.
         store_waveforms: also store raw waveforms (about 176 kB per row).
         seed: root of every random stream.
         shard_size: tasks per output file.
+        robot: who grasps (``aas_gym.robots``): ``"floating_hand"`` (the paper's figures) or
+            ``"panda"`` (the Franka Panda arm with the same hand); recorded in the manifest.
     """
 
     objects: tuple[str, ...] = DEFAULT_OBJECT_NAMES
@@ -68,9 +72,11 @@ class DatasetConfig:
     grip_force_n: float = 40.0
     grasp_jitter_m: float = 0.0005
     noise_std: float = 1e-5
+    contact_model: str = "spring_damper"
     store_waveforms: bool = False
     seed: int = 0
     shard_size: int = 16
+    robot: str = "floating_hand"
 
     #: The most grasps a configuration may expand to (:data:`MAX_TASKS`); raise it on the class
     #: (``DatasetConfig.max_tasks = ...``) for a larger dataset. Not a field: not fingerprinted.
@@ -95,6 +101,13 @@ class DatasetConfig:
         object.__setattr__(self, "grasp_jitter_m", check_number("grasp_jitter_m", self.grasp_jitter_m, 0.0, unit="m"))
         object.__setattr__(self, "noise_std", check_number("noise_std", self.noise_std, 0.0))
         object.__setattr__(self, "store_waveforms", check_flag("store_waveforms", self.store_waveforms))
+        from aas_gym.robots import check_robot
+
+        check_robot(self.robot)
+        from sensors.synthesis.modal_system import CONTACT_MODELS
+
+        if self.contact_model not in CONTACT_MODELS:
+            raise ValueError(f"contact_model must be one of {CONTACT_MODELS}, got {self.contact_model!r}")
         samples = self.duration_s * 44_100
         if samples > MAX_SAMPLES:
             raise ValueError(f"duration_s={self.duration_s:g} s would record {samples:,.0f} samples per recording "

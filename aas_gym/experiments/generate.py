@@ -166,7 +166,8 @@ def _prepare(out_dir: Path, config: DatasetConfig, overwrite: bool) -> list[int]
     manifest_path = _manifest_path(out_dir)
     n_shards = len(config.shards())
     manifest = {"format": FORMAT, "fingerprint": config.fingerprint(), "n_shards": n_shards,
-                "n_tasks": len(config.tasks()), "config": config.to_dict(), "code_version": code_version()}
+                "n_tasks": len(config.tasks()), "config": config.to_dict(), "code_version": code_version(),
+                "robot": config.robot}
     if manifest_path.exists() and not overwrite:
         old = read_manifest(manifest_path, f"regenerate into {out_dir} with overwrite=True (--overwrite), "
                                            "or choose another folder")

@@ -16,7 +16,8 @@ import mujoco
 import numpy as np
 
 from aas_gym.experiments.config import DatasetConfig, Task
-from aas_gym.grasp import Hand, planar_grasp
+from aas_gym.grasp import planar_grasp
+from aas_gym.robots import DEFAULT_ROBOT, robot_controller
 from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, grasp_position, target_grasp,
                               place_objects, settle)
 from aas_gym.scene import build_scene
@@ -38,10 +39,10 @@ GRASP_ATTEMPTS = 4
 SCENES = LRU(CACHE_SIZES["dataset.scenes"])
 
 
-def compiled_scene(objects: tuple) -> mujoco.MjModel:
-    """The compiled scene of these objects (``ObjectSpec`` or names), built once per process
-    (:data:`SCENES`); poses are set per task."""
-    return SCENES.get_or_build(objects, lambda: build_scene(list(objects)))
+def compiled_scene(objects: tuple, robot: str = DEFAULT_ROBOT) -> mujoco.MjModel:
+    """The compiled scene of these objects (``ObjectSpec`` or names) held by ``robot``, built
+    once per process (:data:`SCENES`); poses are set per task."""
+    return SCENES.get_or_build((robot, *objects), lambda: build_scene(list(objects), robot=robot))
 
 
 def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
@@ -50,12 +51,12 @@ def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
     spec = get_object(task.object_name)
     kind = "multi" if task.scene == "multi" else "single"
     objects = choose_objects(rng, spec, default_distractors([get_object(o) for o in config.objects]), kind)
-    model = compiled_scene(tuple(objects))
+    model = compiled_scene(tuple(objects), config.robot)
     data = mujoco.MjData(model)
-    hand = Hand(model)
+    hand = robot_controller(model)
     hand.set_grip_force(config.grip_force_n)
     hand.teleport(data, HOME_TCP, MAX_OPENING_M)
-    sensor = SimAcousticSensor(model, data, noise_std=config.noise_std, rng=rng)
+    sensor = SimAcousticSensor(model, data, noise_std=config.noise_std, rng=rng, contact_model=config.contact_model)
     joints = []
     for name in sensor.bodies:  # the scene's object bodies, in the order of ``objects``
         jnt = model.body_jntadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)]

@@ -22,6 +22,8 @@ CACHE_SIZES: dict[str, int] = {
     "stream.systems": 16,            # streamed contact systems (SystemCache)
     "stream.drive_systems": 4,       # fingertip drive systems per fingertip model
     "stream.steady_states": 8,       # periodic steady states per (system, drive)
+    "modal.flexibility": 2,          # K, M and factorization of K + sigma M per model (static correction)
+    "modal.spring_modes": 32,        # contact-coupled modes per (model, contact springs)
     "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container
     "fluid.containers": 8,           # containers (dry model + static correction) per object
     "objects.solids": 64,            # surfaces and meshers of the catalog's surface objects

@@ -7,6 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._infra.checks import holds_bool, real_number
+from ..materials.solids import get_material
+from .contact_stiffness import DEFAULT_CONTACT_RADIUS_M, DEFAULT_COUNTER_MATERIAL
 
 # Normals coming from MuJoCo are float32 and renormalised upstream; 1e-4 accepts rounding
 # but rejects a vector that was never normalised (or a force vector passed by mistake).
@@ -33,8 +35,19 @@ class Contact:
     position_m : (3,) contact point in the object frame [m].
     normal : (3,) unit OUTWARD surface normal of the object at the point (object frame).
         A finger pushing on the object pushes along ``-normal``.
-    force_n : normal force magnitude [N], >= 0 (it scales the contact damping).
+    force_n : normal force magnitude [N], >= 0 (it scales the contact damping and sets the
+        Hertz stiffness); 0: the contact does not touch.
     friction : Coulomb friction coefficient mu >= 0.
+    normal_stiffness_n_per_m, tangential_stiffness_n_per_m : the contact's spring [N/m] along
+        the normal and across it (both tangential directions).  ``None`` (default): derived
+        from the force, ``radius_m`` and both bodies' elastic constants, Hertz normal and, for
+        a contact with friction (it sticks), Mindlin tangential
+        (:mod:`sensors.modal.contact_stiffness`); ``0``: no spring.  The fingertip pads get
+        theirs from ``sensors.FingertipModel``.  Used with ``contact_model="spring_damper"``
+        (the default of the synthesis); ``"damping"`` ignores them (the paper's model).
+    radius_m : effective radius of curvature [m] of the contact for Hertz (default
+        ``DEFAULT_CONTACT_RADIUS_M`` = 5 mm, a rounded edge on a flat).
+    counter_material : the material name of the other body (default ``"wood"``, a table).
 
     Raises ``ValueError`` for non-finite values, a normal whose length differs from 1 by more
     than ``NORMAL_TOLERANCE``, a negative force or a negative friction coefficient.  The
@@ -45,6 +58,10 @@ class Contact:
     normal: np.ndarray
     force_n: float
     friction: float
+    normal_stiffness_n_per_m: float | None = None
+    tangential_stiffness_n_per_m: float | None = None
+    radius_m: float = DEFAULT_CONTACT_RADIUS_M
+    counter_material: str = DEFAULT_COUNTER_MATERIAL
 
     def __post_init__(self) -> None:
         p, n = _vector3(self.position_m, "position_m"), _vector3(self.normal, "normal")
@@ -61,6 +78,17 @@ class Contact:
             raise ValueError(f"Contact force_n must be finite and >= 0 N, got {self.force_n!r}")
         if not np.isfinite(mu) or mu < 0.0:
             raise ValueError(f"Contact friction must be finite and >= 0, got {self.friction!r}")
+        for name in ("normal_stiffness_n_per_m", "tangential_stiffness_n_per_m"):
+            k = getattr(self, name)
+            if k is not None:
+                k = real_number(k, f"Contact {name} [N/m]")
+                if k < 0.0:
+                    raise ValueError(f"Contact {name} must be >= 0 N/m or None, got {k!r}")
+                object.__setattr__(self, name, k)
+        radius = real_number(self.radius_m, "Contact radius_m [m]", above=0.0)
+        if not isinstance(self.counter_material, str):
+            raise TypeError(f"Contact counter_material must be a material name, got {self.counter_material!r}")
+        get_material(self.counter_material)  # KeyError listing the names for an unknown one
         n = n / length
         p.setflags(write=False)
         n.setflags(write=False)
@@ -68,9 +96,12 @@ class Contact:
         object.__setattr__(self, "normal", n)
         object.__setattr__(self, "force_n", f)
         object.__setattr__(self, "friction", mu)
+        object.__setattr__(self, "radius_m", radius)
 
     def _key(self) -> tuple:
-        return (*self.position_m.tolist(), *self.normal.tolist(), self.force_n, self.friction)
+        return (*self.position_m.tolist(), *self.normal.tolist(), self.force_n, self.friction,
+                self.normal_stiffness_n_per_m, self.tangential_stiffness_n_per_m, self.radius_m,
+                self.counter_material)
 
     def __eq__(self, other) -> bool:
         return isinstance(other, Contact) and self._key() == other._key()
@@ -85,13 +116,24 @@ class Contact:
             "normal": self.normal.tolist(),
             "force_n": self.force_n,
             "friction": self.friction,
+            "normal_stiffness_n_per_m": self.normal_stiffness_n_per_m,
+            "tangential_stiffness_n_per_m": self.tangential_stiffness_n_per_m,
+            "radius_m": self.radius_m,
+            "counter_material": self.counter_material,
         }
 
     @classmethod
     def from_dict(cls, d: dict) -> "Contact":
-        return cls(d["position_m"], d["normal"], d["force_n"], d["friction"])
+        """The contact of :meth:`to_dict` (a dict written before the stiffness fields existed
+        reads with their defaults)."""
+        return cls(d["position_m"], d["normal"], d["force_n"], d["friction"],
+                   d.get("normal_stiffness_n_per_m"), d.get("tangential_stiffness_n_per_m"),
+                   d.get("radius_m", DEFAULT_CONTACT_RADIUS_M), d.get("counter_material", DEFAULT_COUNTER_MATERIAL))
 
     def __repr__(self) -> str:
         p = ", ".join(f"{v:.4g}" for v in self.position_m)
         n = ", ".join(f"{v:.3g}" for v in self.normal)
-        return f"Contact(position_m=[{p}], normal=[{n}], force_n={self.force_n:.4g}, friction={self.friction:.3g})"
+        extra = "".join(f", {k}={getattr(self, k):.4g}" for k in ("normal_stiffness_n_per_m", "tangential_stiffness_n_per_m")
+                        if getattr(self, k) is not None)
+        return (f"Contact(position_m=[{p}], normal=[{n}], force_n={self.force_n:.4g}, friction={self.friction:.3g}"
+                f"{extra})")

@@ -3,6 +3,7 @@ discretisation and the modal system, the lumped fingertip drive, the microphone,
 recording chain: a stream across contact changes, of which a batch recording is one span."""
 
 from .caches import SynthesisCache, SystemCache
+from .contact_modes import contact_modes
 from .fingertip import FingertipModel
 from .grasp_state import ContactTolerance, GraspState
 from .microphone import MIC_GAIN_PER_M, mic_gain
@@ -10,6 +11,6 @@ from .modal_system import ModalSystem, modal_response, modal_state_matrix, perio
 from .recording import simulate_recording
 from .stream import AcousticStream
 
-__all__ = ["FingertipModel", "ModalSystem", "modal_response", "modal_state_matrix", "periodic_response",
+__all__ = ["contact_modes", "FingertipModel", "ModalSystem", "modal_response", "modal_state_matrix", "periodic_response",
            "SynthesisCache", "simulate_recording", "AcousticStream", "ContactTolerance", "GraspState",
            "SystemCache", "MIC_GAIN_PER_M", "mic_gain"]

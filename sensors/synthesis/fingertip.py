@@ -42,6 +42,11 @@ Parameter values (defaults) and why
 - ``contact_stiffness_n_m = 2e6``: Hertz-like stiffness of a printed fingertip on a metal/
   plastic object at 40 N (order 1e6-1e7 N/m); ``contact_damping_n_s_m = 70``: damping ratio
   ~0.1 of the fingertip on that contact.
+- ``contact_tangential_stiffness_n_m = 1.56e6``: the pad's spring across the normal while it
+  sticks (Mindlin, ``sensors.modal.contact_stiffness``): k_t / k_n = 2 (1 - nu) / (2 - nu) =
+  0.78 for the printed pad's nu = 0.36 (it is the softer body, so its nu sets the ratio).
+  With ``contact_model="spring_damper"`` both pad springs hold the object's modes at each
+  fingertip contact (``FingertipModel.pad``); the lumped drive above uses the normal one.
 - ``object_mass_kg = 0.1``: rigid-body mass of the object (pass the real one when known);
   ``environment_*``: coupling of the object to the table/world along the grip axis
   (0 = held in the air).
@@ -89,6 +94,7 @@ class FingertipModel:
     environment_stiffness_n_m: float = 0.0
     environment_damping_n_s_m: float = 0.0
     substeps: int = 8  # RK4 steps per sample for the one-sided (separating) case
+    contact_tangential_stiffness_n_m: float = 1.56e6
 
     def __post_init__(self) -> None:
         for k, v in asdict(self).items():
@@ -103,6 +109,16 @@ class FingertipModel:
 
     def with_(self, **changes) -> "FingertipModel":
         return replace(self, **changes)
+
+    def pad(self, contact):
+        """A fingertip ``sensors.Contact`` with this pad's springs (``contact_stiffness_n_m``
+        along the normal, ``contact_tangential_stiffness_n_m`` across it) where it gives none."""
+        changes = {}
+        if contact.normal_stiffness_n_per_m is None:
+            changes["normal_stiffness_n_per_m"] = self.contact_stiffness_n_m
+        if contact.tangential_stiffness_n_per_m is None:
+            changes["tangential_stiffness_n_per_m"] = self.contact_tangential_stiffness_n_m
+        return replace(contact, **changes) if changes else contact
 
     # -- matrices -----------------------------------------------------------------------
     def _params(self) -> np.ndarray:

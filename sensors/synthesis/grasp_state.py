@@ -51,7 +51,8 @@ class GraspState:
         object.__setattr__(self, "_table", None)
 
     def contact_table(self) -> np.ndarray:
-        """Rows [position_m (3), normal (3), force_n, friction] of the actuator, mic (NaN
+        """Rows [position_m (3), normal (3), force_n, friction, normal and tangential
+        stiffness (-1: derived), radius_m, counter material code] of the actuator, mic (NaN
         rows where absent) and other contacts with a positive force; computed once."""
         if self._table is None:
             rows = [_row(self.actuator), _row(self.mic)]
@@ -72,8 +73,12 @@ class GraspState:
 
 def _row(c: Contact | None) -> np.ndarray:
     if c is None:
-        return np.full(8, np.nan)
-    return np.concatenate([c.position_m, c.normal, [c.force_n, c.friction]])
+        return np.full(12, np.nan)
+    kn, kt = c.normal_stiffness_n_per_m, c.tangential_stiffness_n_per_m
+    # the material as a number: equal names give equal codes within a process (tables are not stored)
+    code = float(hash(c.counter_material) % 2**31)
+    return np.concatenate([c.position_m, c.normal, [c.force_n, c.friction, -1.0 if kn is None else kn,
+                                                    -1.0 if kt is None else kt, c.radius_m, code]])
 
 
 @dataclass(frozen=True)
@@ -81,8 +86,10 @@ class ContactTolerance:
     """When two contact sets count as the same system.
 
     Two contacts match when their positions differ by at most ``position_m``, their normals
-    by at most ``normal_rad``, their frictions by at most 1e-9, and their forces by at most
-    ``force_rtol * f_ref + force_atol_n``.  Sets match when the roles (actuator, mic) match
+    by at most ``normal_rad``, their frictions by at most 1e-9, their forces by at most
+    ``force_rtol * f_ref + force_atol_n``, and their given stiffnesses, radii and counter
+    materials are the same (to 1e-9 relative).  A derived (Hertz) stiffness grows as
+    F^(1/3): within the force tolerance it is within a third of ``force_rtol``.  Sets match when the roles (actuator, mic) match
     and the other contacts match one to one (any order).
 
     Effect on accuracy: contact damping is linear in each contact's force, so a matched set
@@ -126,6 +133,7 @@ class ContactTolerance:
             ok &= dn <= 2 * np.sin(self.normal_rad / 2) + 1e-15
             ok &= np.abs(a[:, 6] - ref[:, 6]) <= self.force_rtol * ref[:, 6] + self.force_atol_n
             ok &= np.abs(a[:, 7] - ref[:, 7]) <= 1e-9
+            ok &= np.all(np.abs(a[:, 8:] - ref[:, 8:]) <= 1e-9 * np.abs(ref[:, 8:]) + 1e-12, axis=1)
         return np.where(absent_a | absent_r, absent_a & absent_r, ok)
 
     def tables_match(self, a: np.ndarray, ref: np.ndarray) -> bool:

@@ -31,8 +31,14 @@ Modes at or above Nyquist are dropped by default (``max_frequency_hz``): a sampl
 cannot carry them, and their only effect on the samples is a quasi-static compliance far below
 the band (reported by ``benchmarks/synthesis.py`` under mode truncation).
 
+Contacts are springs and dampers (``contact_model="spring_damper"``, the default): the system
+of a contact set is built on the object's modes with the contacts' springs
+(:mod:`sensors.modal.spring_modes`: rigid-body, elastic and attachment modes).  The paper's
+model, ``contact_model="damping"``, keeps the free modes and only damps them.
+
 Contacts may change over time (piecewise-constant contact sets): each segment gets its own
-system and the full modal state is carried across the switch.  For a static grasp under a
+system and the full modal state is carried across the switch (projected onto the next set's
+modes where the springs change them, :func:`sensors.modal.spring_modes.modal_transfer`).  For a static grasp under a
 periodic force, :func:`periodic_response` gives the exact periodic steady state.
 """
 
@@ -45,10 +51,16 @@ import numpy as np
 
 from ..modal.contact import Contact
 from ..modal.damping import check_on_surface, modal_damping_matrix, modal_damping_parts
+from ..modal.spring_modes import modal_transfer, spring_modes
 from .low_rank_modes import low_rank_modes
 from .lti import DensePart, DiscreteSystem, EigenPart, force_signal, lti_parts, one_blas_thread
 
-__all__ = ["ModalSystem", "modal_response", "periodic_response", "modal_state_energy", "modal_state_matrix"]
+__all__ = ["CONTACT_MODELS", "ModalSystem", "contact_modal_model", "modal_response", "periodic_response",
+           "modal_state_energy", "modal_state_matrix", "transfer_state"]
+
+#: How contacts act on the object: ``"spring_damper"`` (default; stiffness and damping) or
+#: ``"damping"`` (the paper's model: contact damping on the free modes).
+CONTACT_MODELS = ("spring_damper", "damping")
 
 _OUTPUTS = ("displacement", "velocity", "acceleration")
 _METHODS = ("exact", "diagonal")
@@ -86,6 +98,36 @@ def _point(p, what: str) -> np.ndarray:
     return p
 
 
+def contact_modal_model(model, contacts, contact_model: str = "spring_damper"):
+    """The modes a contact set's system is built on: ``model`` with the contacts' springs
+    (``"spring_damper"``; ``model`` itself when no contact is a spring) or ``model``
+    (``"damping"``)."""
+    if contact_model not in CONTACT_MODELS:
+        raise ValueError(f"contact_model must be one of {CONTACT_MODELS}, got {contact_model!r}")
+    return spring_modes(model, contacts) if contact_model == "spring_damper" else model
+
+
+def transfer_state(x, from_modes, to_modes) -> np.ndarray:
+    """The scaled state x = [w q; q'] of ``from_modes`` as a state of ``to_modes`` (the same
+    object under another contact set); ``x`` itself when the modes are the same.
+
+    Both halves are mapped by T = Phi_to^T M Phi_from (the M-orthogonal projection,
+    :func:`sensors.modal.spring_modes.modal_transfer`): the velocity field carries over, and so
+    does the displacement of every mode the switch leaves unchanged.  A mode whose frequency
+    the new springs change keeps its strain energy rather than its amplitude: a contact forms
+    unstretched, so a spring that engages on a displaced point (a bar rocking on its pads
+    touching the table) must not store 1/2 k u^2 out of nothing, which in a stream switching
+    every physics step would pump energy into the object.  As ||T|| <= 1 (orthonormal bases),
+    no switch adds energy.
+    """
+    if from_modes is to_modes or x is None:
+        return x
+    ra = len(from_modes.angular_frequencies_rad_s)
+    x = np.asarray(x, float).reshape(2, ra)
+    T = modal_transfer(from_modes, to_modes)
+    return np.concatenate([T @ x[0], T @ x[1]])
+
+
 def modal_state_energy(x: np.ndarray) -> np.ndarray:
     """Modal energy |x|^2 / 2 [J] of a scaled state x = [w q; q'] (along the last axis).
 
@@ -121,17 +163,19 @@ class ModalSystem(DiscreteSystem):
     state excites.
     """
 
-    def __init__(self, parts, n_modes: int, kept: np.ndarray, sample_rate_hz: float, hold: str):
+    def __init__(self, parts, n_modes: int, kept: np.ndarray, sample_rate_hz: float, hold: str, modes=None):
         super().__init__(parts, 2 * n_modes, sample_rate_hz, hold)
         self.n_modes = n_modes
         self.kept = kept  # indices of modes that take part in the synthesis
+        self.modes = modes  # the modes its state is in (the model, or the model with contact springs)
 
     @classmethod
     def build(cls, model, sample_rate_hz: float, drive_point_m, drive_normal, mic_point_m, mic_normal,
               contacts: Sequence[Contact] = (), method: str = "exact",
               output: str = "displacement", hold: str = "foh",
               max_frequency_hz: float | None = None, damping=None,
-              keep_unobservable: bool = False, initial_state=None) -> "ModalSystem":
+              keep_unobservable: bool = False, initial_state=None, contact_model: str = "spring_damper",
+              keep_all_modes: bool = False) -> "ModalSystem":
         """Discretise the modal system of ``model`` at ``sample_rate_hz`` [Hz].
 
         The drive force pushes INTO the object at ``drive_point_m`` (along ``-drive_normal``,
@@ -139,7 +183,10 @@ class ModalSystem(DiscreteSystem):
         ``+mic_normal`` (outward).  ``damping`` overrides C_m (r x r) if given.
         ``keep_unobservable`` keeps modes the microphone cannot see (needed when the state
         is carried into a later contact set); modes with a nonzero ``initial_state`` count as
-        reached by the drive.
+        reached by the drive; ``keep_all_modes`` keeps every mode below ``max_frequency_hz``
+        (a system whose state is carried into any later contact set).  ``contact_model``: see
+        :data:`CONTACT_MODELS`; with springs the state is in the coupled modes
+        (:attr:`modes`, ``transfer_state`` maps states between contact sets).
         """
         if method not in _METHODS:
             raise ValueError(f"method must be one of {_METHODS}, got {method!r}")
@@ -154,6 +201,9 @@ class ModalSystem(DiscreteSystem):
         dn, mn = _unit(drive_normal, "drive_normal"), _unit(mic_normal, "mic_normal")
         contacts = _as_contacts(contacts)
         check_on_surface(model, np.array([dp, mp]), "drive/mic point")
+        if damping is None:  # a given C_m is of the model's own modes: no springs then
+            check_on_surface(model, np.array([c.position_m for c in contacts]).reshape(-1, 3), "contact")
+            model = contact_modal_model(model, contacts, contact_model)
 
         w_all = np.asarray(model.angular_frequencies_rad_s, dtype=float)
         r_all = len(w_all)
@@ -167,8 +217,9 @@ class ModalSystem(DiscreteSystem):
         o_all = mn @ Ush[1]
         fmax = sample_rate_hz / 2.0 if max_frequency_hz is None else float(max_frequency_hz)
         kept = np.flatnonzero(w_all < 2 * np.pi * fmax)
-        excited = np.zeros(r_all, bool)
-        if initial_state is not None:
+        excited = np.full(r_all, bool(keep_all_modes))
+        keep_unobservable = keep_unobservable or bool(keep_all_modes)
+        if initial_state is not None and not keep_all_modes:
             x0 = np.asarray(initial_state, dtype=float).reshape(2, r_all)
             excited = np.any(x0 != 0, axis=0)
         kept = _relevant_modes(kept, C_all, b_all, o_all, keep_unobservable, excited)
@@ -179,7 +230,7 @@ class ModalSystem(DiscreteSystem):
         glob = np.concatenate([kept, r_all + kept])
         for p in parts:
             p.idx = glob[p.idx]
-        return cls(parts, r_all, kept, sample_rate_hz, hold)
+        return cls(parts, r_all, kept, sample_rate_hz, hold, model)
 
 
 def _relevant_modes(kept, C, b, o, keep_unobservable, excited):
@@ -315,7 +366,7 @@ def _schedule(contacts, sample_rate_hz: float, n: int):
 def modal_response(model, force_n, sample_rate_hz, drive_point_m, drive_normal, mic_point_m, mic_normal,
                    contacts=(), method: str = "exact", output: str = "displacement",
                    hold: str = "foh", max_frequency_hz: float | None = None,
-                   initial_state=None) -> np.ndarray:
+                   initial_state=None, contact_model: str = "spring_damper") -> np.ndarray:
     """Object response at the microphone to a sampled force, zero initial state.
 
     Parameters
@@ -335,7 +386,9 @@ def modal_response(model, force_n, sample_rate_hz, drive_point_m, drive_normal, 
     output : ``"displacement"`` [m] (default, the paper's choice), ``"velocity"`` [m/s] or
         ``"acceleration"`` [m/s^2] of the object at the mic point along ``+mic_normal``.
     max_frequency_hz : drop modes at or above this frequency (default: Nyquist, sample_rate_hz/2).
-    initial_state : optional scaled state [w q; q'] (2 r,) at the first sample.
+    initial_state : optional scaled state [w q; q'] (2 r,) at the first sample, in the modes
+        of the first contact set (:func:`contact_modal_model`).
+    contact_model : ``"spring_damper"`` (default) or ``"damping"`` (:data:`CONTACT_MODELS`).
 
     Returns
     -------
@@ -357,14 +410,18 @@ def modal_response(model, force_n, sample_rate_hz, drive_point_m, drive_normal, 
         return np.zeros(n)
     y = np.zeros(n)
     x = initial_state
+    modes = None
     bounds = [s for s, _ in sched] + [n]
     for i, (s, cs) in enumerate(sched):
         e = bounds[i + 1]
         last = i == len(sched) - 1
+        if modes is not None:
+            x = transfer_state(x, modes, contact_modal_model(model, cs, contact_model))
         sysm = ModalSystem.build(model, sample_rate_hz, drive_point_m, drive_normal, mic_point_m, mic_normal,
                                  cs, method=method, output=output, hold=hold,
                                  max_frequency_hz=max_frequency_hz, keep_unobservable=not last,
-                                 initial_state=x)
+                                 initial_state=x, contact_model=contact_model)
+        modes = sysm.modes
         y[s:e] = sysm.response(u[s:e], x)
         if not last:
             # the force is continuous through the switch sample e: propagate over [s, e]
@@ -375,7 +432,7 @@ def modal_response(model, force_n, sample_rate_hz, drive_point_m, drive_normal, 
 def periodic_response(model, force_period_n, sample_rate_hz, drive_point_m, drive_normal, mic_point_m,
                       mic_normal, contacts=(), method: str = "exact",
                       output: str = "displacement", hold: str = "foh",
-                      max_frequency_hz: float | None = None) -> np.ndarray:
+                      max_frequency_hz: float | None = None, contact_model: str = "spring_damper") -> np.ndarray:
     """Exact periodic steady state (one period) for a static grasp under a looping force.
 
     Same arguments as :func:`modal_response`; ``force_period_n`` is one period of the
@@ -383,5 +440,5 @@ def periodic_response(model, force_period_n, sample_rate_hz, drive_point_m, driv
     """
     sysm = ModalSystem.build(model, sample_rate_hz, drive_point_m, drive_normal, mic_point_m, mic_normal,
                              contacts, method=method, output=output, hold=hold,
-                             max_frequency_hz=max_frequency_hz)
+                             max_frequency_hz=max_frequency_hz, contact_model=contact_model)
     return sysm.periodic_response(force_period_n)

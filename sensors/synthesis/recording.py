@@ -35,7 +35,8 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
                        other_contacts: Sequence[Contact] = (), fingertip: FingertipModel | None = None,
                        leak: LeakRecording | str | os.PathLike | None = None, noise_std: float = 0.0,
                        rng=None, output: str = "displacement", method: str = "exact",
-                       steady_state: bool = False, cache: SynthesisCache | None = None) -> AcousticObservation:
+                       steady_state: bool = False, cache: SynthesisCache | None = None,
+                       contact_model: str = "spring_damper") -> AcousticObservation:
     """Simulate the contact microphone while the actuator plays ``excitation`` in a grasp.
 
     Parameters
@@ -61,6 +62,10 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
     steady_state : if True, the grasp has been vibrating long enough for the transient to
         have decayed: the exact periodic steady state (per harmonic of the loop frequency),
         repeated.  Default False: the recording starts with the excitation, from rest.
+    contact_model : ``"spring_damper"`` (default): every contact, the fingertip pads included
+        (their springs from ``fingertip``), is a spring and a damper on the object's modes;
+        ``"damping"``: the paper's model, contacts only damp the free modes
+        (``sensors.synthesis.modal_system.CONTACT_MODELS``).  Recorded in the metadata.
     cache : a :class:`SynthesisCache` to reuse per-grasp systems and drive forces across
         calls (``None``: nothing is kept).
 
@@ -78,6 +83,7 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
     others = tuple(other_contacts)
     grasp = GraspState(model, actuator_contact, mic_contact, others)
     meta: dict = {"source": "sim", "output": output, "method": method, "steady_state": bool(steady_state),
+                  "contact_model": contact_model,
                   "mic_gain": mic_gain(output), "noise_std": float(noise_std),
                   "contacts": {"actuator": None if actuator_contact is None else actuator_contact.to_dict(),
                                "mic": None if mic_contact is None else mic_contact.to_dict(),
@@ -86,7 +92,8 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
     y = np.zeros(n)
     if grasp.closed:
         stream = AcousticStream(excitation, fingertip, output=output, method=method,
-                                cache=SynthesisCache() if cache is None else cache, carry_state=False)
+                                cache=SynthesisCache() if cache is None else cache, carry_state=False,
+                                contact_model=contact_model)
         if steady_state:
             try:
                 stream.settle(grasp)

@@ -53,7 +53,7 @@ from .fingertip import FingertipModel
 from .grasp_state import ContactTolerance, GraspState
 from .lti import SETTLE_E_FOLDS, SteadyState
 from .microphone import Microphone
-from .modal_system import ModalSystem
+from .modal_system import CONTACT_MODELS, ModalSystem, transfer_state
 
 __all__ = ["AcousticStream"]
 
@@ -70,6 +70,15 @@ class _ObjectState:
     system: ModalSystem | None = None  # the system of its latest heard samples ...
     settled: int = 0                 # ... and how many of them ran under a periodic drive
     steady: SteadyState | None = None  # while in periodic steady state: the state is periodic
+    modes: Any = None                # the modes the state is in (the model, or it with contact springs)
+
+    def state_in(self, modes) -> np.ndarray:
+        """The state at sample ``at`` in ``modes`` (projected from the modes it is in when the
+        contact springs changed them, ``sensors.synthesis.modal_system.transfer_state``)."""
+        x = self.state()
+        if modes is not self.modes:
+            self.x, self.modes = transfer_state(x, self.modes, modes), modes
+        return self.x
 
     def state(self) -> np.ndarray:
         """The state at sample ``at``: propagated through the latest span now, or taken out
@@ -118,7 +127,7 @@ class AcousticStream:
         the start of each loop period).
     noise_std, rng : white sensor noise (recorded units) from this ``numpy.random.Generator``
         (or seed), drawn sample by sample in stream order.
-    output, method : as ``simulate_recording``.
+    output, method, contact_model : as ``simulate_recording``.
     tolerance : when a contact set counts as unchanged (``ContactTolerance``; default
         ``ContactTolerance()``).
     cache_size : systems kept in :attr:`systems` (default ``CACHE_SIZES["stream.systems"]``).
@@ -133,7 +142,8 @@ class AcousticStream:
                  leak: LeakRecording | str | os.PathLike | None = None, noise_std: float = 0.0,
                  rng=None, output: str = "displacement", method: str = "exact",
                  tolerance: ContactTolerance | None = None, cache_size: int | None = None,
-                 leak_lag_samples: int = 0, cache: SynthesisCache | None = None, *, carry_state: bool = True):
+                 leak_lag_samples: int = 0, cache: SynthesisCache | None = None, *, carry_state: bool = True,
+                 contact_model: str = "spring_damper"):
         if not isinstance(excitation, Excitation):
             raise TypeError(f"excitation must be a sensors.Excitation, got {type(excitation).__name__}")
         if fingertip is not None and not isinstance(fingertip, FingertipModel):
@@ -153,7 +163,13 @@ class AcousticStream:
         self.systems = cache.systems
         self.drive = FingertipDrive(excitation, cache.forces)
         self.carry_state = bool(carry_state)
-        self._settings = (self.sample_rate_hz, method, output, self.carry_state)
+        if contact_model not in CONTACT_MODELS:
+            raise ValueError(f"contact_model must be one of {CONTACT_MODELS}, got {contact_model!r}")
+        self.contact_model = contact_model
+        # the fingertip pads' springs (their own contacts give none): part of every system
+        self._pad = fingertip if fingertip is not None else FingertipModel()
+        pads = (self._pad.contact_stiffness_n_m, self._pad.contact_tangential_stiffness_n_m)
+        self._settings = (self.sample_rate_hz, method, output, self.carry_state, contact_model, pads)
         self.sample_index = 0                     # absolute index of the next sample
         self._objects: dict[Hashable, _ObjectState] = {}
         self._current: Hashable | None = None
@@ -236,6 +252,7 @@ class AcousticStream:
         drive = self.drive.settle(res.fingertip, res.grip_force_n)
         st.system, st.settled = res.system, 0
         st.steady, st.x, st.end = self._steady_of(res.system, drive), None, None
+        st.modes = res.system.modes
         st.geometry = (grasp.actuator.position_m, grasp.actuator.normal, grasp.mic.position_m, grasp.mic.normal)
 
     def latest_features(self) -> np.ndarray | None:
@@ -259,6 +276,7 @@ class AcousticStream:
     def metadata(self) -> dict:
         """Settings and running facts, JSON-serialisable (like ``simulate_recording``'s)."""
         meta = {"source": "sim", "stream": True, "output": self.output, "method": self.method,
+                "contact_model": self.contact_model,
                 "mic_gain": self.gain, "noise_std": self.noise_std,
                 "sample_index": int(self.sample_index), "heard_samples": int(self.heard_samples),
                 "fingertip_separated": bool(self.fingertip_separated),
@@ -338,21 +356,20 @@ class AcousticStream:
 
     def _closed_system(self, g: GraspState) -> ModalSystem:
         others = [c for c in g.others if c.force_n > 0]
-        r = len(g.model.angular_frequencies_rad_s)
         # carrying the state: keep every mode, any may carry state into a later contact set
-        keep = {"keep_unobservable": True, "initial_state": np.ones(2 * r)} if self.carry_state else {}
         return self.systems.get_or_build(g, True, self._settings, lambda: ModalSystem.build(
             g.model, self.sample_rate_hz, g.actuator.position_m, g.actuator.normal, g.mic.position_m,
-            g.mic.normal, [g.actuator, g.mic, *others], method=self.method, output=self.output, **keep))
+            g.mic.normal, [self._pad.pad(g.actuator), self._pad.pad(g.mic), *others], method=self.method,
+            output=self.output, contact_model=self.contact_model, keep_all_modes=self.carry_state))
 
     def _ring_system(self, g: GraspState, geometry) -> ModalSystem:
         """Free ring-down under the contacts the object still has (no drive, not heard).
         The drive/mic points only shape B and C, which zero force and no output ignore."""
-        contacts = [c for c in g.damping_contacts() if c.force_n > 0]
-        r = len(g.model.angular_frequencies_rad_s)
+        tips = [self._pad.pad(c) for c in (g.actuator, g.mic) if c is not None]
+        contacts = [c for c in (*tips, *g.others) if c.force_n > 0]
         return self.systems.get_or_build(g, False, self._settings, lambda: ModalSystem.build(
             g.model, self.sample_rate_hz, *geometry, contacts, method=self.method, output=self.output,
-            keep_unobservable=True, initial_state=np.ones(2 * r)))
+            contact_model=self.contact_model, keep_all_modes=True))
 
     def _drive_model(self, g: GraspState) -> FingertipModel:
         """The grasp's fingertip model with grip force 0 (``FingertipDrive`` applies the grip)."""
@@ -367,7 +384,7 @@ class AcousticStream:
         st = self._objects.get(key)
         r = len(g.model.angular_frequencies_rad_s)
         if st is None:
-            st = _ObjectState(g.model, 2 * r, np.zeros(2 * r), self.sample_index)
+            st = _ObjectState(g.model, 2 * r, np.zeros(2 * r), self.sample_index, modes=g.model)
             self._objects[key] = st
         elif st.n_state != 2 * r:
             raise ValueError(f"object {key!r} changed its number of modes -> {r}")
@@ -375,8 +392,9 @@ class AcousticStream:
             # the object was out of the stream: ring it down over the gap under its last contacts
             x = st.state()
             if np.any(x) and st.geometry is not None and st.last is not None:
-                Phi = self._ring_system(st.last, st.geometry).transition_matrix()
-                st.x = np.linalg.matrix_power(Phi, self.sample_index - st.at) @ x
+                ring = self._ring_system(st.last, st.geometry)
+                x = st.state_in(ring.modes)
+                st.x = np.linalg.matrix_power(ring.transition_matrix(), self.sample_index - st.at) @ x
             st.at = self.sample_index
         if key != self._current:
             self.drive.reset()      # another object in the hand: the drive starts from rest
@@ -398,7 +416,7 @@ class AcousticStream:
                 out[:] = st.steady.output[(s + np.arange(n)) % len(st.steady.output)]
                 self.steady_samples += n
             else:
-                x = st.state()
+                x = st.state_in(sysm.modes)
                 out[:] = sysm.response(u[:n], x)
                 st.x, st.end = None, (sysm, u, x) if self.carry_state else None
                 if steady_drive is not None:
@@ -412,7 +430,9 @@ class AcousticStream:
             st.system = None
             x = st.state()
             if np.any(x) and st.geometry is not None:
-                st.x, st.end = None, (self._ring_system(g, st.geometry), np.zeros(n + 1), x)
+                ring = self._ring_system(g, st.geometry)
+                x = st.state_in(ring.modes)
+                st.x, st.end = None, (ring, np.zeros(n + 1), x)
         st.last = g
         st.at = s + n
         self.sample_index = s + n

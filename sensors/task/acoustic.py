@@ -19,6 +19,7 @@ from ..signals.leak import LeakRecording
 from ..signals.observation import AcousticObservation
 from ..signals.spectrogram import (N_MELS, mel_spectrogram, n_frames, spectrogram, spectrogram_frequencies_hz)
 from ..synthesis.fingertip import FingertipModel
+from ..synthesis.modal_system import CONTACT_MODELS
 from ..synthesis.stream import ContactTolerance
 from .checks import check_choice, check_flag, check_integer, check_number
 from .frames import AcousticFrames
@@ -114,6 +115,9 @@ class AcousticConfig:
             (``aas real leak`` records them); ``None``: no leak.
         fingertip: simulation only: the lumped exciter/fingertip drive
             (``sensors.FingertipModel``); ``None``: its defaults at the env's grip force.
+        contact_model: simulation only: ``"spring_damper"`` (default: contacts, the fingertip
+            pads included, are springs and dampers on the object's modes) or ``"damping"``
+            (the paper's model: contacts only damp the free modes).
         stream_tolerance: simulation only, with ``cadence="stream"``: when contacts count as
             unchanged (``sensors.ContactTolerance``); ``None``: its defaults.
         features: what ``acoustic`` holds (:data:`FEATURE_MODES`): ``"fft140"`` (default, the
@@ -158,12 +162,14 @@ class AcousticConfig:
     update_period_s: float | None = None
     corruption: CorruptionPipeline | None = None
     max_samples: int = MAX_SAMPLES
+    contact_model: str = "spring_damper"
 
     def __post_init__(self) -> None:
         for name in ("enabled", "waveform"):  # "no" and "False" are true values: refuse strings
             object.__setattr__(self, name, check_flag(f"acoustic.{name}", getattr(self, name)))
         check_choice("acoustic.cadence", self.cadence, CADENCES)
         check_choice("acoustic.feature_scale", self.feature_scale, FEATURE_SCALES)
+        check_choice("acoustic.contact_model", self.contact_model, CONTACT_MODELS)
         object.__setattr__(self, "noise_std", check_number("acoustic.noise_std", self.noise_std, 0.0))
         object.__setattr__(self, "duration_s", check_number("acoustic.duration_s", self.duration_s, 0.0,
                                                             low_open=True, unit="s"))
@@ -229,7 +235,7 @@ class AcousticConfig:
     def _key(self) -> tuple:
         return (self.enabled, self.cadence, self.waveform, self.feature_scale, self.noise_std, self.duration_s,
                 self.excitation, _leak_key(self.leak), self.fingertip, self.stream_tolerance, self.features,
-                self.history, self.update_period_s, self.corruption)
+                self.history, self.update_period_s, self.corruption, self.contact_model)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, AcousticConfig):

@@ -1,0 +1,114 @@
+"""Touching bodies vibrate together: component mode synthesis of free bodies joined by springs.
+
+Each body keeps its own Ritz basis (:mod:`sensors.modal.static_correction`): the six
+rigid-body modes, its elastic modes and attachment modes at its link points (the directions
+each link constrains).  In the stacked coordinates of all bodies the mass is the identity and
+the stiffness
+
+    K = blockdiag(K_1, ..., K_B) + sum_links D_l^T (k_n n n^T + k_t (I - n n^T)) D_l,
+    D_l = R_a Phi_a(p_a) - R_b Phi_b(p_b),
+
+with R the body's orientation (body frame -> world) and Phi its basis at the link point (body
+frame): a link pulls the two points together along its normal and across it.  The
+eigenvectors give the modes of the assembly (Craig & Kurdila, *Fundamentals of Structural
+Dynamics*, 2006, ch. 18, free-interface synthesis with residual flexibility).  A grounded
+spring is the limit of a link to an infinitely massive body: the table in
+:mod:`sensors.modal.spring_modes`.
+
+The coupled modes are returned as frequencies and shapes per body, so that a synthesis can
+read the motion of any body's point (the microphone on body 0, a contact on body 1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .spring_modes import MIN_MODE_FREQUENCY_HZ, SpringModes, flexible_base
+from .static_correction import contact_flexibility
+
+__all__ = ["BodyLink", "CoupledBodies", "coupled_bodies"]
+
+
+@dataclass(frozen=True)
+class BodyLink:
+    """A spring between two bodies at a contact (world frame).
+
+    ``body_a``, ``body_b``: indices into the bodies; ``point_m``: the contact point [m];
+    ``normal``: unit normal of the contact (outward from body a); ``normal_stiffness_n_per_m``
+    and ``tangential_stiffness_n_per_m`` [N/m] (see ``sensors.modal.contact_stiffness`` for
+    Hertz/Mindlin values).
+    """
+
+    body_a: int
+    body_b: int
+    point_m: tuple
+    normal: tuple
+    normal_stiffness_n_per_m: float
+    tangential_stiffness_n_per_m: float = 0.0
+
+
+class CoupledBodies:
+    """The modes of free bodies joined by :class:`BodyLink` springs.
+
+    ``frequencies_hz`` (ascending, rigid-body motion of the whole assembly left out) and
+    ``mode_shapes_at(body, points_m)`` ((n, 3, r) in that body's frame, mass-normalised over
+    the assembly).
+    """
+
+    def __init__(self, bodies, links) -> None:
+        self.bodies = [(m, np.asarray(R, float), np.asarray(t, float)) for m, R, t in bodies]
+        self.links = list(links)
+        springs_per_body = [[] for _ in self.bodies]
+        for ln in self.links:
+            n = np.asarray(ln.normal, float) / np.linalg.norm(ln.normal)
+            for side in (ln.body_a, ln.body_b):
+                model, R, t = self.bodies[side]
+                p_body = R.T @ (np.asarray(ln.point_m, float) - t)
+                springs_per_body[side].append((p_body, R.T @ n, ln.normal_stiffness_n_per_m,
+                                               ln.tangential_stiffness_n_per_m))
+        # each body's Ritz basis with attachment modes at its link points (a SpringModes of
+        # the link springs, grounded: only its basis and free stiffness are used here)
+        self._parts = []
+        blocks = []
+        for (model, R, t), springs in zip(self.bodies, springs_per_body):
+            flex = flexible_base(model)
+            if flex is None:
+                raise TypeError(f"a {type(model).__name__} has no mesh: component mode synthesis needs a "
+                                "ModalModel (or a MaterialView of one)")
+            base, fs, ss = flex
+            part = SpringModes(model, springs, fs, ss, contact_flexibility(base))
+            self._parts.append(part)
+            blocks.append(part.free_stiffness)
+        sizes = [b.shape[0] for b in blocks]
+        offs = np.concatenate([[0], np.cumsum(sizes)])
+        K = np.zeros((offs[-1], offs[-1]))
+        for i, b in enumerate(blocks):
+            K[offs[i]:offs[i + 1], offs[i]:offs[i + 1]] = b
+        for ln in self.links:
+            n = np.asarray(ln.normal, float) / np.linalg.norm(ln.normal)
+            W = (ln.normal_stiffness_n_per_m * np.outer(n, n)
+                 + ln.tangential_stiffness_n_per_m * (np.eye(3) - np.outer(n, n)))
+            D = np.zeros((3, offs[-1]))
+            for side, sign in ((ln.body_a, 1.0), (ln.body_b, -1.0)):
+                model, R, t = self.bodies[side]
+                p_body = R.T @ (np.asarray(ln.point_m, float) - t)
+                D[:, offs[side]:offs[side + 1]] += sign * R @ self._parts[side].ritz_at(p_body[None])[0]
+            K += D.T @ W @ D
+        lam, V = np.linalg.eigh(0.5 * (K + K.T))
+        keep = lam > (2 * np.pi * MIN_MODE_FREQUENCY_HZ) ** 2
+        self._offs, self.V = offs, V[:, keep]
+        self.angular_frequencies_rad_s = np.sqrt(lam[keep])
+        self.frequencies_hz = self.angular_frequencies_rad_s / (2 * np.pi)
+
+    def mode_shapes_at(self, body: int, points_m) -> np.ndarray:
+        """Coupled mode shapes at points of ``body`` (its frame): (n, 3, r)."""
+        o = self._offs
+        return self._parts[body].ritz_at(points_m) @ self.V[o[body]:o[body + 1]]
+
+
+def coupled_bodies(bodies, links) -> CoupledBodies:
+    """The modes of ``bodies`` (``[(model, rotation (3, 3), translation_m (3,)), ...]``, body
+    frame -> world) joined by ``links`` (:class:`BodyLink`)."""
+    return CoupledBodies(bodies, links)

@@ -1,0 +1,224 @@
+"""An object's modes with its contacts' springs: Rayleigh-Ritz on [rigid, elastic, attachment].
+
+Each contact with a stiffness (``sensors.Contact``, :mod:`sensors.modal.contact_stiffness`)
+is a grounded spring k_n n n^T + k_t (I - n n^T) at its point.  On the basis
+Phi = [R, U, Psi] of :mod:`sensors.modal.static_correction` (mass matrix I) the stiffness is
+
+    K_red = blockdiag(0, diag(w^2), Psi^T K Psi) + sum_p Phi_p^T (k_n n n^T + k_t (I - n n^T)) Phi_p,
+
+and its eigenvectors V (K_red V = V diag(w_c^2), V^T V = I) give the coupled modes Phi V,
+mass-normalised.  :class:`SpringModes` is a ``ModalBasis`` of them: the synthesis uses it in
+place of the free model (``contact_model="spring_damper"``), damping included (Rayleigh
+alpha + beta w_c^2 on the coupled modes, i.e. the springs carry the object's beta, negligible
+against the contact damping; the contact damping on the coupled shapes).  Coupled modes below
+:data:`MIN_MODE_FREQUENCY_HZ` are rigid-body motions that no spring holds: they are not sound
+and are left out.
+
+The state of one contact set passes to the next through the M-orthogonal projection
+:func:`modal_transfer` (``sensors.synthesis.modal_system.transfer_state``: no switch adds
+energy).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from .._infra.lru import CACHE_SIZES, LRU
+from .contact import Contact
+from .contact_stiffness import contact_stiffnesses_n_per_m
+from .static_correction import contact_flexibility, nodal_at
+
+__all__ = ["MIN_MODE_FREQUENCY_HZ", "SpringModes", "contact_springs", "flexible_base", "spring_modes",
+           "modal_transfer"]
+
+log = logging.getLogger(__name__)
+
+#: Coupled modes below this frequency [Hz] are unconstrained rigid-body motion (numerically
+#: zero eigenvalues), not vibration: left out of the coupled model.
+MIN_MODE_FREQUENCY_HZ = 1.0
+# Springs weaker than this [N/m] count as none (a basis vector for them would only add cost).
+_NEGLIGIBLE_STIFFNESS_N_PER_M = 1e-9
+
+_CACHE: LRU = LRU(CACHE_SIZES["modal.spring_modes"])
+_WARNED: set = set()
+
+
+def contact_springs(model, contacts) -> list[tuple[np.ndarray, np.ndarray, float, float]]:
+    """``[(position_m, normal, k_n, k_t), ...]`` [N/m] of the contacts that are springs on
+    ``model`` (its material for Hertz/Mindlin where a stiffness is ``None``)."""
+    out = []
+    for c in contacts:
+        if not isinstance(c, Contact):
+            raise TypeError(f"expected sensors.Contact, got {type(c).__name__}")
+        kn, kt = contact_stiffnesses_n_per_m(c, model.material)
+        if kn > _NEGLIGIBLE_STIFFNESS_N_PER_M or kt > _NEGLIGIBLE_STIFFNESS_N_PER_M:
+            out.append((c.position_m, c.normal, kn, kt))
+    return out
+
+
+class SpringModes:
+    """The modes of ``base`` (a modal model) held by grounded contact springs.
+
+    A ``ModalBasis``: ``frequencies_hz``, ``angular_frequencies_rad_s``, ``material``,
+    ``mode_shapes_at``, ``surface_distance_m``, ``mass_kg``, ``n_modes``.  ``coordinates``
+    names the Ritz basis (``basis``: the free model, ``psi``: its attachment vectors, ``V``:
+    the eigenvectors) for :func:`modal_transfer`.
+    """
+
+    def __init__(self, base, springs, frequency_scale: float = 1.0, shape_scale: float = 1.0,
+                 flexible=None) -> None:
+        self.base = base
+        self.material = base.material
+        self.springs = springs
+        self._shape_scale = shape_scale
+        w = np.asarray(base.angular_frequencies_rad_s, float)
+        r = w.size
+        if flexible is not None:                       # ModalModel (or a view of one): [R, U, Psi]
+            self._flex = flexible.geometry()           # not the factorization (see its LRU)
+            dirs, pts = _directions(springs)
+            self.psi, Kpsi, Kpsi_u = flexible.attachment_modes(pts, dirs)
+            a = self.psi.shape[1]
+            n = 6 + r + a
+            K = np.zeros((n, n))
+            K[6:6 + r, 6:6 + r] = np.diag(w ** 2)
+            K[6 + r:, 6 + r:] = Kpsi * frequency_scale ** 2
+            K[6 + r:, 6:6 + r] = Kpsi_u * frequency_scale ** 2
+            K[6:6 + r, 6 + r:] = K[6 + r:, 6:6 + r].T
+            self.split = (6, r, a)
+        else:                                          # no mesh: the elastic modes alone
+            self._flex, self.psi = None, None
+            K = np.diag(w ** 2)
+            self.split = (0, r, 0)
+        self.free_stiffness = K.copy()   # of the Ritz basis, before the springs
+        S = self.ritz_at(np.array([p for p, _, _, _ in springs]).reshape(-1, 3))      # (P, 3, n)
+        for (p, nrm, kn, kt), Sp in zip(springs, S):
+            W = kn * np.outer(nrm, nrm) + kt * (np.eye(3) - np.outer(nrm, nrm))
+            K += Sp.T @ W @ Sp
+        lam, V = np.linalg.eigh(0.5 * (K + K.T))
+        keep = lam > (2 * np.pi * MIN_MODE_FREQUENCY_HZ) ** 2
+        self.V = V[:, keep]
+        self.angular_frequencies_rad_s = np.sqrt(lam[keep])
+        self.frequencies_hz = self.angular_frequencies_rad_s / (2 * np.pi)
+
+    # -- ModalBasis ----------------------------------------------------------------------
+    def ritz_at(self, points_m) -> np.ndarray:
+        """The Ritz basis [R, U, Psi] at points: (n, 3, 6 + r + a) (or U alone without a mesh);
+        ``split`` holds the three column counts, ``free_stiffness`` its stiffness without springs."""
+        U = np.asarray(self.base.mode_shapes_at(points_m), float)
+        if self._flex is None:
+            return U
+        s = self._shape_scale
+        R = self._flex.rigid_at(points_m) * s
+        P = nodal_at(self._flex.model, self.psi.reshape(-1, 3, self.psi.shape[1]), points_m) * s
+        return np.concatenate([R, U, P], axis=2)
+
+    def mode_shapes_at(self, points_m) -> np.ndarray:
+        """Mass-normalised coupled mode shapes at points (n, 3): (n, 3, r_c)."""
+        return self.ritz_at(points_m) @ self.V
+
+    def surface_distance_m(self, points_m) -> np.ndarray:
+        return self.base.surface_distance_m(points_m)
+
+    @property
+    def n_modes(self) -> int:
+        return int(self.angular_frequencies_rad_s.size)
+
+    @property
+    def mass_kg(self) -> float:
+        return float(self.base.mass_kg)
+
+    @property
+    def decay_rates_per_s(self) -> np.ndarray:
+        return self.material.decay_rate(self.angular_frequencies_rad_s)
+
+    def __repr__(self) -> str:
+        return f"SpringModes({len(self.springs)} springs on {self.base!r}, {self.n_modes} modes)"
+
+
+def _directions(springs):
+    """Points and unit directions of the constrained directions (normal where k_n > 0, two
+    tangents where k_t > 0)."""
+    pts, dirs = [], []
+    for p, n, kn, kt in springs:
+        if kn > _NEGLIGIBLE_STIFFNESS_N_PER_M:
+            pts.append(p)
+            dirs.append(n)
+        if kt > _NEGLIGIBLE_STIFFNESS_N_PER_M:
+            t1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+            t1 /= np.linalg.norm(t1)
+            pts += [p, p]
+            dirs += [t1, np.cross(n, t1)]
+    return np.array(dirs).reshape(-1, 3), np.array(pts).reshape(-1, 3)
+
+
+def flexible_base(model):
+    """``(mesh model, frequency_scale, shape_scale)`` of a ``ModalModel`` or a
+    ``MaterialView`` of one; ``None`` for a model without a mesh."""
+    from .basis import MaterialView  # basis imports damping -> contact: import here, no cycle
+
+    fs = ss = 1.0
+    base = model
+    if isinstance(model, MaterialView):
+        base, fs, ss = model.base, model.frequency_scale, model.shape_scale
+    if all(hasattr(base, k) for k in ("nodes_m", "elements", "assemble_matrices", "mode_matrix", "locator")):
+        return base, fs, ss
+    return None
+
+
+def spring_modes(model, contacts):
+    """``model`` with the springs of ``contacts`` (a :class:`SpringModes`), or ``model``
+    itself when no contact is a spring.  Cached per (model, springs)."""
+    springs = contact_springs(model, contacts)
+    if not springs:
+        return model
+    key = (id(model), tuple((*p.tolist(), *n.tolist(), kn, kt) for p, n, kn, kt in springs))
+    hit = _CACHE.get(key)
+    if hit is not None and hit.base is model:
+        return hit
+    flex = flexible_base(model)
+    if flex is None:
+        name = type(model).__name__
+        if name not in _WARNED:
+            _WARNED.add(name)
+            log.warning("a %s has no mesh: its contact springs act on its elastic modes only, without rigid-body "
+                        "modes or static correction (a grounded 1e7 N/m spring can be ~10 %% off)", name)
+        out = SpringModes(model, springs)
+    else:
+        base, fs, ss = flex
+        out = SpringModes(model, springs, fs, ss, contact_flexibility(base))
+    return _CACHE.put(key, out)
+
+
+def _ritz_parts(modes):
+    """``(free coefficients (6 + r, r_c), psi (n_dof, a) or None, psi coefficients (a, r_c),
+    flexibility)`` of a model's coordinates in the common Ritz basis [R, U]."""
+    if isinstance(modes, SpringModes):
+        n_rigid, r, a = modes.split
+        free = np.zeros((6 + r, modes.V.shape[1]))
+        free[6 - n_rigid:] = modes.V[:n_rigid + r]
+        return free, modes.psi, modes.V[n_rigid + r:], modes._flex
+    r = len(modes.angular_frequencies_rad_s)
+    return np.vstack([np.zeros((6, r)), np.eye(r)]), None, None, None
+
+
+def _root(model):
+    return model.base if isinstance(model, SpringModes) else model
+
+
+def modal_transfer(from_modes, to_modes) -> np.ndarray:
+    """T (r_to, r_from): coordinates of ``to_modes`` of the motion ``from_modes`` describes,
+    q_to = T q_from, by the M-orthogonal projection (both mass-normalised: T = Phi_to^T M
+    Phi_from).  The identity for the same modes; both must be of the same object."""
+    if from_modes is to_modes:
+        return np.eye(len(to_modes.angular_frequencies_rad_s))
+    if _root(from_modes) is not _root(to_modes):
+        raise ValueError("modal_transfer: the two modal models are not of the same object")
+    fa, pa, ca, flex_a = _ritz_parts(from_modes)
+    fb, pb, cb, flex_b = _ritz_parts(to_modes)
+    T = fb.T @ fa
+    if pa is not None and pb is not None and pa.shape[1] and pb.shape[1]:
+        flex = flex_a if flex_a is not None else flex_b
+        T += cb.T @ (pb.T @ (flex.M @ pa)) @ ca   # Psi M-norms are material-invariant (see SpringModes)
+    return T
