@@ -3,8 +3,8 @@
 ``gym.make_vec`` (``"sync"`` and ``"async"``) stacks every ``info`` entry of its envs into one
 array per key, shaped after the first env's value: an entry whose shape changes from env to
 env (the contacts of an object, one row per contact) cannot stack. Here the contacts of each
-sensed object are padded to :data:`MAX_INFO_CONTACTS` rows with a count, strongest first when
-there are more.
+sensed object are padded to :data:`MAX_INFO_CONTACTS` rows with a count (the strongest kept
+when there are more, in their original order).
 """
 
 from __future__ import annotations
