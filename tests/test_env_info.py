@@ -137,3 +137,30 @@ def test_acoustic_grasp_default_camera_shows_the_hand_and_the_object_at_reset():
         assert "hand" not in _bodies_in_frame(env, "closeup")  # the old default missed the hand
     finally:
         env.close()
+
+
+def _contacts(n: int):
+    from aas_gym.contacts import ObjectContacts
+
+    rng = np.random.default_rng(n)
+    forces = rng.permutation(n).astype(float)
+    return ObjectContacts("bar", rng.normal(size=(n, 3)), rng.normal(size=(n, 3)), forces, rng.normal(size=(n, 3)),
+                          np.full(n, 0.5), np.zeros(n), np.array(["table"] * n), np.array([f"b{i}" for i in range(n)]),
+                          np.array([f"g{i}" for i in range(n)]))
+
+
+def test_padded_contacts_have_fixed_shapes_and_keep_the_strongest():
+    from aas_gym.envs.info import MAX_INFO_CONTACTS, padded_contacts
+
+    few, many = _contacts(3), _contacts(MAX_INFO_CONTACTS + 6)
+    a, b = padded_contacts(few), padded_contacts(many)
+    for key in a:
+        assert np.shape(a[key]) == np.shape(b[key])
+    assert (a["n_contacts"], a["n_dropped"]) == (3, 0)
+    np.testing.assert_array_equal(a["positions_m"][:3], few.positions_m)
+    assert not a["positions_m"][3:].any() and list(a["kinds"][3:]) == [""] * (MAX_INFO_CONTACTS - 3)
+    assert (b["n_contacts"], b["n_dropped"]) == (MAX_INFO_CONTACTS, 6)
+    # the six weakest (forces 0..5) are the ones left out
+    assert sorted(b["normal_forces_n"]) == list(range(6, MAX_INFO_CONTACTS + 6))
+    kept = np.isin(many.normal_forces_n, b["normal_forces_n"])
+    np.testing.assert_array_equal(b["positions_m"], many.positions_m[kept])  # rows in their original order
