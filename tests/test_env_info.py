@@ -99,6 +99,23 @@ def test_deepcopy_after_reset_gives_an_independent_equal_env():
         env.close()
 
 
+@pytest.mark.parametrize("env_id", ["AcousticGrasp-v0", "ObjectRecognition-v0", "ContactFormation-v0", "FillLevel-v0"])
+def test_every_env_deepcopies_after_reset_and_steps_alike(env_id):
+    env = gym.make(f"aas_gym/{env_id}")
+    try:
+        env.reset(seed=0)
+        twin = copy.deepcopy(env)
+        env.action_space.seed(0)
+        action = env.action_space.sample()
+        a, b = env.step(action), twin.step(action)
+        assert a[1] == b[1]
+        for key in a[0]:
+            np.testing.assert_array_equal(a[0][key], b[0][key])
+        twin.close()
+    finally:
+        env.close()
+
+
 def test_documented_env_count_matches_the_registry():
     ids = sorted(k for k in gym.registry if k.startswith("aas_gym/"))
     words = {3: "three", 4: "four", 5: "five", 6: "six", 7: "seven"}

@@ -59,6 +59,10 @@ _MOTOR_FORCE = STATE_LAYOUT["gripper"].stop - 1
 _LAYOUT_ITEMS = tuple(STATE_LAYOUT.items())
 
 
+#: The attributes of a ``_Scene`` that are views into its MjData.
+_DATA_VIEWS = ("sensordata", "qpos", "qvel", "ctrl", "actuator_force", "xpos", "site_xpos")
+
+
 class _Scene:
     """One compiled scene (model, data, hand, sensor) for a tuple of objects, held by
     ``robot`` (``aas_gym.robots``; ``hand`` is its controller)."""
@@ -85,12 +89,7 @@ class _Scene:
             int(self.model.sensor_adr[mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR,
                                                          touch_sensor_name(self.bodies[0], side))])
             for side in ("actuator", "mic"))
-        self.sensordata = self.data.sensordata
-        # Views into the MjData arrays (their memory never moves): saves the per-access view
-        # creation of the mujoco bindings in the per-step code.
-        d = self.data
-        self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl
-        self.actuator_force, self.xpos, self.site_xpos = d.actuator_force, d.xpos, d.site_xpos
+        self._bind_views()
         self.tcp_ctrl = None if not self.carriage else \
             slice(int(self.hand.tcp_actuators[0]), int(self.hand.tcp_actuators[0]) + 4) \
             if np.array_equal(self.hand.tcp_actuators, np.arange(self.hand.tcp_actuators[0], self.hand.tcp_actuators[0] + 4)) \
@@ -115,6 +114,23 @@ class _Scene:
         obs_map[np.arange(obj.start, obj.stop), np.arange(self.free_qpos[0], self.free_qpos[0] + 7)] = 1.0
         self.obs_map = obs_map
         self.state = np.empty(nq + nv)
+
+    def _bind_views(self) -> None:
+        """Views into the MjData arrays (their memory never moves): saves the per-access view
+        creation of the mujoco bindings in the per-step code."""
+        d = self.data
+        self.sensordata = d.sensordata
+        self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl
+        self.actuator_force, self.xpos, self.site_xpos = d.actuator_force, d.xpos, d.site_xpos
+
+    def __getstate__(self) -> dict:
+        # copy.deepcopy and pickle would turn the views into arrays detached from the copied
+        # MjData (a copied env's controls would never reach its physics): rebound on restore.
+        return {k: v for k, v in self.__dict__.items() if k not in _DATA_VIEWS}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._bind_views()
 
     def tcp_target(self) -> list[float]:
         """The commanded TCP (x, y, z [m], yaw [rad])."""
