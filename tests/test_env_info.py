@@ -143,8 +143,9 @@ def _bodies_in_frame(env, camera: str) -> set[str]:
     return {mujoco.mj_id2name(u.model, mujoco.mjtObj.mjOBJ_BODY, int(u.model.geom_bodyid[g])) for g in geoms}
 
 
-def test_acoustic_grasp_default_camera_shows_the_hand_and_the_object_at_reset():
-    env = gym.make("aas_gym/AcousticGrasp-v0", render_mode="rgb_array", width=320, height=240, **OFF)
+@pytest.mark.parametrize("robot", ["floating_hand", "panda"])
+def test_acoustic_grasp_default_camera_shows_the_hand_and_the_object_at_reset(robot):
+    env = gym.make("aas_gym/AcousticGrasp-v0", robot=robot, render_mode="rgb_array", width=320, height=240, **OFF)
     try:
         env.reset(seed=0)
         assert env.unwrapped.camera_name == "workspace"
