@@ -1,7 +1,8 @@
 """MuJoCo scenes, contact datastream, simulated acoustic sensor and Gymnasium environments.
 
 ``import aas_gym`` registers ``aas_gym/AcousticGrasp-v0``, ``aas_gym/GraspPosition-v0``,
-``aas_gym/ObjectRecognition-v0`` and ``aas_gym/ContactFormation-v0`` with Gymnasium. Heavy modules load on first use.
+``aas_gym/ObjectRecognition-v0``, ``aas_gym/ContactFormation-v0`` and ``aas_gym/FillLevel-v0``
+with Gymnasium. Heavy modules load on first use.
 Headless Linux: without a display, ``MUJOCO_GL`` defaults to ``egl`` (set it yourself, e.g.
 to ``osmesa``, before importing mujoco to choose otherwise).
 """

@@ -25,6 +25,9 @@ import aas_gym  # noqa: F401  (registers the envs)
 from aas_gym.experiments.protocols import on_log_features, recognition
 from sensors._infra.atomic import atomic_write_text
 
+#: Where this example writes, whatever the current folder: the repository's outputs/ (git-ignored).
+OUTPUTS = Path(__file__).resolve().parents[1] / "outputs"
+
 CONTAINERS = ("mug", "glass", "can", "bottle")
 LIQUIDS = ("water", "oil", "ethanol", "honey")
 
@@ -43,7 +46,7 @@ def main(argv=None) -> Path:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--episodes", type=int, default=40, help="episodes per container (fill) and per liquid")
     ap.add_argument("--excitation", default="linear")
-    ap.add_argument("--out", default="docs/results/fill_level.md")
+    ap.add_argument("--out", default=OUTPUTS.parent / "docs" / "results" / "fill_level.md")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     lines = ["# FillLevel-v0: how full, and with what", "",

@@ -12,6 +12,9 @@ from sensors.task import check_action, check_choice, check_integer, check_number
 TASKS = ("fill", "liquid")
 #: The everyday containers a liquid can fill (``sensors.fluid``).
 CONTAINERS = ("mug", "glass", "can", "bottle")
+#: Task ``"fill"`` succeeds when the estimate is within this of the true fill fraction
+#: (5 percentage points of the container's height).
+FILL_SUCCESS_TOLERANCE = 0.05
 
 
 class FillLevelEnv(AasEnv):
@@ -32,7 +35,9 @@ class FillLevelEnv(AasEnv):
     onto 0 .. 1; reward minus the absolute error. Task ``"liquid"``: the interval cut into
     ``len(liquids)`` equal bins, one per liquid; reward 1 if right, else 0. One step.
     ``info``: ``fill_fraction``, ``liquid``, ``liquid_index``, ``liquid_mass_kg``, label,
-    grasp, contacts, ``reward_terms`` (``error`` for task ``"fill"``, ``answer`` for
+    grasp, padded contacts; the step adds ``estimate``, ``is_success`` (task ``"fill"``: the
+    estimate within :data:`FILL_SUCCESS_TOLERANCE` of the true fraction; ``"liquid"``: the
+    right liquid) and ``reward_terms`` (``error`` for task ``"fill"``, ``answer`` for
     ``"liquid"``).
 
     ``acoustic``: every episode records once, through its grasp, whatever the cadence.
@@ -80,6 +85,7 @@ class FillLevelEnv(AasEnv):
         if task == "liquid" and len(self.liquids) < 2:
             raise ValueError("task 'liquid' needs at least two liquids to tell apart")
         self.task, self.fill_range, self.fill_fraction = task, (lo, hi), float(fill_fraction)
+        self.reward_term_names = ("error",) if task == "fill" else ("answer",)
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
         self.observation_space = spaces.Dict({**self._proprio_spaces(), **self._acoustic_spaces()})
         self._truth = {}
@@ -174,13 +180,14 @@ class FillLevelEnv(AasEnv):
         estimate = self.estimate_from_action(action)
         obs = self._proprio()
         obs.update(self._empty_acoustic())
-        info = dict(self._truth, estimate=estimate)
+        info = dict(self._truth, estimate=estimate, label=self._scene.objects[0].label)
         if self.task == "fill":
             error = abs(estimate - self._truth["fill_fraction"])
             info["abs_error"] = error
+            info["is_success"] = bool(error <= FILL_SUCCESS_TOLERANCE)
             info["reward_terms"] = {"error": -error}
             return obs, -error, True, False, info
         correct = estimate == self._truth["liquid_index"]
-        info["is_success"] = correct
+        info["is_success"] = bool(correct)
         info["reward_terms"] = {"answer": 1.0 if correct else 0.0}
         return obs, 1.0 if correct else 0.0, True, False, info
