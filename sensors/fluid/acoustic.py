@@ -63,18 +63,22 @@ def liquid_modes(laplace_free, mass_free, speed_of_sound_m_per_s: float, max_fre
     k2_max = (2.0 * math.pi * max_frequency_hz / c) ** 2
     if lu is None:
         lu = scipy.sparse.linalg.splu(laplace_free.tocsc())
-    op = scipy.sparse.linalg.LinearOperator((n, n), matvec=lu.solve, dtype=np.float64)
-    k = min(8, n - 1)
+    op = scipy.sparse.linalg.LinearOperator((n, n), matvec=lu.solve, matmat=lu.solve, dtype=np.float64)
+    # Weyl's law, N(k) ~ V k^3 / (6 pi^2) (the volume from Q0's entries, a partition of unity):
+    # one Lanczos run asks for all of them with a margin, instead of restarting as k doubles.
+    weyl = float(mass_free.sum()) * k2_max**1.5 / (6 * math.pi**2)
+    k = min(int(1.5 * weyl) + 16, n - 1)
     while True:
         if k >= n - 1:  # a tiny mesh: all of it, dense
             lam, vec = scipy.linalg.eigh(laplace_free.toarray(), mass_free.toarray())
             break
-        lam, vec = scipy.sparse.linalg.eigsh(laplace_free, k=k, M=mass_free, sigma=0.0, which="LM", OPinv=op)
+        lam, vec = scipy.sparse.linalg.eigsh(laplace_free, k=k, M=mass_free, sigma=0.0, which="LM", OPinv=op,
+                                             tol=1e-10)
         order = np.argsort(lam)
         lam, vec = lam[order], vec[:, order]
         if lam[-1] > k2_max:
             break
-        k = min(2 * k, n - 1)
+        k = min(int(1.5 * k), n - 1)
     keep = lam <= k2_max
     # Q0-normalized from eigsh; for Q = Q0 / c^2: psi = c psi0.
     return c * c * lam[keep], c * vec[:, keep]
