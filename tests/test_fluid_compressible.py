@@ -138,3 +138,13 @@ def test_empty_cup_is_dry_and_the_model_is_recorded(cup):
     assert filled(container, 0.5) is wet
     with pytest.raises(TypeError, match="compressible"):
         filled(container, 0.5, compressible="yes")
+
+
+def test_every_liquid_has_a_speed_of_sound():
+    # Water at 20 C: 1482.3 m/s (Del Grosso & Mader 1972); the others within the range of liquids.
+    assert LIQUIDS["water"].speed_of_sound_m_per_s == pytest.approx(1482.3)
+    assert all(1000.0 < q.speed_of_sound_m_per_s < 2500.0 for q in LIQUIDS.values())
+    assert Liquid("stiff", 1000.0, 0.0, math.inf).speed_of_sound_m_per_s == math.inf
+    for bad in (0.0, -1.0, math.nan):
+        with pytest.raises(ValueError, match="speed_of_sound"):
+            Liquid("bad", 1000.0, 0.0, bad)
