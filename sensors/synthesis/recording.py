@@ -35,7 +35,8 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
                        other_contacts: Sequence[Contact] = (), fingertip: FingertipModel | None = None,
                        leak: LeakRecording | str | os.PathLike | None = None, noise_std: float = 0.0,
                        rng=None, output: str = "displacement", method: str = "exact",
-                       steady_state: bool = False, cache: SynthesisCache | None = None) -> AcousticObservation:
+                       steady_state: bool = False, cache: SynthesisCache | None = None,
+                       bandlimited: bool = True) -> AcousticObservation:
     """Simulate the contact microphone while the actuator plays ``excitation`` in a grasp.
 
     Parameters
@@ -63,6 +64,9 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
         repeated.  Default False: the recording starts with the excitation, from rest.
     cache : a :class:`SynthesisCache` to reuse per-grasp systems and drive forces across
         calls (``None``: nothing is kept).
+    bandlimited : the excitation reaches the fingertip as the band-limited signal a sound
+        card plays (default; exact in steady state); False: piecewise linear between samples,
+        the drive of earlier datasets.  Metadata ``drive`` says which.
 
     Returns
     -------
@@ -78,6 +82,7 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
     others = tuple(other_contacts)
     grasp = GraspState(model, actuator_contact, mic_contact, others)
     meta: dict = {"source": "sim", "output": output, "method": method, "steady_state": bool(steady_state),
+                  "drive": "bandlimited" if bandlimited else "foh",
                   "mic_gain": mic_gain(output), "noise_std": float(noise_std),
                   "contacts": {"actuator": None if actuator_contact is None else actuator_contact.to_dict(),
                                "mic": None if mic_contact is None else mic_contact.to_dict(),
@@ -86,7 +91,8 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
     y = np.zeros(n)
     if grasp.closed:
         stream = AcousticStream(excitation, fingertip, output=output, method=method,
-                                cache=SynthesisCache() if cache is None else cache, carry_state=False)
+                                cache=SynthesisCache() if cache is None else cache, carry_state=False,
+                                bandlimited=bandlimited)
         if steady_state:
             try:
                 stream.settle(grasp)

@@ -19,7 +19,8 @@ from rest (or settled into its periodic steady state, :meth:`AcousticStream.sett
 Timing convention (as ``sensors.modal_response`` with a contact schedule): a span of n
 samples starting at sample s covers the time interval [s, s + n) / sample_rate_hz.  Its system governs
 the n steps from sample s to sample s + n; its microphone reads samples s .. s + n - 1.  The
-drive force is piecewise linear between samples and continuous across span boundaries.
+drive force is piecewise linear between samples and continuous across span boundaries (with
+the band-limited drive, those samples stand for the band-limited force: ``sensors.synthesis.drive``).
 
 Open grasps: a parallel gripper opens both fingers together, so the object is heard only while
 BOTH fingertips touch it with a positive force.  Otherwise the microphone records leak and
@@ -127,13 +128,17 @@ class AcousticStream:
     carry_state : False for a stream that records one span per object from rest and stops
         (a batch recording): its systems then keep only the modes that the drive reaches and
         the microphone sees, as no later contact set needs the others' state.
+    bandlimited : the excitation reaches the fingertip as the band-limited signal a sound
+        card plays (default; ``sensors.synthesis.drive``); False: piecewise linear between
+        its samples, the drive of earlier datasets (spectrum low by about sinc^4(f/fs)).
     """
 
     def __init__(self, excitation: Excitation, fingertip: FingertipModel | None = None,
                  leak: LeakRecording | str | os.PathLike | None = None, noise_std: float = 0.0,
                  rng=None, output: str = "displacement", method: str = "exact",
                  tolerance: ContactTolerance | None = None, cache_size: int | None = None,
-                 leak_lag_samples: int = 0, cache: SynthesisCache | None = None, *, carry_state: bool = True):
+                 leak_lag_samples: int = 0, cache: SynthesisCache | None = None, *, carry_state: bool = True,
+                 bandlimited: bool = True):
         if not isinstance(excitation, Excitation):
             raise TypeError(f"excitation must be a sensors.Excitation, got {type(excitation).__name__}")
         if fingertip is not None and not isinstance(fingertip, FingertipModel):
@@ -151,7 +156,8 @@ class AcousticStream:
         self.method = method
         self.cache = cache
         self.systems = cache.systems
-        self.drive = FingertipDrive(excitation, cache.forces)
+        self.bandlimited = bool(bandlimited)
+        self.drive = FingertipDrive(excitation, cache.forces, self.bandlimited)
         self.carry_state = bool(carry_state)
         self._settings = (self.sample_rate_hz, method, output, self.carry_state)
         self.sample_index = 0                     # absolute index of the next sample
@@ -259,6 +265,7 @@ class AcousticStream:
     def metadata(self) -> dict:
         """Settings and running facts, JSON-serialisable (like ``simulate_recording``'s)."""
         meta = {"source": "sim", "stream": True, "output": self.output, "method": self.method,
+                "drive": "bandlimited" if self.bandlimited else "foh",
                 "mic_gain": self.gain, "noise_std": self.noise_std,
                 "sample_index": int(self.sample_index), "heard_samples": int(self.heard_samples),
                 "fingertip_separated": bool(self.fingertip_separated),
@@ -422,7 +429,7 @@ class AcousticStream:
         key = (id(sysm), id(drive.output))
         hit = self._steadies.get(key)
         if hit is None or hit.system is not sysm or hit.input is not drive.output:
-            hit = self._steadies.put(key, SteadyState(sysm, drive.output))
+            hit = self._steadies.put(key, SteadyState(sysm, drive.output, self.bandlimited))
         return hit
 
     def _feed_features(self, start: int, samples: np.ndarray, heard: np.ndarray) -> None:
