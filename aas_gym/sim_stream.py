@@ -69,7 +69,8 @@ class SimAcousticStream:
         self.tolerance = tolerance or ContactTolerance()
         self.stream = AcousticStream(excitation, fingertip=sensor.fingertip,
                                      leak=sensor.leak_for(excitation, variation.leak_scale), noise_std=noise,
-                                     rng=rng if rng is not None else sensor.rng, tolerance=self.tolerance)
+                                     rng=rng if rng is not None else sensor.rng, tolerance=self.tolerance,
+                                     bandlimited=sensor.bandlimited)
         self.bodies = sensor.bodies
         self._vec_adr, self._grasp_adr = _signature_addresses(self.model, self.bodies)
         self._n_partners = self._vec_adr.shape[1] // 2

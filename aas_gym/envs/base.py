@@ -300,6 +300,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
     def _new_scene(self, objects: tuple[ObjectSpec, ...]) -> _Scene:
         scene = _Scene(objects, contact_signature=self.acoustic.streaming)
         scene.sensor.leak, scene.sensor.fingertip = self._leaks, self.acoustic.fingertip
+        scene.sensor.bandlimited = self.acoustic.drive == "bandlimited"
         return scene
 
     @property

@@ -54,6 +54,9 @@ class DatasetConfig:
         store_waveforms: also store raw waveforms (about 176 kB per row).
         seed: root of every random stream.
         shard_size: tasks per output file.
+        drive: how the excitation reaches the fingertip: ``"bandlimited"`` (the signal a
+            sound card plays) or ``"foh"`` (piecewise linear between samples); recorded in
+            the manifest's config. A manifest without it was made with ``"foh"``.
     """
 
     objects: tuple[str, ...] = DEFAULT_OBJECT_NAMES
@@ -71,6 +74,7 @@ class DatasetConfig:
     store_waveforms: bool = False
     seed: int = 0
     shard_size: int = 16
+    drive: str = "bandlimited"
 
     #: The most grasps a configuration may expand to (:data:`MAX_TASKS`); raise it on the class
     #: (``DatasetConfig.max_tasks = ...``) for a larger dataset. Not a field: not fingerprinted.
@@ -95,6 +99,8 @@ class DatasetConfig:
         object.__setattr__(self, "grasp_jitter_m", check_number("grasp_jitter_m", self.grasp_jitter_m, 0.0, unit="m"))
         object.__setattr__(self, "noise_std", check_number("noise_std", self.noise_std, 0.0))
         object.__setattr__(self, "store_waveforms", check_flag("store_waveforms", self.store_waveforms))
+        if self.drive not in ("bandlimited", "foh"):
+            raise ValueError(f"drive must be 'bandlimited' or 'foh', got {self.drive!r}")
         samples = self.duration_s * 44_100
         if samples > MAX_SAMPLES:
             raise ValueError(f"duration_s={self.duration_s:g} s would record {samples:,.0f} samples per recording "

@@ -19,13 +19,15 @@ from ..synthesis.fingertip import FingertipModel
 from ..synthesis.stream import ContactTolerance
 from .checks import check_choice, check_flag, check_integer, check_number
 
-__all__ = ["AcousticConfig", "AcousticEnvMixin", "BYTES_PER_SAMPLE", "CADENCES", "LEGACY_KEYWORDS", "MAX_SAMPLES", "N_FEATURES",
+__all__ = ["AcousticConfig", "AcousticEnvMixin", "BYTES_PER_SAMPLE", "CADENCES", "DRIVES", "LEGACY_KEYWORDS", "MAX_SAMPLES", "N_FEATURES",
            "resolve_excitation"]
 
 #: Length of the spectral feature vector (3-10 kHz in 50 Hz steps).
 N_FEATURES = int(feature_frequencies_hz().size)
 
 CADENCES = ("action", "every_step", "never", "stream")
+#: How the excitation reaches the fingertip (``AcousticConfig.drive``).
+DRIVES = ("bandlimited", "foh")
 
 #: Default of ``AcousticConfig.max_samples``: 60 s at 44.1 kHz, the longest recording (or
 #: streamed step) an env accepts unless told otherwise.
@@ -105,6 +107,10 @@ class AcousticConfig:
             (``aas real leak`` records them); ``None``: no leak.
         fingertip: simulation only: the lumped exciter/fingertip drive
             (``sensors.FingertipModel``); ``None``: its defaults at the env's grip force.
+        drive: simulation only: ``"bandlimited"`` (default: the excitation reaches the
+            fingertip as the band-limited signal a sound card plays) or ``"foh"`` (piecewise
+            linear between samples, the drive of earlier datasets; spectra low by about
+            sinc^4(f/fs)); see ``sensors.synthesis.drive``.
         stream_tolerance: simulation only, with ``cadence="stream"``: when contacts count as
             unchanged (``sensors.ContactTolerance``); ``None``: its defaults.
         max_samples: the most samples one recording (``duration_s``) or one streamed step
@@ -125,12 +131,14 @@ class AcousticConfig:
     fingertip: FingertipModel | None = None
     stream_tolerance: ContactTolerance | None = None
     max_samples: int = MAX_SAMPLES
+    drive: str = "bandlimited"
 
     def __post_init__(self) -> None:
         for name in ("enabled", "waveform"):  # "no" and "False" are true values: refuse strings
             object.__setattr__(self, name, check_flag(f"acoustic.{name}", getattr(self, name)))
         check_choice("acoustic.cadence", self.cadence, CADENCES)
         check_choice("acoustic.feature_scale", self.feature_scale, FEATURE_SCALES)
+        check_choice("acoustic.drive", self.drive, DRIVES)
         object.__setattr__(self, "noise_std", check_number("acoustic.noise_std", self.noise_std, 0.0))
         object.__setattr__(self, "duration_s", check_number("acoustic.duration_s", self.duration_s, 0.0,
                                                             low_open=True, unit="s"))
@@ -162,7 +170,7 @@ class AcousticConfig:
 
     def _key(self) -> tuple:
         return (self.enabled, self.cadence, self.waveform, self.feature_scale, self.noise_std, self.duration_s,
-                self.excitation, _leak_key(self.leak), self.fingertip, self.stream_tolerance)
+                self.excitation, _leak_key(self.leak), self.fingertip, self.stream_tolerance, self.drive)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, AcousticConfig):
