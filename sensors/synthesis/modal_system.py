@@ -179,7 +179,10 @@ class ModalSystem(DiscreteSystem):
         glob = np.concatenate([kept, r_all + kept])
         for p in parts:
             p.idx = glob[p.idx]
-        return cls(parts, r_all, kept, sample_rate_hz, hold)
+        system = cls(parts, r_all, kept, sample_rate_hz, hold)
+        # what a load on the kept modes needs (sensors.synthesis.passive: x' = A x + [0; p])
+        system.kept_modal = (su.w, su.C)
+        return system
 
 
 def _relevant_modes(kept, C, b, o, keep_unobservable, excited):
