@@ -31,6 +31,7 @@ import numpy as np
 from aas_gym.contact_sensors import signature_partners, signature_sensor_name
 from aas_gym.sim_sensor import NO_VARIATION, SensorVariation, SimAcousticSensor
 from sensors import AcousticStream, ContactTolerance, Excitation, GraspState
+from sensors.synthesis.passive import PassiveSound
 
 __all__ = ["SimAcousticStream", "span_bounds"]
 
@@ -53,11 +54,14 @@ class SimAcousticStream:
     variation : this episode's ``SensorVariation`` (noise, leak scale, material scales).
     rng : the noise generator (``numpy.random.Generator`` or seed).
     tolerance : when contacts count as unchanged (``sensors.ContactTolerance``).
+    passive : a ``sensors.PassiveSound``: each contact read hands the stream the forces of
+        every contact on the heard object (``ObjectContacts.sensor_loads``), so that impacts,
+        knocks and slides make sound; ``None``: only the drive does.
     """
 
     def __init__(self, sensor: SimAcousticSensor, excitation: Excitation | str, *,
                  variation: SensorVariation | None = None, rng=None,
-                 tolerance: ContactTolerance | None = None) -> None:
+                 tolerance: ContactTolerance | None = None, passive: PassiveSound | None = None) -> None:
         if isinstance(excitation, str):
             excitation = Excitation.by_name(excitation)
         variation = NO_VARIATION if variation is None else variation
@@ -70,7 +74,7 @@ class SimAcousticStream:
         self.stream = AcousticStream(excitation, fingertip=sensor.fingertip,
                                      leak=sensor.leak_for(excitation, variation.leak_scale), noise_std=noise,
                                      rng=rng if rng is not None else sensor.rng, tolerance=self.tolerance,
-                                     bandlimited=sensor.bandlimited)
+                                     bandlimited=sensor.bandlimited, passive=passive)
         self.bodies = sensor.bodies
         self._vec_adr, self._grasp_adr = _signature_addresses(self.model, self.bodies)
         self._n_partners = self._vec_adr.shape[1] // 2
@@ -140,7 +144,8 @@ class SimAcousticStream:
         self._heard_index = self.bodies.index(body)
         grasp = contacts[body].sensor_grasp(self._min_force_n)
         model = self.sensor.scaled_model(body, self.variation)
-        return GraspState(model, grasp.actuator, grasp.mic, tuple(grasp.others), object_key=body)
+        loads = contacts[body].sensor_loads(self._min_force_n) if self.stream.passive is not None else None
+        return GraspState(model, grasp.actuator, grasp.mic, tuple(grasp.others), object_key=body, loads=loads)
 
     # -- recording ---------------------------------------------------------------------------
     def step_physics(self, n_steps: int, n_samples: int) -> np.ndarray:

@@ -107,7 +107,7 @@ class _Scene:
 COMMON_ARGUMENTS = """
     | `scene` | str | `"single"` | `"single"`: the target alone on the table; `"multi"`: one or two `distractors` lean across its ends (random object contacts) |
     | `distractors` | sequence of str or `ObjectSpec`, or None | None | objects that may lean on the target; None: the bars of the default objects |
-    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `enabled`, `max_samples` (the longest recording or streamed step, default 60 s at 44.1 kHz); None or missing fields: this env's defaults |
+    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `drive` (`"bandlimited"` or the former `"foh"`), `passive_sound` (impacts and slides heard; default on when streaming), `enabled`, `max_samples` (the longest recording or streamed step, default 60 s at 44.1 kHz); None or missing fields: this env's defaults |
     | `grip_force_n` | float | 40.0 | nominal grip force [N], in (0, 140] |
     | `randomization` | `DomainRandomization`, dict of its knobs, None or False | None | domain randomization; None: its defaults; False: none |
     | `frame_skip` | int | 25 | MuJoCo steps (2 ms) per env step, 1 to `AasEnv.max_frame_skip` (5000) |
@@ -422,7 +422,8 @@ class AasEnv(AcousticEnvMixin, gym.Env):
     # --- streaming --------------------------------------------------------------------------
     def _new_stream(self, excitation=None) -> SimAcousticStream:
         return SimAcousticStream(self.sensor, self.excitation if excitation is None else excitation,
-                                 variation=self._variation, rng=self.np_random, tolerance=self.acoustic.stream_tolerance)
+                                 variation=self._variation, rng=self.np_random, tolerance=self.acoustic.stream_tolerance,
+                                 passive=self.acoustic.passive)
 
     def _simulate(self) -> None:
         """One env step of physics (``frame_skip`` MuJoCo steps); streamed, the microphone

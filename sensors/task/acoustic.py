@@ -16,6 +16,7 @@ from ..signals.excitation import KINDS, Excitation
 from ..signals.features import FEATURE_SCALES, feature_frequencies_hz, scale_features
 from ..signals.leak import LeakRecording
 from ..synthesis.fingertip import FingertipModel
+from ..synthesis.passive import PassiveSound
 from ..synthesis.stream import ContactTolerance
 from .checks import check_choice, check_flag, check_integer, check_number
 
@@ -111,6 +112,10 @@ class AcousticConfig:
             fingertip as the band-limited signal a sound card plays) or ``"foh"`` (piecewise
             linear between samples, the drive of earlier datasets; spectra low by about
             sinc^4(f/fs)); see ``sensors.synthesis.drive``.
+        passive_sound: simulation only, with ``cadence="stream"``: impacts, knocks and slides
+            excite the object on top of the drive (``sensors.synthesis.passive``): ``True``,
+            ``False``, a ``PassiveSound`` (its rise time and roughness), or ``None`` (default:
+            on when streaming; per-action recordings hold a static grasp, nothing changes in them).
         stream_tolerance: simulation only, with ``cadence="stream"``: when contacts count as
             unchanged (``sensors.ContactTolerance``); ``None``: its defaults.
         max_samples: the most samples one recording (``duration_s``) or one streamed step
@@ -132,6 +137,7 @@ class AcousticConfig:
     stream_tolerance: ContactTolerance | None = None
     max_samples: int = MAX_SAMPLES
     drive: str = "bandlimited"
+    passive_sound: Any = None
 
     def __post_init__(self) -> None:
         for name in ("enabled", "waveform"):  # "no" and "False" are true values: refuse strings
@@ -139,6 +145,9 @@ class AcousticConfig:
         check_choice("acoustic.cadence", self.cadence, CADENCES)
         check_choice("acoustic.feature_scale", self.feature_scale, FEATURE_SCALES)
         check_choice("acoustic.drive", self.drive, DRIVES)
+        if not (self.passive_sound is None or isinstance(self.passive_sound, (bool, PassiveSound))):
+            raise TypeError("passive_sound must be True, False, None or a sensors.synthesis.passive.PassiveSound, "
+                            f"got {type(self.passive_sound).__name__}")
         object.__setattr__(self, "noise_std", check_number("acoustic.noise_std", self.noise_std, 0.0))
         object.__setattr__(self, "duration_s", check_number("acoustic.duration_s", self.duration_s, 0.0,
                                                             low_open=True, unit="s"))
@@ -170,7 +179,8 @@ class AcousticConfig:
 
     def _key(self) -> tuple:
         return (self.enabled, self.cadence, self.waveform, self.feature_scale, self.noise_std, self.duration_s,
-                self.excitation, _leak_key(self.leak), self.fingertip, self.stream_tolerance, self.drive)
+                self.excitation, _leak_key(self.leak), self.fingertip, self.stream_tolerance, self.drive,
+                self.passive_sound)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, AcousticConfig):
@@ -215,6 +225,14 @@ class AcousticConfig:
         """The cadence in effect: ``"never"`` when disabled (nothing is recorded), else
         :attr:`cadence`."""
         return self.cadence if self.enabled else "never"
+
+    @property
+    def passive(self) -> PassiveSound | None:
+        """The passive-sound model a stream uses (``None``: off); see :attr:`passive_sound`."""
+        p = self.passive_sound
+        if isinstance(p, PassiveSound):
+            return p
+        return PassiveSound() if (p is None and self.cadence == "stream") or p is True else None
 
     @property
     def streaming(self) -> bool:
