@@ -86,6 +86,7 @@ class SimAcousticStream:
         self._state: GraspState | None = None
         self._heard: str | None = None           # the body the stream follows
         self.contact_reads = 0
+        self._pressing, self._pressing_body = set(), None   # who pressed on which body at the last read
 
     @property
     def sample_rate_hz(self) -> int:
@@ -144,7 +145,12 @@ class SimAcousticStream:
         self._heard_index = self.bodies.index(body)
         grasp = contacts[body].sensor_grasp(self._min_force_n)
         model = self.sensor.scaled_model(body, self.variation)
-        loads = contacts[body].sensor_loads(self._min_force_n) if self.stream.passive is not None else None
+        loads = None
+        if self.stream.passive is not None:
+            c = contacts[body]
+            before = self._pressing if body == self._pressing_body else None
+            loads = c.sensor_loads(self._min_force_n, before)
+            self._pressing, self._pressing_body = c.pressing_bodies(self._min_force_n), body
         return GraspState(model, grasp.actuator, grasp.mic, tuple(grasp.others), object_key=body, loads=loads)
 
     # -- recording ---------------------------------------------------------------------------

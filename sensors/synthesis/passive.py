@@ -14,25 +14,29 @@ per span (one per contact read of a MuJoCo scene), so p(t) is modelled as:
 - constant while the contacts do not change (a resting object is in equilibrium: only
   changes make sound, and loads are counted from the first span an object is seen in, so an
   object placed at rest does not ring);
-- at a change, a linear ramp from the old to the new load over ``rise_time_s`` from the start
-  of the span (at most the span), then constant.  A ramp of duration tau has the spectrum of a
-  step times sinc(f tau): 0.2 ms (default) is the contact time of a hard knock (Hertz contact
-  of plastic, wood or metal at the speeds of a robot hand: 0.05-0.5 ms); MuJoCo itself resolves
-  an impact only to its physics step (2 ms), so the rise time is a modelling choice, recorded
-  in the stream's metadata.  A slow force change that exceeds the stream's contact tolerance
-  is heard as a small click of the same shape (a limitation of the per-read model).
+- a change of the forces of contacts that persist is linear over the span (linear
+  interpolation between MuJoCo's steps: it resolves nothing faster);
+- an impact (a contact whose partner body did not press in the previous read: a touch-down,
+  a knock, a fingertip closing on the object) and a stick-slip event (below) are sharper than a
+  physics step: their load rises linearly over ``rise_time_s`` from the start of the span (at
+  most the span).  A ramp of duration tau has the spectrum of a step times sinc(f tau): 0.2 ms
+  (default) is the contact time of a hard knock (Hertz contact of plastic, wood or metal at
+  the speeds of a robot hand: 0.05-0.5 ms); MuJoCo resolves an impact only to its physics step
+  (2 ms), so the rise time is a modelling choice, recorded in the stream's metadata.
 
 Sliding (roughness and stick-slip): a contact whose friction force is at the friction cone
 (|F_t| >= ``SLIDING_CONE_RATIO`` mu F_n, MuJoCo's contact force frame) slides.  Its friction
 force then does not stay smooth: asperities catch and release (stick-slip).  Each contact
-read of a sliding contact scales its friction force by (1 + ``roughness`` xi), xi ~ N(0, 1)
-from the passive model's own generator (seeded: streams stay reproducible): every read of a
-slide is one micro-slip event of relative size ``roughness``.  Sliding along a surface also
-moves the contact point, which changes U(x_c)^T F_c by itself.
+read of a sliding contact adds roughness xi F_t to its friction force F_t, xi ~ N(0, 1) from
+the passive model's own generator (seeded: streams stay reproducible), as a sharp event (it
+replaces the previous read's fluctuation): every read of a slide is one micro-slip event of
+relative size ``roughness``.  Sliding also moves the contact point, which changes
+U(x_c)^T F_c by itself (smoothly).
 
-The response to such a load is exact (no discretisation error): over a ramp the particular
-solution of x' = A x + [0; p(t)] is affine in time, x_p = alpha + beta t (one solve with A),
-and the stream adds it to the existing exact solution of the drive (:func:`ramp_particular`).
+The response to such a load is exact (no discretisation error): over each piece where the
+load is affine in time the particular solution of x' = A x + [0; p(t)] is affine too,
+x_p = alpha + beta t (one solve with A each, :func:`ramp_particular`), and the stream adds it
+to the exact solution of the drive from the shifted state.
 """
 
 from __future__ import annotations
@@ -61,12 +65,15 @@ class ContactLoads:
     normals : (n, 3) unit outward surface normals of the object there.
     forces_n : (n, 3) force ON the object at each point (normal plus friction) [N].
     sliding : (n,) bool, the contact slides (friction at the cone); default none.
+    impact : (n,) bool, the contact just touched down (its partner did not press before);
+        default none.
     """
 
     positions_m: np.ndarray
     normals: np.ndarray
     forces_n: np.ndarray
     sliding: np.ndarray | None = None
+    impact: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         p = np.array(self.positions_m, dtype=float).reshape(-1, 3)
@@ -76,10 +83,14 @@ class ContactLoads:
             raise ValueError(f"ContactLoads: {len(p)} points, {len(n)} normals and {len(f)} forces")
         if not (np.all(np.isfinite(p)) and np.all(np.isfinite(n)) and np.all(np.isfinite(f))):
             raise ValueError("ContactLoads positions_m, normals and forces_n must be finite")
-        s = np.zeros(len(p), bool) if self.sliding is None else np.array(self.sliding, bool).reshape(-1)
-        if s.shape != (len(p),):
-            raise ValueError(f"ContactLoads: {len(p)} points but {s.size} sliding flags")
-        for name, v in (("positions_m", p), ("normals", n), ("forces_n", f), ("sliding", s)):
+        flags = {}
+        for name in ("sliding", "impact"):
+            v = getattr(self, name)
+            v = np.zeros(len(p), bool) if v is None else np.array(v, bool).reshape(-1)
+            if v.shape != (len(p),):
+                raise ValueError(f"ContactLoads: {len(p)} points but {v.size} {name} flags")
+            flags[name] = v
+        for name, v in (("positions_m", p), ("normals", n), ("forces_n", f), *flags.items()):
             v.setflags(write=False)
             object.__setattr__(self, name, v)
 
@@ -98,7 +109,8 @@ class PassiveSound:
 
     Parameters
     ----------
-    rise_time_s : duration of the linear ramp of a force change [s] (at most the span).
+    rise_time_s : duration of the linear ramp of an impact or stick-slip event [s] (at most
+        the span); other force changes ramp over the span.
     roughness : relative fluctuation of a sliding contact's friction force per contact read.
     seed : seed of the roughness generator.
     """
@@ -124,19 +136,23 @@ class PassiveSound:
 
 
 def modal_load(model, loads: ContactLoads | None, rng: np.random.Generator | None = None,
-               roughness: float = 0.0) -> np.ndarray:
+               roughness: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The modal force sum_c U(x_c)^T F_c (r,) of ``loads`` on ``model`` (mass-normalised
-    shapes: [N / sqrt(kg)]), each sliding contact's friction scaled by (1 + roughness xi),
-    xi ~ N(0, 1) from ``rng``."""
+    shapes: [N / sqrt(kg)]) with each sliding contact's friction F_t fluctuating by
+    roughness xi F_t (xi ~ N(0, 1) from ``rng``).  Returns (total, impacts, fluctuation): the
+    whole load, the part of the impact contacts and the part of the fluctuations."""
     r = len(model.angular_frequencies_rad_s)
     if loads is None or len(loads) == 0:
-        return np.zeros(r)
+        return np.zeros(r), np.zeros(r), np.zeros(r)
     F = np.array(loads.forces_n, dtype=float)
+    slip = np.zeros_like(F)
     if roughness > 0 and rng is not None and loads.sliding.any():
         idx = np.flatnonzero(loads.sliding)
-        F[idx] += (roughness * rng.standard_normal(idx.size))[:, None] * loads.friction_n()[idx]
+        slip[idx] = (roughness * rng.standard_normal(idx.size))[:, None] * loads.friction_n()[idx]
     U = np.asarray(model.mode_shapes_at(loads.positions_m), dtype=float)    # (n, 3, r)
-    return np.einsum("nd,ndr->r", F, U)
+    impacts = np.einsum("nd,ndr->r", np.where(loads.impact[:, None], F, 0.0), U)
+    fluctuation = np.einsum("nd,ndr->r", slip, U)
+    return np.einsum("nd,ndr->r", F, U) + fluctuation, impacts, fluctuation
 
 
 def ramp_particular(lu, p_start: np.ndarray, p_end: np.ndarray, ramp_s: float):

@@ -76,6 +76,7 @@ class _ObjectState:
     base: np.ndarray | None = None
     load: np.ndarray | None = None
     load_grasp: GraspState | None = None
+    fluctuation: np.ndarray | None = None  # the stick-slip part of ``load`` (sensors.synthesis.passive)
     offset: np.ndarray | None = None   # the load's equilibrium under ``system`` (added to a steady state)
 
     def state(self) -> np.ndarray:
@@ -457,10 +458,12 @@ class AcousticStream:
 
     def _evolve(self, st: _ObjectState, sysm: ModalSystem, u: np.ndarray, n: int, change, out, keep: bool) -> None:
         """The object's response (into ``out`` unless None) and state over n samples under
-        ``sysm`` and the drive force ``u`` (samples s .. s + n), with the passive load: a
-        linear ramp over the first samples when it changed (``change``: loads before, after),
-        constant otherwise.  The load's particular solution (affine in time) is added to the
-        exact solution of the drive from the shifted state.  ``keep``: carry the end state."""
+        ``sysm`` and the drive force ``u`` (samples s .. s + n), with the passive load
+        (``sensors.synthesis.passive``): after a change (``change``: loads before and after,
+        and the sharp part of the step) the sharp part ramps in over the rise time and the rest
+        over the span, constant otherwise.  On each piece where the load is affine in time its
+        particular solution (affine too) is added to the exact solution of the drive from the
+        shifted state.  ``keep``: carry the end state."""
         x = st.state()
         if change is None and not self._loaded(st):
             if out is not None:
@@ -469,21 +472,23 @@ class AcousticStream:
             return
         solver = self._load_solvers.get_or_build(IdentityKey(sysm), lambda: LoadSolver(sysm))
         T = 1.0 / self.sample_rate_hz
-        k = 0
-        if change is not None:
+        if change is None:
+            pieces = [(0, n, st.load, st.load)]
+        else:
+            old, new, sharp = change
             k = self.passive.rise_samples(self.sample_rate_hz, n)
-            alpha, beta = solver.particular(change[0], change[1], k * T)
+            mid = old + sharp + (new - old - sharp) * (k / n)
+            pieces = [(0, k, old, mid)] + ([(k, n, mid, new)] if k < n else [])
+        for i, (a, b, p0, p1) in enumerate(pieces):
+            alpha, beta = solver.particular(p0, p1, (b - a) * T if p1 is not p0 else 0.0)
             if out is not None:
-                out[:k] = (sysm.response(u[:k], x - alpha) + sysm.output(alpha)
-                           + sysm.output(beta) * (np.arange(k) * T))
-            x = sysm.final_state(u[:k + 1], x - alpha) + alpha + beta * (k * T)
-        if k == n:
-            st.x, st.end = x, None
-            return
-        eq = solver.particular(st.load, st.load, 0.0)[0]
-        if out is not None:
-            out[k:] = sysm.response(u[k:n], x - eq) + sysm.output(eq)
-        st.x, st.end = None, (sysm, u[k:], x - eq, eq) if keep else None
+                out[a:b] = (sysm.response(u[a:b], x - alpha) + sysm.output(alpha)
+                            + sysm.output(beta) * (np.arange(b - a) * T))
+            end = alpha + beta * ((b - a) * T)
+            if i < len(pieces) - 1:
+                x = sysm.final_state(u[a:b + 1], x - alpha) + end
+            else:
+                st.x, st.end = None, (sysm, u[a:], x - alpha, end) if keep else None
 
     # -- passive sound ---------------------------------------------------------------------
     def _loaded(self, st: _ObjectState) -> bool:
@@ -491,17 +496,20 @@ class AcousticStream:
 
     def _load_change(self, st: _ObjectState, g: GraspState):
         """The object's modal load (relative to the first one seen) before and after this
-        span's contact read, or ``None`` when passive sound is off or the load is unchanged."""
+        span's contact read and the sharp part of the step (impacts, stick-slip), or ``None``
+        when passive sound is off or the load is unchanged."""
         if self.passive is None or g is st.load_grasp:
             return None
-        raw = modal_load(g.model, g.loads, self._passive_rng, self.passive.roughness)
+        raw, impacts, fluctuation = modal_load(g.model, g.loads, self._passive_rng, self.passive.roughness)
         st.load_grasp = g
         if st.base is None:
-            st.base, st.load = raw, np.zeros_like(raw)
+            st.base, st.load, st.fluctuation = raw, np.zeros_like(raw), fluctuation
             return None
         new = raw - st.base
         old, st.load = st.load, new
-        return None if np.array_equal(old, new) else (old, new)
+        sharp = impacts + fluctuation - st.fluctuation
+        st.fluctuation = fluctuation
+        return None if np.array_equal(old, new) else (old, new, sharp)
 
     def _equilibrium(self, sysm: ModalSystem, load) -> np.ndarray | None:
         """The static state of ``sysm`` under a constant modal load (None: no load)."""
