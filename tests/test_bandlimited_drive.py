@@ -186,3 +186,20 @@ def test_dense_and_eigen_forms_give_one_transfer_function():
     ref = _transfer(A, B, C, f)
     for method in ("auto", "dense"):
         np.testing.assert_allclose(lti_system(A, B, C, 0.0, FS, method=method).frequency_response(f), ref, rtol=1e-9)
+
+
+@pytest.mark.parametrize("drive", ["bandlimited", "foh"])
+def test_the_drive_reaches_env_sensor_and_dataset_manifest(drive):
+    """Which drive made a recording or a dataset is chosen in one place and recorded."""
+    import gymnasium as gym
+
+    import aas_gym  # noqa: F401  (registers the envs)
+    from aas_gym.experiments.config import DatasetConfig
+
+    env = gym.make("aas_gym/AcousticGrasp-v0", acoustic={"drive": drive}, disable_env_checker=True)
+    env.reset(seed=0)
+    assert env.unwrapped.sensor.bandlimited == (drive == "bandlimited")
+    env.close()
+    assert DatasetConfig(objects=("aluminium_bar",), drive=drive).to_dict()["drive"] == drive
+    with pytest.raises(ValueError):
+        DatasetConfig(objects=("aluminium_bar",), drive="zoh")
