@@ -12,8 +12,8 @@ plus friction, object frame).  What a stream knows of the contacts is one :class
 per span (one per contact read of a MuJoCo scene), so p(t) is modelled as:
 
 - constant while the contacts do not change (a resting object is in equilibrium: only
-  changes make sound, and loads are counted from the first span an object is seen in, so an
-  object placed at rest does not ring);
+  changes make sound; a stream counts an object's loads from its first closed grasp, when it
+  starts following the object's ringing);
 - a change of the forces of contacts that persist is linear over the span (linear
   interpolation between MuJoCo's steps: it resolves nothing faster);
 - an impact (a contact whose partner body did not press in the previous read: a touch-down,

@@ -143,8 +143,9 @@ class AcousticStream:
     passive : a ``PassiveSound``: changes of the forces in each span's ``GraspState.loads``
         (impacts, knocks, slides) excite the object on top of the drive, exactly
         (``sensors.synthesis.passive``); ``None`` (default): only the drive excites it.  An
-        object's loads count from the first span it is seen in; an object's ringing is
-        followed from its first closed grasp on.  Displacement or velocity output only.
+        object's ringing is followed from its first closed grasp on: it starts at rest under
+        the loads it has then, and their changes count from there.  Displacement or velocity
+        output only.
     """
 
     def __init__(self, excitation: Excitation, fingertip: FingertipModel | None = None,
@@ -495,14 +496,16 @@ class AcousticStream:
         return st.load is not None and bool(np.any(st.load))
 
     def _load_change(self, st: _ObjectState, g: GraspState):
-        """The object's modal load (relative to the first one seen) before and after this
-        span's contact read and the sharp part of the step (impacts, stick-slip), or ``None``
-        when passive sound is off or the load is unchanged."""
+        """The object's modal load (relative to the one under which it started ringing) before
+        and after this span's contact read and the sharp part of the step (impacts,
+        stick-slip), or ``None`` when passive sound is off or the load is unchanged.  Until
+        its first closed grasp the object's state is not followed: it is at rest under
+        whatever loads it has (they become the reference)."""
         if self.passive is None or g is st.load_grasp:
             return None
         raw, impacts, fluctuation = modal_load(g.model, g.loads, self._passive_rng, self.passive.roughness)
         st.load_grasp = g
-        if st.base is None:
+        if st.base is None or st.geometry is None:
             st.base, st.load, st.fluctuation = raw, np.zeros_like(raw), fluctuation
             return None
         new = raw - st.base
