@@ -67,10 +67,11 @@ def main(argv=None) -> Path:
     on, table, sliding, events, fs = record(PassiveSound())
     off, *_ = record(None)
     out = _plot(on, on - off, table, sliding, events, fs, args.out)
-    knock = int(events[2][0] * fs)
+    knock, slide = int(events[2][0] * fs), int(events[3][0] * fs)
     part = np.abs(on - off)
     print(f"passive part: peak {part.max():.3g} (drive peak {np.abs(off).max():.3g}); "
-          f"knock step peak {part[knock:knock + STEP].max():.3g}; sliding steps {int(sliding.sum())}")
+          f"knock peak {part[knock:slide].max():.3g}; slide peak {part[slide:].max():.3g}; "
+          f"sliding steps {int(sliding.sum())}")
     print(f"wrote {out}")
     return out
 
