@@ -37,6 +37,11 @@ The response to such a load is exact (no discretisation error): over each piece 
 load is affine in time the particular solution of x' = A x + [0; p(t)] is affine too,
 x_p = alpha + beta t (one solve with A each, :func:`ramp_particular`), and the stream adds it
 to the exact solution of the drive from the shifted state.
+What it leaves out: a MuJoCo stream reads the contacts only when their signature moves beyond
+its ``ContactTolerance`` (``aas_gym.sim_stream``), so force changes below it are not heard;
+the displacement output keeps the quasi-static deflection under a changed load (a step of
+about 1e-5 of full scale when a bar leaves the table), which an AC-coupled piezo would let
+decay; loads on modes above Nyquist (dropped from the system) are not simulated.
 """
 
 from __future__ import annotations
