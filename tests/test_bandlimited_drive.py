@@ -203,3 +203,20 @@ def test_the_drive_reaches_env_sensor_and_dataset_manifest(drive):
     assert DatasetConfig(objects=("aluminium_bar",), drive=drive).to_dict()["drive"] == drive
     with pytest.raises(ValueError):
         DatasetConfig(objects=("aluminium_bar",), drive="zoh")
+
+
+def test_periodic_response_of_a_model_through_the_band_limited_samples(box):
+    """sensors.periodic_response with bandlimited=True on prefiltered samples: per harmonic,
+    the object's transfer function times the samples' band-limited harmonic."""
+    from sensors import periodic_response
+
+    act, mic = _grasp(box)
+    P = 441
+    t = np.arange(P) / FS
+    u = np.cos(2 * np.pi * 3000 * t) + 0.3 * np.cos(2 * np.pi * 9900 * t + 1.0)
+    y = periodic_response(box, bandlimited_samples(u), FS, act.position_m, act.normal, mic.position_m, mic.normal,
+                          [act, mic], method="diagonal", bandlimited=True)
+    A, B, C = _object_ss(box, act, mic)
+    Hs = _transfer(A, B, C, [3000.0, 9900.0])
+    ref = np.real(Hs[0] * np.exp(2j * np.pi * 3000 * t)) + 0.3 * np.real(Hs[1] * np.exp(1j * (2 * np.pi * 9900 * t + 1.0)))
+    assert np.abs(y - ref).max() <= 1e-9 * np.abs(ref).max()

@@ -378,13 +378,16 @@ def modal_response(model, force_n, sample_rate_hz, drive_point_m, drive_normal, 
 def periodic_response(model, force_period_n, sample_rate_hz, drive_point_m, drive_normal, mic_point_m,
                       mic_normal, contacts=(), method: str = "exact",
                       output: str = "displacement", hold: str = "foh",
-                      max_frequency_hz: float | None = None) -> np.ndarray:
+                      max_frequency_hz: float | None = None, bandlimited: bool = False) -> np.ndarray:
     """Exact periodic steady state (one period) for a static grasp under a looping force.
 
     Same arguments as :func:`modal_response`; ``force_period_n`` is one period of the
     looping force.  Equals the time-domain response once the transient has decayed.
+    ``bandlimited``: the force is the band-limited signal of the hold's interpolant without
+    its images (``DiscreteSystem.periodic_response``; prefilter the samples with
+    ``sensors.synthesis.lti.bandlimited_samples`` for the band-limited signal through them).
     """
     sysm = ModalSystem.build(model, sample_rate_hz, drive_point_m, drive_normal, mic_point_m, mic_normal,
                              contacts, method=method, output=output, hold=hold,
                              max_frequency_hz=max_frequency_hz)
-    return sysm.periodic_response(force_period_n)
+    return sysm.periodic_response(force_period_n, bandlimited)
