@@ -19,6 +19,7 @@ V = TypeVar("V")
 CACHE_SIZES: dict[str, int] = {
     "synthesis.systems": 8,          # grasp systems of a batch recording (SynthesisCache)
     "synthesis.forces": 8,           # fingertip drive forces of a batch recording
+    "synthesis.prefilter_taps": 4,   # one-shot band-limited prefilters (passes, length): a few floats each
     "stream.systems": 16,            # streamed contact systems (SystemCache)
     "stream.drive_systems": 4,       # fingertip drive systems per fingertip model
     "stream.steady_states": 8,       # periodic steady states per (system, drive)
