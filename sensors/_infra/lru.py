@@ -23,6 +23,7 @@ CACHE_SIZES: dict[str, int] = {
     "stream.systems": 16,            # streamed contact systems (SystemCache)
     "stream.drive_systems": 4,       # fingertip drive systems per fingertip model
     "stream.steady_states": 8,       # periodic steady states per (system, drive)
+    "passive.load_projections": 4,   # one contact read's loads on the modes of the latest contact sets
     "modal.flexibility": 2,          # K, M and factorization of K + sigma M per model (static correction)
     "modal.spring_modes": 32,        # contact-coupled modes per (model, contact springs)
     "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container

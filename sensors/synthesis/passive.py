@@ -37,6 +37,21 @@ The response to such a load is exact (no discretisation error): over each piece 
 load is affine in time the particular solution of x' = A x + [0; p(t)] is affine too,
 x_p = alpha + beta t (one solve with A each, :func:`ramp_particular`), and the stream adds it
 to the exact solution of the drive from the shifted state.
+
+Contact springs (``contact_model="spring_damper"``): the state of each contact set is in its
+coupled modes (rigid-body, elastic and attachment parts, ``sensors.modal.spring_modes``), so
+U above are the shapes of the modes of the system that runs: a stream keeps each read's
+forces (:class:`LoadRead`) and projects them onto each system's modes.  At a change of
+contact set the state is carried relative to the load's static state, with the same forces
+on both sides (those of the latest read; a load change in the span ramps in after it):
+
+    x_new = x_eq,new + T (x - x_eq,old),     x_eq = [Omega^-1 p; 0] (each set's own p, Omega),
+
+T the M-projection of ``sensors.synthesis.modal_system.transfer_state``.  The ringing is
+carried as without loads (no switch adds energy), and a constant load makes no sound at a
+contact change, as under the damping-only model (where T = I and x_eq does not change);
+only the displacement output's static deflection steps to the new springs' (transferring
+x_eq itself would ring the object towards the new deflection at every contact change).
 What it leaves out: a MuJoCo stream reads the contacts only when their signature moves beyond
 its ``ContactTolerance`` (``aas_gym.sim_stream``), so force changes below it are not heard;
 the displacement output keeps the quasi-static deflection under a changed load (a step of
@@ -50,10 +65,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._infra.lru import CACHE_SIZES, LRU
+from .caches import IdentityKey
 from .lti import one_blas_thread, scipy_linalg
 from .modal_system import modal_state_matrix
 
-__all__ = ["ContactLoads", "LoadSolver", "PassiveSound", "SLIDING_CONE_RATIO", "modal_load", "ramp_particular"]
+__all__ = ["ContactLoads", "LoadRead", "LoadSolver", "PassiveSound", "SLIDING_CONE_RATIO", "modal_load",
+           "ramp_particular"]
 
 #: A contact slides when its friction force is at least this fraction of mu times its normal
 #: force (MuJoCo's soft contacts reach the cone only approximately while sliding).
@@ -140,24 +158,50 @@ class PassiveSound:
         return {"rise_time_s": self.rise_time_s, "roughness": self.roughness, "seed": self.seed}
 
 
+class LoadRead:
+    """One contact read of an object's loads with the roughness drawn for it (``rng`` is
+    drawn once, here): the physical forces, projected onto any modes on demand.  With contact
+    springs the modes an object's state is in change with its contact set while the forces do
+    not, so a stream keeps the reads and projects them onto each system's modes."""
+
+    def __init__(self, loads: ContactLoads | None, rng: np.random.Generator | None = None,
+                 roughness: float = 0.0) -> None:
+        self.loads = loads
+        self.slip_n = None                    # (n, 3) the roughness added to each friction force [N]
+        if loads is not None and len(loads) and roughness > 0 and rng is not None and loads.sliding.any():
+            idx = np.flatnonzero(loads.sliding)
+            self.slip_n = np.zeros((len(loads), 3))
+            self.slip_n[idx] = (roughness * rng.standard_normal(idx.size))[:, None] * loads.friction_n()[idx]
+        self._projections: LRU[tuple] = LRU(CACHE_SIZES["passive.load_projections"])
+
+    def modal(self, modes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(total, impacts, fluctuation), each (r,), on ``modes`` (any ``ModalBasis``: the
+        free model or its coupled modes with contact springs; mass-normalised shapes, so
+        [N / sqrt(kg)]): sum_c U(x_c)^T (F_c + slip_c), the part of the impact contacts and
+        the part of the roughness."""
+        return self._projections.get_or_build(IdentityKey(modes), lambda: self._project(modes))
+
+    def _project(self, modes):
+        r = len(modes.angular_frequencies_rad_s)
+        loads = self.loads
+        if loads is None or len(loads) == 0:
+            return np.zeros(r), np.zeros(r), np.zeros(r)
+        F = np.array(loads.forces_n, dtype=float)
+        slip = np.zeros_like(F) if self.slip_n is None else self.slip_n
+        U = np.asarray(modes.mode_shapes_at(loads.positions_m), dtype=float)    # (n, 3, r)
+        impacts = np.einsum("nd,ndr->r", np.where(loads.impact[:, None], F, 0.0), U)
+        fluctuation = np.einsum("nd,ndr->r", slip, U)
+        return np.einsum("nd,ndr->r", F, U) + fluctuation, impacts, fluctuation
+
+
 def modal_load(model, loads: ContactLoads | None, rng: np.random.Generator | None = None,
                roughness: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The modal force sum_c U(x_c)^T F_c (r,) of ``loads`` on ``model`` (mass-normalised
     shapes: [N / sqrt(kg)]) with each sliding contact's friction F_t fluctuating by
     roughness xi F_t (xi ~ N(0, 1) from ``rng``).  Returns (total, impacts, fluctuation): the
-    whole load, the part of the impact contacts and the part of the fluctuations."""
-    r = len(model.angular_frequencies_rad_s)
-    if loads is None or len(loads) == 0:
-        return np.zeros(r), np.zeros(r), np.zeros(r)
-    F = np.array(loads.forces_n, dtype=float)
-    slip = np.zeros_like(F)
-    if roughness > 0 and rng is not None and loads.sliding.any():
-        idx = np.flatnonzero(loads.sliding)
-        slip[idx] = (roughness * rng.standard_normal(idx.size))[:, None] * loads.friction_n()[idx]
-    U = np.asarray(model.mode_shapes_at(loads.positions_m), dtype=float)    # (n, 3, r)
-    impacts = np.einsum("nd,ndr->r", np.where(loads.impact[:, None], F, 0.0), U)
-    fluctuation = np.einsum("nd,ndr->r", slip, U)
-    return np.einsum("nd,ndr->r", F, U) + fluctuation, impacts, fluctuation
+    whole load, the part of the impact contacts and the part of the fluctuations
+    (:class:`LoadRead` keeps the draw to project it onto other modes too)."""
+    return LoadRead(loads, rng, roughness).modal(model)
 
 
 def ramp_particular(lu, p_start: np.ndarray, p_end: np.ndarray, ramp_s: float):

@@ -55,7 +55,7 @@ from .grasp_state import ContactTolerance, GraspState
 from .lti import SETTLE_E_FOLDS, SteadyState
 from .microphone import Microphone
 from .modal_system import CONTACT_MODELS, ModalSystem, transfer_state
-from .passive import LoadSolver, PassiveSound, modal_load
+from .passive import LoadRead, LoadSolver, PassiveSound
 
 __all__ = ["AcousticStream"]
 
@@ -72,20 +72,24 @@ class _ObjectState:
     system: ModalSystem | None = None  # the system of its latest heard samples ...
     settled: int = 0                 # ... and how many of them ran under a periodic drive
     steady: SteadyState | None = None  # while in periodic steady state: the state is periodic
-    # passive sound: modal load (relative to ``base``, the load when first seen) and its grasp
-    base: np.ndarray | None = None
-    load: np.ndarray | None = None
-    load_grasp: GraspState | None = None
-    fluctuation: np.ndarray | None = None  # the stick-slip part of ``load`` (sensors.synthesis.passive)
-    offset: np.ndarray | None = None   # the load's equilibrium under ``system`` (added to a steady state)
     modes: Any = None                # the modes the state is in (the model, or it with contact springs)
+    # passive sound (sensors.synthesis.passive): reads of the object's loads, physical (each
+    # system projects them onto its own modes); loads count relative to ``base``
+    base: LoadRead | None = None     # the read under which the object started being followed
+    read: LoadRead | None = None     # the latest read ...
+    load_grasp: GraspState | None = None  # ... and the grasp it is of
+    eq: np.ndarray | None = None     # the static state (in ``modes``) under the load the state is
+    #                                  under: added to a steady state, carried across mode changes
 
-    def state_in(self, modes) -> np.ndarray:
+    def state_in(self, modes, eq: np.ndarray | None = None) -> np.ndarray:
         """The state at sample ``at`` in ``modes`` (projected from the modes it is in when the
-        contact springs changed them, ``sensors.synthesis.modal_system.transfer_state``)."""
+        contact springs changed them, ``sensors.synthesis.modal_system.transfer_state``).
+        Under a load the part relative to its static state is projected and ``eq``, the static
+        state under the same load in ``modes``, added (``sensors.synthesis.passive``)."""
         x = self.state()
         if modes is not self.modes:
-            self.x, self.modes = transfer_state(x, self.modes, modes), modes
+            x = transfer_state(x if self.eq is None else x - self.eq, self.modes, modes)
+            self.x, self.modes, self.eq = (x if eq is None else x + eq), modes, eq
         return self.x
 
     def state(self) -> np.ndarray:
@@ -100,7 +104,7 @@ class _ObjectState:
                 raise ValueError("this stream does not carry the modal state (carry_state=False): "
                                  "it records one span per object")
             x = self.steady.state_at(self.at)
-            self.x, self.steady = (x if self.offset is None else x + self.offset), None
+            self.x, self.steady = (x if self.eq is None else x + self.eq), None
         return self.x
 
 
@@ -278,13 +282,13 @@ class AcousticStream:
             raise ValueError("only a closed grasp (both fingertips pressing) has a periodic steady state")
         res = self._resolve(grasp)
         st = self._object_state(grasp)
-        if self._load_change(st, grasp) is not None:
+        modes = res.system.modes
+        if self._modal_change(st, self._load_change(st, grasp), modes) is not None:
             raise ValueError("settle() starts an object at rest under its loads: settle it before its loads change")
         drive = self.drive.settle(res.fingertip, res.grip_force_n)
         st.system, st.settled = res.system, 0
         st.steady, st.x, st.end = self._steady_of(res.system, drive), None, None
-        st.modes = res.system.modes
-        st.offset = self._equilibrium(res.system, st.load)
+        st.modes, st.eq = modes, self._equilibrium(res.system, self._load(st, modes))
         st.geometry = (grasp.actuator.position_m, grasp.actuator.normal, grasp.mic.position_m, grasp.mic.normal)
 
     def latest_features(self) -> np.ndarray | None:
@@ -426,12 +430,14 @@ class AcousticStream:
         if st.at < self.sample_index:
             # the object was out of the stream: ring it down over the gap under its last contacts
             x = st.state()
-            if (np.any(x) or self._loaded(st)) and st.geometry is not None and st.last is not None:
+            if (np.any(x) or st.read is not st.base) and st.geometry is not None and st.last is not None:
                 ring = self._ring_system(st.last, st.geometry)
-                x = st.state_in(ring.modes)
-                eq = self._equilibrium(ring, st.load)
+                load = self._load(st, ring.modes)
+                x = self._state_in(st, ring, load)
+                eq = self._equilibrium(ring, load)
                 eq = np.zeros_like(x) if eq is None else eq
                 st.x = np.linalg.matrix_power(ring.transition_matrix(), self.sample_index - st.at) @ (x - eq) + eq
+                st.eq = None if not np.any(eq) else eq
             st.at = self.sample_index
         if key != self._current:
             self.drive.reset()      # another object in the hand: the drive starts from rest
@@ -447,30 +453,31 @@ class AcousticStream:
         change = self._load_change(st, g)
         if res.heard:
             sysm = res.system                 # n + 1 samples: s .. s + n
+            change = self._modal_change(st, change, sysm.modes)
             if sysm is not st.system or steady_drive is None:
                 st.system, st.settled = sysm, 0
             if (change is None and st.steady is not None and st.steady.system is sysm
                     and steady_drive is not None):
                 # periodic steady state: the output repeats every period, nothing to compute
                 out[:] = st.steady.output[(s + np.arange(n)) % len(st.steady.output)]
-                if st.offset is not None:
-                    out += sysm.output(st.offset)
+                if st.eq is not None:
+                    out += sysm.output(st.eq)
                 self.steady_samples += n
             else:
                 self._evolve(st, sysm, u, n, change, out, self.carry_state)
                 if steady_drive is not None:
                     st.settled += n
                     if st.settled * sysm.slowest_decay_rate_per_s() >= SETTLE_E_FOLDS * self.sample_rate_hz:
-                        st.steady, st.end = self._steady_of(sysm, steady_drive), None
-                        st.offset = self._equilibrium(sysm, st.load)
+                        st.steady, st.end = self._steady_of(sysm, steady_drive), None   # plus st.eq
             st.geometry = (g.actuator.position_m, g.actuator.normal, g.mic.position_m, g.mic.normal)
             self.heard_samples += n
         else:
             self.drive.reset()
             st.system = None
             x = st.state()
-            if st.geometry is not None and (np.any(x) or change is not None or self._loaded(st)):
-                self._evolve(st, self._ring_system(g, st.geometry), np.zeros(n + 1), n, change, None, True)
+            if st.geometry is not None and (np.any(x) or change is not None or st.read is not st.base):
+                ring = self._ring_system(g, st.geometry)
+                self._evolve(st, ring, np.zeros(n + 1), n, self._modal_change(st, change, ring.modes), None, True)
         st.last = g
         st.at = s + n
         self.sample_index = s + n
@@ -482,17 +489,19 @@ class AcousticStream:
         and the sharp part of the step) the sharp part ramps in over the rise time and the rest
         over the span, constant otherwise.  On each piece where the load is affine in time its
         particular solution (affine too) is added to the exact solution of the drive from the
-        shifted state.  ``keep``: carry the end state."""
-        x = st.state_in(sysm.modes)
-        if change is None and not self._loaded(st):
+        shifted state.  Loads and states are in ``sysm``'s modes (the state carried into them
+        relative to the load's static state).  ``keep``: carry the end state."""
+        load = self._load(st, sysm.modes)             # the latest read's, after any change
+        x = self._state_in(st, sysm, load if change is None else change[0])
+        if change is None and (load is None or not np.any(load)):
             if out is not None:
                 out[:] = sysm.response(u[:n], x)
-            st.x, st.end = None, (sysm, u, x, None) if keep else None
+            st.x, st.end, st.eq = None, (sysm, u, x, None) if keep else None, None
             return
         solver = self._load_solvers.get_or_build(IdentityKey(sysm), lambda: LoadSolver(sysm))
         T = 1.0 / self.sample_rate_hz
         if change is None:
-            pieces = [(0, n, st.load, st.load)]
+            pieces = [(0, n, load, load)]
         else:
             old, new, sharp = change
             k = self.passive.rise_samples(self.sample_rate_hz, n)
@@ -508,29 +517,49 @@ class AcousticStream:
                 x = sysm.final_state(u[a:b + 1], x - alpha) + end
             else:
                 st.x, st.end = None, (sysm, u[a:], x - alpha, end) if keep else None
+        # the static state under the load from here on (its ramp's particular solution is not)
+        st.eq = alpha if change is None else self._equilibrium(sysm, load)
 
     # -- passive sound ---------------------------------------------------------------------
-    def _loaded(self, st: _ObjectState) -> bool:
-        return st.load is not None and bool(np.any(st.load))
-
     def _load_change(self, st: _ObjectState, g: GraspState):
-        """The object's modal load (relative to the one under which it started ringing) before
-        and after this span's contact read and the sharp part of the step (impacts,
-        stick-slip), or ``None`` when passive sound is off or the load is unchanged.  Until
-        its first closed grasp the object's state is not followed: it is at rest under
-        whatever loads it has (they become the reference)."""
+        """``(previous read, new read)`` of the object's loads when this span brings a new
+        contact read, else ``None`` (passive sound off, the same grasp, or the object not yet
+        followed: until its first closed grasp it is at rest under whatever loads it has, and
+        they become the reference).  Draws the read's roughness (once per read, in order)."""
         if self.passive is None or g is st.load_grasp:
             return None
-        raw, impacts, fluctuation = modal_load(g.model, g.loads, self._passive_rng, self.passive.roughness)
+        read = LoadRead(g.loads, self._passive_rng, self.passive.roughness)
         st.load_grasp = g
         if st.base is None or st.geometry is None:
-            st.base, st.load, st.fluctuation = raw, np.zeros_like(raw), fluctuation
+            st.base = st.read = read
             return None
-        new = raw - st.base
-        old, st.load = st.load, new
-        sharp = impacts + fluctuation - st.fluctuation
-        st.fluctuation = fluctuation
-        return None if np.array_equal(old, new) else (old, new, sharp)
+        previous, st.read = st.read, read
+        return previous, read
+
+    def _load(self, st: _ObjectState, modes) -> np.ndarray | None:
+        """The object's modal load on ``modes`` (relative to its base read) after its latest
+        read; ``None`` when there is none."""
+        if st.base is None or st.read is None:
+            return None
+        return st.read.modal(modes)[0] - st.base.modal(modes)[0]
+
+    def _modal_change(self, st: _ObjectState, change, modes):
+        """A load change (``_load_change``) on ``modes``: the load before and after and the
+        sharp part of the step (impacts, stick-slip), or ``None`` when the load is unchanged."""
+        if change is None:
+            return None
+        previous, read = change
+        base = st.base.modal(modes)[0]
+        total, impacts, fluctuation = read.modal(modes)
+        before, _, fluctuation_before = previous.modal(modes)
+        old, new = before - base, total - base
+        return None if np.array_equal(old, new) else (old, new, impacts + fluctuation - fluctuation_before)
+
+    def _state_in(self, st: _ObjectState, sysm: ModalSystem, load) -> np.ndarray:
+        """The object's state in ``sysm``'s modes, carried relative to the static state under
+        ``load`` (on those modes) where the modes change (``_ObjectState.state_in``)."""
+        eq = self._equilibrium(sysm, load) if st.modes is not sysm.modes else None
+        return st.state_in(sysm.modes, eq)
 
     def _equilibrium(self, sysm: ModalSystem, load) -> np.ndarray | None:
         """The static state of ``sysm`` under a constant modal load (None: no load)."""
