@@ -31,6 +31,7 @@ import numpy as np
 from aas_gym.contact_sensors import signature_partners, signature_sensor_name
 from aas_gym.sim_sensor import NO_VARIATION, SensorVariation, SimAcousticSensor
 from sensors import AcousticStream, ContactTolerance, Excitation, GraspState
+from sensors.synthesis.passive import PassiveSound
 
 __all__ = ["SimAcousticStream", "span_bounds"]
 
@@ -53,11 +54,14 @@ class SimAcousticStream:
     variation : this episode's ``SensorVariation`` (noise, leak scale, material scales).
     rng : the noise generator (``numpy.random.Generator`` or seed).
     tolerance : when contacts count as unchanged (``sensors.ContactTolerance``).
+    passive : a ``sensors.PassiveSound``: each contact read hands the stream the forces of
+        every contact on the heard object (``ObjectContacts.sensor_loads``), so that impacts,
+        knocks and slides make sound; ``None``: only the drive does.
     """
 
     def __init__(self, sensor: SimAcousticSensor, excitation: Excitation | str, *,
                  variation: SensorVariation | None = None, rng=None,
-                 tolerance: ContactTolerance | None = None) -> None:
+                 tolerance: ContactTolerance | None = None, passive: PassiveSound | None = None) -> None:
         if isinstance(excitation, str):
             excitation = Excitation.by_name(excitation)
         variation = NO_VARIATION if variation is None else variation
@@ -70,7 +74,8 @@ class SimAcousticStream:
         self.stream = AcousticStream(excitation, fingertip=sensor.fingertip,
                                      leak=sensor.leak_for(excitation, variation.leak_scale), noise_std=noise,
                                      rng=rng if rng is not None else sensor.rng, tolerance=self.tolerance,
-                                     contact_model=sensor.contact_model)
+                                     contact_model=sensor.contact_model, bandlimited=sensor.bandlimited,
+                                     passive=passive)
         self.bodies = sensor.bodies
         self._vec_adr, self._grasp_adr = _signature_addresses(self.model, self.bodies)
         self._n_partners = self._vec_adr.shape[1] // 2
@@ -82,6 +87,7 @@ class SimAcousticStream:
         self._state: GraspState | None = None
         self._heard: str | None = None           # the body the stream follows
         self.contact_reads = 0
+        self._pressing, self._pressing_body = set(), None   # who pressed on which body at the last read
 
     @property
     def sample_rate_hz(self) -> int:
@@ -140,7 +146,13 @@ class SimAcousticStream:
         self._heard_index = self.bodies.index(body)
         grasp = contacts[body].sensor_grasp(self._min_force_n, self.sensor.object_materials())
         model = self.sensor.scaled_model(body, self.variation)
-        return GraspState(model, grasp.actuator, grasp.mic, tuple(grasp.others), object_key=body)
+        loads = None
+        if self.stream.passive is not None:
+            c = contacts[body]
+            before = self._pressing if body == self._pressing_body else None
+            loads = c.sensor_loads(self._min_force_n, before)
+            self._pressing, self._pressing_body = c.pressing_bodies(self._min_force_n), body
+        return GraspState(model, grasp.actuator, grasp.mic, tuple(grasp.others), object_key=body, loads=loads)
 
     # -- recording ---------------------------------------------------------------------------
     def step_physics(self, n_steps: int, n_samples: int) -> np.ndarray:

@@ -154,7 +154,7 @@ class _Scene:
 COMMON_ARGUMENTS = """
     | `scene` | str | `"single"` | `"single"`: the target alone on the table; `"multi"`: one or two `distractors` lean across its ends (random object contacts) |
     | `distractors` | sequence of str or `ObjectSpec`, or None | None | objects that may lean on the target; None: the bars of the default objects |
-    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `enabled`, `features` (`"fft140"`, `"spectrogram"`, `"mel"`), `history`, `update_period_s`, `corruption`, `max_samples` (the longest recording or streamed step, default 60 s at 44.1 kHz); None or missing fields: this env's defaults |
+    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `drive` (`"bandlimited"` or the former `"foh"`), `passive_sound` (impacts and slides heard; default on when streaming), `enabled`, `features` (`"fft140"`, `"spectrogram"`, `"mel"`), `history`, `update_period_s`, `corruption`, `max_samples` (the longest recording or streamed step, default 60 s at 44.1 kHz); None or missing fields: this env's defaults |
     | `robot` | str | `"floating_hand"` | `"floating_hand"`: the Franka hand on a Cartesian carriage (fast); `"panda"`: the Franka Panda arm with the same hand (needs `gymnasium-robotics` for its meshes), Cartesian TCP actions through inverse kinematics |
     | `grip_force_n` | float | 40.0 | nominal grip force [N], in (0, 140] |
     | `randomization` | `DomainRandomization`, dict of its knobs, None or False | None | domain randomization; None: its defaults; False: none |
@@ -367,6 +367,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         scene = _Scene(objects, contact_signature=self.acoustic.streaming, robot=self.robot)
         scene.sensor.leak, scene.sensor.fingertip = self._leaks, self.acoustic.fingertip
         scene.sensor.contact_model = self.acoustic.contact_model
+        scene.sensor.bandlimited = self.acoustic.drive == "bandlimited"
         return scene
 
     @property
@@ -515,7 +516,8 @@ class AasEnv(AcousticEnvMixin, gym.Env):
     # --- streaming --------------------------------------------------------------------------
     def _new_stream(self, excitation=None) -> SimAcousticStream:
         return SimAcousticStream(self.sensor, self.excitation if excitation is None else excitation,
-                                 variation=self._variation, rng=self.np_random, tolerance=self.acoustic.stream_tolerance)
+                                 variation=self._variation, rng=self.np_random, tolerance=self.acoustic.stream_tolerance,
+                                 passive=self.acoustic.passive)
 
     def _simulate(self) -> None:
         """One env step of physics (``frame_skip`` MuJoCo steps); streamed, the microphone
