@@ -86,10 +86,14 @@ def _plot(wave, passive, table, sliding, events, fs, out: Path) -> Path:
     from sensors._infra.atomic import atomic_savefig
 
     fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True, gridspec_kw={"height_ratios": [3, 3, 1]})
-    for ax, w, title in ((axes[0], wave, "recording with passive sound (linear sweep looping)"),
-                         (axes[1], passive, "passive part alone (with minus without passive sound)")):
-        f, tt, S = spectrogram(w - np.mean(w), fs, nperseg=1024, noverlap=512)
-        ax.pcolormesh(tt, f / 1e3, 10 * np.log10(S + 1e-30), shading="auto", cmap="magma", vmin=-240, vmax=-120)
+    panels = [(ax, spectrogram(w - np.mean(w), fs, nperseg=1024, noverlap=512), title) for ax, w, title in (
+        (axes[0], wave, "recording with passive sound (linear sweep looping)"),
+        (axes[1], passive, "passive part alone (with minus without passive sound)"))]
+    # one colour scale for both panels, 100 dB down from the recording's loudest cells
+    top = np.percentile(10 * np.log10(panels[0][1][2] + 1e-30), 99.5)
+    for ax, (f, tt, S), title in panels:
+        ax.pcolormesh(tt, f / 1e3, 10 * np.log10(S + 1e-30), shading="auto", cmap="magma", vmin=top - 100,
+                      vmax=top)
         ax.set_ylabel("frequency [kHz]")
         ax.set_title(title, fontsize=10)
     t = (np.arange(len(table)) + 1) * STEP / fs
