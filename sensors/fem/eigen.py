@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 
 import numpy as np
 
@@ -211,16 +212,20 @@ def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol,
     solver = solver or default_solver()
     for sigma in (BAND_SHIFT * lam_max, safe):
         say(f"factorizing ({solver})")
+        start = time.perf_counter()
         try:
             fact = factorize(K - sigma * M, solver)
         except FactorizationError as exc:
             failure = EigenSolveError(f"factorization of K - sigma M failed ({exc}); is the mesh valid?")
             continue
-        info.update(solver=fact.name, factor_mb=fact.factor_mb)
+        info.update(solver=fact.name, factor_mb=fact.factor_mb, factor_s=time.perf_counter() - start, block=_BLOCK,
+                    solves=0, solved_vectors=0)
         # Below a positive shift lie the six rigid-body modes (eigenvalue 0) and the elastic ones.
         n_below = None if fact.n_negative is None else fact.n_negative - (len(R.T) if sigma > 0 else 0)
 
         def op(X, fact=fact):
+            info["solves"] += 1
+            info["solved_vectors"] += X.shape[1]
             Y = fact.solve(X)
             return Y - R @ (MR.T @ Y)  # M-orthogonal projection: no rigid-body component
 
@@ -250,7 +255,9 @@ def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_r
         solver: Sparse direct solver of the shift-invert, ``"pardiso"`` or ``"superlu"``
             (default :func:`sensors.fem.direct_solver.default_solver`); both give the same modes.
         info: Optional dict that receives how the modes were solved: ``solver`` (``"dense"``
-            below :data:`DENSE_MAX_DOF`), ``factor_mb`` (memory of the factorization).
+            below :data:`DENSE_MAX_DOF`), ``factor_mb`` (memory of the factorization), and for
+            shift-invert ``factor_s`` (wall time of the factorization), ``block`` (Krylov block
+            size), ``solves`` and ``solved_vectors`` (block solves and their columns).
 
     Returns:
         (lambdas (r,) ascending [rad^2/s^2], U (3 n_nodes, r) with U^T M U = I).
