@@ -57,6 +57,7 @@ _LAZY = {
     "DomainRandomization": "aas_gym.scenario",
     "MujocoRobot": "aas_gym.robot",
     "SimAcousticStream": "aas_gym.sim_stream",
+    "build_object": "aas_gym.object_build",
 }
 
 __all__ = sorted(_LAZY)
