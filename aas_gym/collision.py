@@ -36,13 +36,9 @@ COACD_OPTIONS = dict(threshold=0.05, max_convex_hull=32, preprocess_mode="off", 
 #: CoACD's time grows with the input's faces, and the FE surfaces are far finer than collision
 #: needs (the mug's 30k faces took 10.7 s): surfaces above ``SIMPLIFY_ABOVE_FACES`` faces are
 #: simplified first (manifold3d, which keeps the surface closed and moves it by at most the
-#: tolerance, here ``SIMPLIFY_TOLERANCE`` times the bounding-box diagonal: 0.13-0.23 mm on the
-#: containers). 1e-3 instead of 5e-4 took a third off CoACD (can 5.8 -> 3.8 s CPU, bottle 6.5 ->
-#: 4.4 s) with pieces of the same kind: 19-23 of them (22-24 before) covering 98.1-98.3 % of the
-#: original solid (99.6-100 %), union volume within 4 % of the earlier pieces', at most 0.2 mm
-#: outside the original surface (0.1 mm). 2e-3 covered only 95.8 % of the bottle (3 mm walls).
+#: tolerance, here ``SIMPLIFY_TOLERANCE`` times the bounding-box diagonal: 0.08 mm on the mug).
 SIMPLIFY_ABOVE_FACES = 2000
-SIMPLIFY_TOLERANCE = 1e-3
+SIMPLIFY_TOLERANCE = 5e-4
 
 
 @dataclasses.dataclass(frozen=True)
