@@ -60,6 +60,7 @@ _LAZY = {
     "PandaArm": "aas_gym.panda_control",
     "UnreachableError": "aas_gym.panda_control",
     "SimAcousticStream": "aas_gym.sim_stream",
+    "build_object": "aas_gym.object_build",
 }
 
 __all__ = sorted(_LAZY)
