@@ -213,22 +213,24 @@ class Task:
 
 @functools.lru_cache(maxsize=1)
 def code_version() -> str:
-    """Hash of every module of ``sensors`` and ``aas_gym``: the code a dataset's bytes come from.
+    """Hash of every module of ``sensors`` and ``aas_gym`` and of the MJCF assets (the robots,
+    objects and scenes): the code a dataset's bytes come from.
 
-    Part of a dataset's fingerprint, so a dataset begun by other code (a changed mesh, damping
-    or scene) is never finished by this one: its shards would mix two physics and nothing would
-    tell them apart.
+    Part of a dataset's fingerprint, so a dataset begun by other code (a changed mesh, damping,
+    scene or robot model) is never finished by this one: its shards would mix two physics and
+    nothing would tell them apart.
     """
     import sensors
+    from aas_gym.assets import ASSETS_DIR
 
-    return source_hash(Path(sensors.__file__).parent, Path(__file__).resolve().parents[1])
+    return source_hash(Path(sensors.__file__).parent, Path(__file__).resolve().parents[1], ASSETS_DIR)
 
 
 def source_hash(*packages: Path) -> str:
-    """Hash of the names and bytes of every ``.py`` file under the given package folders."""
+    """Hash of the names and bytes of every ``.py`` and ``.xml`` file under the given folders."""
     h = hashlib.sha256()
     for package in packages:
-        for path in sorted(package.rglob("*.py")):
+        for path in sorted([*package.rglob("*.py"), *package.rglob("*.xml")]):
             h.update(f"{package.name}/{path.relative_to(package).as_posix()}".encode() + b"\0")
             h.update(path.read_bytes())
     return h.hexdigest()[:16]
