@@ -5,10 +5,15 @@ looping excitation need not be synthesized sample by sample: each feature window
 at the feature bins has a closed form (:mod:`sensors.synthesis.window_spectra`).  The chain is
 the one of :func:`sensors.synthesis.recording.simulate_recording`, term by term:
 
-- the fingertip drive's contact force: its periodic steady state (one period) plus its
-  transient from rest, a sum of the drive's decaying modes;
-- the object at the microphone: the modal system's window spectra under that force (steady
-  state, particular solutions and each mode's onset), times the microphone gain;
+- the fingertip drive's contact force: from rest, the first-order-hold run of its discrete
+  system over the whole recording (on the exciter samples, prefiltered by 1 / sinc^4 with the
+  band-limited drive), i.e. that system's sampled periodic steady state (one period) plus its
+  transient from rest, a sum of the drive's decaying modes; settled, the drive's periodic
+  steady state as ``FingertipDrive.settle`` gives it (per harmonic with the band-limited drive);
+- the object at the microphone: from rest, the modal system's window spectra under that force
+  (steady state, particular solutions and each mode's onset); settled, its steady state per
+  bin (the band-limited drive: per harmonic from the continuous-time transfer function, as
+  ``SteadyState(..., bandlimited=True)``); times the microphone gain;
 - the noise: the same seeded samples drawn as the time-domain chain draws them, transformed
   (so the generator's stream and the results are the same in both paths);
 - the spectra's magnitudes averaged over the windows as ``sensors.spectral_features`` does.
