@@ -4,10 +4,10 @@ The reference synthesizes every sample (``AcousticStream.synthesize``: fingertip
 system, from rest or settled), adds the microphone's gain and the same seeded noise, and takes
 ``sensors.spectral_features``: an independent computation of the same recording.  The
 recorded waveform of ``simulate_recording`` is float32; its rounding (5e-8 of the peak) is
-the only difference left against it.
+the only difference left against it.  Both drives: the band-limited one (the default; its
+run from rest is the first-order-hold run on prefiltered samples, its settled state per
+harmonic) and the piecewise-linear one of earlier datasets (``bandlimited=False``).
 """
-
-import functools
 
 import mujoco
 import numpy as np
@@ -17,13 +17,8 @@ from aas_gym.grasp import planar_grasp
 from aas_gym.scene import build_scene
 from aas_gym.sim_sensor import SimAcousticSensor
 from sensors import Excitation, spectral_features
-from sensors import synthesis
-from sensors.synthesis import AcousticStream, GraspState, SynthesisCache, mic_gain
-
-# The closed form follows the piecewise-linear drive ("foh"); with the band-limited drive (the
-# default) simulate_features synthesizes (tests/test_bandlimited_drive.py covers that drive).
-simulate_features = functools.partial(synthesis.simulate_features, bandlimited=False)
-simulate_recording = functools.partial(synthesis.simulate_recording, bandlimited=False)
+from sensors.synthesis import (AcousticStream, GraspState, SynthesisCache, mic_gain, simulate_features,
+                                simulate_recording)
 
 OBJECTS = ("aluminium_bar", "wood_bar", "abs_bar", "aluminium_tube")
 
@@ -42,10 +37,10 @@ def grasp(request):
     return sensor.modal_model(body), act, mic, others
 
 
-def time_domain_features(model, excitation, duration_s, act, mic, others, noise_std, seed, steady):
+def time_domain_features(model, excitation, duration_s, act, mic, others, noise_std, seed, steady, bandlimited):
     """Features of the sample-by-sample chain in float64 (no float32 recording)."""
     n = len(excitation.loop(duration_s))
-    stream = AcousticStream(excitation, carry_state=False, bandlimited=False)
+    stream = AcousticStream(excitation, carry_state=False, bandlimited=bandlimited)
     g = GraspState(model, act, mic, tuple(others))
     if steady:
         stream.settle(g)
@@ -59,19 +54,22 @@ def time_domain_features(model, excitation, duration_s, act, mic, others, noise_
 @pytest.mark.parametrize("with_others", [True, False])
 @pytest.mark.parametrize("noise_std", [0.0, 1e-4])
 @pytest.mark.parametrize("steady", [False, True])
-def test_closed_form_equals_time_domain(grasp, excitation, with_others, noise_std, steady):
+@pytest.mark.parametrize("bandlimited", [True, False])
+def test_closed_form_equals_time_domain(grasp, excitation, with_others, noise_std, steady, bandlimited):
     model, act, mic, others = grasp
     others = others if with_others else ()
     ex = Excitation.by_name(excitation)
-    fast = simulate_features(model, ex, 1.0, act, mic, others, noise_std=noise_std, rng=7, steady_state=steady)
+    fast = simulate_features(model, ex, 1.0, act, mic, others, noise_std=noise_std, rng=7, steady_state=steady,
+                             bandlimited=bandlimited)
     assert fast.metadata["features_path"] == "closed_form"
     got = fast.features(average=False)
-    want = time_domain_features(model, ex, 1.0, act, mic, others, noise_std, 7, steady)
+    want = time_domain_features(model, ex, 1.0, act, mic, others, noise_std, 7, steady, bandlimited)
     assert got.shape == want.shape == (2, 140)
     np.testing.assert_allclose(got, want, rtol=1e-6, atol=0)
     # the float32 recording: equal up to its rounding, at most 2^-24 |x[n]| per sample, so per
     # window at most 2/P sum |x| 2^-24 on every feature (rigorous bound)
-    rec = simulate_recording(model, ex, 1.0, act, mic, others, noise_std=noise_std, rng=7, steady_state=steady)
+    rec = simulate_recording(model, ex, 1.0, act, mic, others, noise_std=noise_std, rng=7, steady_state=steady,
+                             bandlimited=bandlimited)
     ref = rec.features(average=False)
     P = ex.period_samples
     bound = 2.0 / P * np.abs(rec.waveform.astype(float)).reshape(2, P).sum(axis=1) * 2.0**-24 * 1.01

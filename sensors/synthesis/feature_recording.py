@@ -5,10 +5,15 @@ looping excitation need not be synthesized sample by sample: each feature window
 at the feature bins has a closed form (:mod:`sensors.synthesis.window_spectra`).  The chain is
 the one of :func:`sensors.synthesis.recording.simulate_recording`, term by term:
 
-- the fingertip drive's contact force: its periodic steady state (one period) plus its
-  transient from rest, a sum of the drive's decaying modes;
-- the object at the microphone: the modal system's window spectra under that force (steady
-  state, particular solutions and each mode's onset), times the microphone gain;
+- the fingertip drive's contact force: from rest, the first-order-hold run of its discrete
+  system over the whole recording (on the exciter samples, prefiltered by 1 / sinc^4 with the
+  band-limited drive), i.e. that system's sampled periodic steady state (one period) plus its
+  transient from rest, a sum of the drive's decaying modes; settled, the drive's periodic
+  steady state as ``FingertipDrive.settle`` gives it (per harmonic with the band-limited drive);
+- the object at the microphone: from rest, the modal system's window spectra under that force
+  (steady state, particular solutions and each mode's onset); settled, its steady state per
+  bin (the band-limited drive: per harmonic from the continuous-time transfer function, as
+  ``SteadyState(..., bandlimited=True)``); times the microphone gain;
 - the noise: the same seeded samples drawn as the time-domain chain draws them, transformed
   (so the generator's stream and the results are the same in both paths);
 - the spectra's magnitudes averaged over the windows as ``sensors.spectral_features`` does.
@@ -38,8 +43,10 @@ from .fingertip import FingertipModel
 from .grasp_state import GraspState
 from .microphone import mic_gain
 from .recording import simulate_recording
+from .lti import SteadyState
 from .stream import AcousticStream
-from .window_spectra import Exponentials, closed_form_supported, periodic_transient, window_spectra
+from .window_spectra import (Exponentials, bandlimited_steady_spectra, closed_form_supported, periodic_transient,
+                             window_spectra)
 
 __all__ = ["FeatureObservation", "simulate_features"]
 
@@ -95,19 +102,23 @@ class _DriveSpectrum:
 
 
 def _drive_spectrum(stream: AcousticStream, tip: FingertipModel, from_rest: bool) -> _DriveSpectrum | None:
-    """The drive's periodic steady state (as the time-domain chain computes it) and its
-    transient from rest, a sum of its modes."""
+    """The drive's contact force as the time-domain chain computes it: settled, its periodic
+    steady state (``FingertipDrive.settle``; per harmonic with the band-limited drive); from
+    rest, one first-order-hold run over the whole recording (``FingertipDrive.forces``), i.e.
+    the discrete system's periodic steady state under the (prefiltered) exciter samples plus
+    its transient from rest, a sum of its modes."""
     sy = stream.drive.systems(tip)
-    act, mic = sy.steady()
-    lowest = min(act.output.min(), mic.output.min())
-    transient = Exponentials.none()
-    if from_rest:
-        if not (closed_form_supported(sy.drive.act) and closed_form_supported(sy.drive.mic)):
-            return None
-        x0 = act.system.periodic_state(act.input)
-        transient = periodic_transient(sy.drive.act, x0)
-        mic_tr = periodic_transient(sy.drive.mic, x0)
-        lowest = min(act.output.min() - transient.bound(), mic.output.min() - mic_tr.bound())
+    if not from_rest:
+        act, mic = sy.steady()
+        return _DriveSpectrum(act.output, Exponentials.none(), float(min(act.output.min(), mic.output.min())))
+    if not (closed_form_supported(sy.drive.act) and closed_form_supported(sy.drive.mic)):
+        return None
+    fe = tip.actuator_force_n * sy.period        # the exciter force the linear run is driven by
+    act, mic = SteadyState(sy.drive.act, fe), SteadyState(sy.drive.mic, fe)   # sampled (FOH) steady states
+    x0 = sy.drive.act.periodic_state(fe)
+    transient = periodic_transient(sy.drive.act, x0)
+    mic_tr = periodic_transient(sy.drive.mic, x0)
+    lowest = min(act.output.min() - transient.bound(), mic.output.min() - mic_tr.bound())
     return _DriveSpectrum(act.output, transient, float(lowest))
 
 
@@ -140,8 +151,7 @@ def simulate_features(model, excitation: Excitation, duration_s: float,
     grasp = GraspState(model, actuator_contact, mic_contact, others)
     spectra = None
     meta: dict = {}
-    # the closed form follows the piecewise-linear drive; the band-limited one is synthesized
-    if bins is not None and leak is None and n >= P and not bandlimited:
+    if bins is not None and leak is None and n >= P:
         spectra, meta = _object_spectra(grasp, excitation, fingertip, output, method, steady_state, cache,
                                         bins, n // P, contact_model, bandlimited)
     if spectra is None:
@@ -204,5 +214,8 @@ def _build_spectra(grasp, excitation, fingertip, output, method, steady_state, c
                                              lambda: _drive_spectrum(stream, tip, not steady_state))
     if drive is None:
         return None, None, tip
-    spectra = window_spectra(system, drive.period, drive.transient, bins, n_windows, from_rest=not steady_state)
+    if steady_state and bandlimited:          # the settled chain's steady state is per harmonic
+        spectra = bandlimited_steady_spectra(system, drive.period, bins, n_windows)
+    else:
+        spectra = window_spectra(system, drive.period, drive.transient, bins, n_windows, from_rest=not steady_state)
     return spectra, drive, tip

@@ -17,6 +17,10 @@ then has a closed form: the steady state's is (G0 w + G1) U_ss(w) / (1 - a w), a
 exponential r^n contributes r^(kP) (1 - r^P) / (1 - r w).  Nothing here depends on how the
 system was built (poles, input and output vectors of each part only): any modal system of
 ``ModalSystem.build`` made of complex-mode parts qualifies (:func:`closed_form_supported`).
+
+A system settled under the band-limited signal of its input samples (``SteadyState(...,
+bandlimited=True)``) has the steady state of each harmonic from the continuous-time transfer
+function instead: :func:`bandlimited_steady_spectra`.
 """
 
 from __future__ import annotations
@@ -25,9 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .lti import DiscreteSystem, EigenPart
+from .lti import DiscreteSystem, EigenPart, hold_gain
 
-__all__ = ["Exponentials", "bin_phasors", "closed_form_supported", "periodic_transient", "window_spectra"]
+__all__ = ["Exponentials", "bandlimited_steady_spectra", "bin_phasors", "closed_form_supported", "periodic_transient", "window_spectra"]
 
 # |1 - a w| or |e^s - a| below this: a pole sits on a bin or two poles coincide; the closed
 # form would divide by (nearly) zero, and the caller takes the time-domain chain instead.
@@ -78,6 +82,19 @@ def periodic_transient(system: DiscreteSystem, state0_periodic: np.ndarray) -> E
     if not gains:
         return Exponentials.none()
     return Exponentials(np.concatenate(gains), np.concatenate(poles))
+
+
+def bandlimited_steady_spectra(system: DiscreteSystem, input_period: np.ndarray, bins: np.ndarray,
+                               n_windows: int) -> np.ndarray:
+    """The window spectra (as :func:`window_spectra`) of ``system`` in the periodic steady
+    state of ``SteadyState(system, input_period, bandlimited=True)``: per bin m, U_m S(f_m)
+    H(f_m) (hold gain S, continuous-time transfer function H), the same in every window.
+    Any part qualifies (dense ones too: H is evaluated per part)."""
+    u = np.asarray(input_period, dtype=float)
+    P = len(u)
+    m = np.asarray(bins, dtype=int)
+    gain = hold_gain(m / P, 1.0, system.hold) * system.frequency_response(m * (system.sample_rate_hz / P))
+    return np.tile(np.fft.rfft(u)[m] * gain, (n_windows, 1))
 
 
 def _window_geometric(log_pole: np.ndarray, w: np.ndarray, k: int, P: int) -> np.ndarray:
