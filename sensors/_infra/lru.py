@@ -27,6 +27,7 @@ CACHE_SIZES: dict[str, int] = {
     "stream.steady_states": 8,       # periodic steady states per (system, drive)
     "modal.flexibility": 2,          # K, M and factorization of K + sigma M per model (static correction)
     "modal.spring_modes": 32,        # contact-coupled modes per (model, contact springs)
+    "modal.coupled_grasps": 16,      # modes of a grasped object with the objects it touches, per contact set
     "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container
     "fluid.containers": 8,           # containers (dry model + static correction) per object
     "objects.solids": 64,            # surfaces and meshers of the catalog's surface objects

@@ -194,7 +194,7 @@ def spring_modes(model, contacts):
 def _ritz_parts(modes):
     """``(free coefficients (6 + r, r_c), psi (n_dof, a) or None, psi coefficients (a, r_c),
     flexibility)`` of a model's coordinates in the common Ritz basis [R, U]."""
-    if isinstance(modes, SpringModes):
+    if hasattr(modes, "split"):      # SpringModes, or a grasp coupled to other bodies (modal.touching)
         n_rigid, r, a = modes.split
         free = np.zeros((6 + r, modes.V.shape[1]))
         free[6 - n_rigid:] = modes.V[:n_rigid + r]
@@ -204,7 +204,7 @@ def _ritz_parts(modes):
 
 
 def _root(model):
-    return model.base if isinstance(model, SpringModes) else model
+    return model.base if hasattr(model, "split") else model
 
 
 def modal_transfer(from_modes, to_modes) -> np.ndarray:
