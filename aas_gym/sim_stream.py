@@ -30,6 +30,7 @@ import numpy as np
 
 from aas_gym.contact_sensors import signature_partners, signature_sensor_name
 from aas_gym.sim_sensor import NO_VARIATION, SensorVariation, SimAcousticSensor
+from aas_gym.touching_grasp import touching_grasp
 from sensors import AcousticStream, ContactTolerance, Excitation, GraspState
 
 __all__ = ["SimAcousticStream", "span_bounds"]
@@ -139,8 +140,9 @@ class SimAcousticStream:
         self._heard = body
         self._heard_index = self.bodies.index(body)
         grasp = contacts[body].sensor_grasp(self._min_force_n, self.sensor.object_materials())
-        model = self.sensor.scaled_model(body, self.variation)
-        return GraspState(model, grasp.actuator, grasp.mic, tuple(grasp.others), object_key=body)
+        # the sensed objects it touches vibrate with it (spring_damper; aas_gym.touching_grasp)
+        model, others = touching_grasp(self.sensor, body, contacts, self.variation, grasp.others)
+        return GraspState(model, grasp.actuator, grasp.mic, tuple(others), object_key=body)
 
     # -- recording ---------------------------------------------------------------------------
     def step_physics(self, n_steps: int, n_samples: int) -> np.ndarray:
