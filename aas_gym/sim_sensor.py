@@ -24,7 +24,7 @@ import numpy as np
 import sensors
 from aas_gym.contacts import ContactStream, ObjectContacts
 from aas_gym.object_bodies import object_specs_from_model
-from aas_gym.touching_grasp import touching_grasp
+from aas_gym.touching_grasp import TouchingMemo, touching_grasp
 from sensors import Excitation, LeakRecording, SynthesisCache, load_leak
 from sensors._infra.lru import CACHE_SIZES, LRU
 from sensors.materials import scaled_material
@@ -168,6 +168,8 @@ class SimAcousticSensor:
         # material views per (body, scales), with the model they view: the same object for the
         # same episode's grasps, so the synthesis cache recognizes it across excitations
         self._views = LRU(CACHE_SIZES["sim.material_views"])
+        # coupled groups of a grasped object and the objects it touches (reused within a tolerance)
+        self.touching = TouchingMemo()
 
     @property
     def bodies(self) -> list[str]:

@@ -32,7 +32,8 @@ CACHE_SIZES: dict[str, int] = {
     "fluid.containers": 8,           # containers (dry model + static correction) per object
     "objects.solids": 64,            # surfaces and meshers of the catalog's surface objects
     "sim.models": 32,                # modal models shared by the scenes of one process
-    "sim.material_views": 16,        # randomized material views of those models
+    "sim.material_views": 16,
+    "sim.touching_groups": 16,       # recent coupled groups per (grasped, touching objects) of a sensor        # randomized material views of those models
     "sim.grasp_sets": 64,            # antipodal grasps of surface objects the hand can take
     "env.scenes": 8,                 # compiled MuJoCo scenes per env
     "env.physics_runs": 128,         # settled placements and grasps per scene (~0.5 MB each)
