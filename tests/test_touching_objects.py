@@ -19,7 +19,7 @@ from sensors.modal import TouchingObjects, TouchingPartner, with_material
 from sensors.modal.coupled_bodies import CoupledSizeError
 from sensors.synthesis.modal_system import contact_modal_model, modal_state_energy
 
-from test_contact_stiffness import BAR, FS, _dense_response, bar, check_shifts, reference, vertex  # noqa: F401
+from test_contact_stiffness import BAR, FS, dense_response, bar, check_shifts, reference, vertex  # noqa: F401
 
 H = BAR["height_m"]
 DOWN, UP = np.array([0.0, 0.0, -1.0]), np.array([0.0, 0.0, 1.0])
@@ -101,7 +101,7 @@ def test_very_different_bodies_passive_dense_reference_and_grounded_limit(bar, r
     assert np.abs(np.linalg.eigvals(sysm.transition_matrix())).max() <= 1.0 + 1e-12
     u = np.random.default_rng(0).standard_normal(300)
     y = sysm.response(u)
-    ref = _dense_response(modes, pads, u, drive, mic)
+    ref = dense_response(modes, pads, u, drive, mic)
     assert np.max(np.abs(y - ref)) <= 1e-6 * np.max(np.abs(ref))
     # free ring-down from a displaced, moving state: the energy never grows
     x = np.full(2 * sysm.n_modes, 1e-3)
