@@ -204,7 +204,10 @@ def _ritz_parts(modes):
 
 
 def _root(model):
-    return model.base if hasattr(model, "split") else model
+    if hasattr(model, "split"):
+        return model.base
+    # a grasped object with the objects it touches (modal.touching): its state is the object's
+    return getattr(model, "grasped_model", model)
 
 
 def modal_transfer(from_modes, to_modes) -> np.ndarray:

@@ -101,6 +101,11 @@ class TouchingObjects:
         self.max_coordinates = max_coordinates
 
     @property
+    def grasped_model(self):
+        """The grasped object's own model (the modes a state of this group is given in)."""
+        return self.model
+
+    @property
     def material(self):
         return self.model.material
 
