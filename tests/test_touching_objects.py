@@ -110,3 +110,27 @@ def test_very_different_bodies_passive_dense_reference_and_grounded_limit(bar, r
         x = sysm.final_state(np.zeros(2), x)
         e.append(modal_state_energy(x))
     assert np.all(np.diff(e) <= 1e-12 * e[0])
+
+
+def test_state_transfer_keeps_the_partners_energy_and_never_adds(bar, reference):
+    """Switching the grasped bar's contacts while it stays on the partner: the partner's motion
+    carries over (a switch to the same contacts, rebuilt, keeps the energy exactly), and a
+    switch to other contacts never adds energy."""
+    from sensors.modal.touching import CoupledGraspModes
+    from sensors.synthesis.modal_system import transfer_state
+
+    pads, partner, _ = _scene(reference, bar)
+    group = TouchingObjects(bar, [partner])
+    a = CoupledGraspModes(group, pads)
+    a_again = CoupledGraspModes(group, pads)
+    b = CoupledGraspModes(group, pads[:1])
+    x = np.random.default_rng(2).standard_normal(2 * a.n_modes)
+    e = modal_state_energy(x)
+    assert modal_state_energy(transfer_state(x, a, a_again)) == pytest.approx(e, rel=1e-9)
+    xb = transfer_state(x, a, b)
+    assert modal_state_energy(xb) <= e * (1 + 1e-12)
+    assert modal_state_energy(transfer_state(xb, b, a)) <= modal_state_energy(xb) * (1 + 1e-12)
+    # the partner's share is kept: more than the grasped bar's own coordinates would carry
+    only_grasped = x.reshape(2, -1)
+    T0 = a_again.V.T @ a.V
+    assert modal_state_energy(np.concatenate([T0 @ only_grasped[0], T0 @ only_grasped[1]])) < e * (1 - 1e-3)

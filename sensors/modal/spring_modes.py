@@ -224,4 +224,8 @@ def modal_transfer(from_modes, to_modes) -> np.ndarray:
     if pa is not None and pb is not None and pa.shape[1] and pb.shape[1]:
         flex = flex_a if flex_a is not None else flex_b
         T += cb.T @ (pb.T @ (flex.M @ pa)) @ ca   # Psi M-norms are material-invariant (see SpringModes)
+    # the bodies a grasped object touches, when both sides share them (modal.touching)
+    partners = getattr(to_modes, "partner_transfer", None)
+    if partners is not None:
+        T = T + partners(from_modes)
     return T

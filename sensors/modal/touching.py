@@ -188,6 +188,19 @@ class CoupledGraspModes:
         self.split, self.psi, self._flex = part0.split, part0.psi, part0._flex
         self.V = A.V[A.rows(0)]
 
+    def partner_transfer(self, from_modes) -> np.ndarray:
+        """The partners' part of ``modal_transfer(from_modes, self)``: for coupled modes of the
+        same group the partners' Ritz bases are the same (built from the same links), so their
+        coordinates carry over (T_p = V_p,to^T V_p,from); zero otherwise (their energy share is
+        dropped, never added)."""
+        A = self.assembly
+        out = np.zeros((A.V.shape[1], len(from_modes.angular_frequencies_rad_s)))
+        if isinstance(from_modes, CoupledGraspModes) and from_modes.group is self.group:
+            B = from_modes.assembly
+            for b in range(1, len(A.bodies)):
+                out += A.V[A.rows(b)].T @ B.V[B.rows(b)]
+        return out
+
     def mode_shapes_at(self, points_m) -> np.ndarray:
         """Mass-normalised (over the assembly) coupled mode shapes at points of the grasped
         object (its frame): (n, 3, r)."""
