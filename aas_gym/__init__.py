@@ -1,7 +1,8 @@
 """MuJoCo scenes, contact datastream, simulated acoustic sensor and Gymnasium environments.
 
 ``import aas_gym`` registers ``aas_gym/AcousticGrasp-v0``, ``aas_gym/GraspPosition-v0``,
-``aas_gym/ObjectRecognition-v0`` and ``aas_gym/ContactFormation-v0`` with Gymnasium. Heavy modules load on first use.
+``aas_gym/ObjectRecognition-v0``, ``aas_gym/ContactFormation-v0`` and ``aas_gym/FillLevel-v0``
+with Gymnasium. Heavy modules load on first use.
 Headless Linux: without a display, ``MUJOCO_GL`` defaults to ``egl`` (set it yourself, e.g.
 to ``osmesa``, before importing mujoco to choose otherwise).
 """
@@ -59,6 +60,7 @@ _LAZY = {
     "PandaArm": "aas_gym.panda_control",
     "UnreachableError": "aas_gym.panda_control",
     "SimAcousticStream": "aas_gym.sim_stream",
+    "build_object": "aas_gym.object_build",
 }
 
 __all__ = sorted(_LAZY)

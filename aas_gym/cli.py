@@ -72,6 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     interrupted). Errors print one line; ``--debug`` shows the traceback."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)  # the command line, for dataset cards
     func: Callable[[argparse.Namespace], int] | None = getattr(args, "func", None)
     if func is None:
         parser.print_help()

@@ -114,6 +114,28 @@ class ObjectContacts:
         others = self.select(~np.isin(self.kinds, ("actuator", "mic"))).to_sensor_contacts(min_force_n, materials)
         return SensorGrasp(tips[0], tips[1], others)
 
+    def sensor_loads(self, min_force_n: float = 0.0, pressing_before=None):
+        """The forces every touching body exerts on the object (normal plus friction, object
+        frame) at its contacts carrying more than ``min_force_n``, as the acoustic stream's
+        passive sound takes them (``sensors.synthesis.passive.ContactLoads``). A contact
+        slides when its friction force reaches ``SLIDING_CONE_RATIO`` of mu times its normal
+        force (MuJoCo's contact force frame: the tangential rows of the solver); it is an
+        impact when its partner body is not in ``pressing_before`` (the bodies that pressed at
+        the previous read; ``None``: no impacts)."""
+        from sensors.synthesis.passive import SLIDING_CONE_RATIO, ContactLoads
+
+        keep = self.normal_forces_n > min_force_n
+        f, n, fn = self.forces_n[keep], self.normals[keep], self.normal_forces_n[keep]
+        tangential = np.linalg.norm(f - np.einsum("ij,ij->i", f, n)[:, None] * n, axis=1)
+        sliding = (self.friction[keep] > 0) & (tangential >= SLIDING_CONE_RATIO * self.friction[keep] * fn)
+        impact = (np.zeros(int(keep.sum()), bool) if pressing_before is None
+                  else ~np.isin(self.other_bodies[keep], list(pressing_before)))
+        return ContactLoads(self.positions_m[keep], n, f, sliding, impact)
+
+    def pressing_bodies(self, min_force_n: float = 0.0) -> set:
+        """Names of the bodies pressing on the object with more than ``min_force_n``."""
+        return set(self.other_bodies[self.normal_forces_n > min_force_n].tolist())
+
     def merged(self, kind: str) -> tuple[np.ndarray, np.ndarray, float, float] | None:
         """One equivalent contact for all contacts of ``kind`` (a fingertip pad touches a face
         at several points): force-weighted mean point and normal, summed force, mean friction.

@@ -112,6 +112,9 @@ class SimAcousticSensor:
             ``max_frequency_hz``).
         models: the ``sensors._infra.lru.LRU`` models come from, keyed by (object, build
             options) (default: the process's ``MODAL_MODELS``, shared between sensors).
+        bandlimited: the excitation reaches the fingertip as the band-limited signal a sound
+            card plays (default); False: piecewise linear between samples, the drive of
+            earlier datasets (``sensors.synthesis.drive``).
 
     Per-episode variation (domain randomization) is passed to :meth:`sense` as a
     :class:`SensorVariation`. ``cache`` (a ``sensors.SynthesisCache``) holds this sensor's
@@ -124,7 +127,7 @@ class SimAcousticSensor:
                  seed: int | None = None, rng: np.random.Generator | None = None,
                  min_force_n: float = 1e-3, on_no_grasp: str = "raise",
                  modal_options: Mapping[str, Any] | None = None, models: LRU | None = None,
-                 contact_model: str = "spring_damper") -> None:
+                 contact_model: str = "spring_damper", bandlimited: bool = True) -> None:
         missing = [s for s in (actuator_site, mic_site)
                    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, s) < 0]
         if missing:
@@ -157,6 +160,7 @@ class SimAcousticSensor:
         self.actuator_site, self.mic_site = actuator_site, mic_site
         self.fingertip, self.leak = fingertip, leak
         self.contact_model = contact_model  # sensors.synthesis.modal_system.CONTACT_MODELS
+        self.bandlimited = bool(bandlimited)
         self.noise_std = float(noise_std)
         self.rng = rng if rng is not None else np.random.default_rng(seed)
         self.min_force_n = float(min_force_n)
@@ -274,7 +278,7 @@ class SimAcousticSensor:
         obs = record(
             model, excitation, duration_s, act, mic, other_contacts=others,
             fingertip=self.fingertip, leak=leak, noise_std=noise_std, rng=rng, cache=self.cache,
-            contact_model=self.contact_model)
+            contact_model=self.contact_model, bandlimited=self.bandlimited)
         obs.metadata.update({
             "source": "sim", "grasped": True, "object_body": body,
             "material": spec.material if spec else None, "shape": spec.shape if spec else None,

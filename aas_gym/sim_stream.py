@@ -32,6 +32,7 @@ from aas_gym.contact_sensors import signature_partners, signature_sensor_name
 from aas_gym.sim_sensor import NO_VARIATION, SensorVariation, SimAcousticSensor
 from aas_gym.touching_grasp import touching_grasp
 from sensors import AcousticStream, ContactTolerance, Excitation, GraspState
+from sensors.synthesis.passive import PassiveSound
 
 __all__ = ["SimAcousticStream", "span_bounds"]
 
@@ -54,11 +55,14 @@ class SimAcousticStream:
     variation : this episode's ``SensorVariation`` (noise, leak scale, material scales).
     rng : the noise generator (``numpy.random.Generator`` or seed).
     tolerance : when contacts count as unchanged (``sensors.ContactTolerance``).
+    passive : a ``sensors.PassiveSound``: each contact read hands the stream the forces of
+        every contact on the heard object (``ObjectContacts.sensor_loads``), so that impacts,
+        knocks and slides make sound; ``None``: only the drive does.
     """
 
     def __init__(self, sensor: SimAcousticSensor, excitation: Excitation | str, *,
                  variation: SensorVariation | None = None, rng=None,
-                 tolerance: ContactTolerance | None = None) -> None:
+                 tolerance: ContactTolerance | None = None, passive: PassiveSound | None = None) -> None:
         if isinstance(excitation, str):
             excitation = Excitation.by_name(excitation)
         variation = NO_VARIATION if variation is None else variation
@@ -71,7 +75,8 @@ class SimAcousticStream:
         self.stream = AcousticStream(excitation, fingertip=sensor.fingertip,
                                      leak=sensor.leak_for(excitation, variation.leak_scale), noise_std=noise,
                                      rng=rng if rng is not None else sensor.rng, tolerance=self.tolerance,
-                                     contact_model=sensor.contact_model)
+                                     contact_model=sensor.contact_model, bandlimited=sensor.bandlimited,
+                                     passive=passive)
         self.bodies = sensor.bodies
         self._vec_adr, self._grasp_adr = _signature_addresses(self.model, self.bodies)
         self._n_partners = self._vec_adr.shape[1] // 2
@@ -83,6 +88,7 @@ class SimAcousticStream:
         self._state: GraspState | None = None
         self._heard: str | None = None           # the body the stream follows
         self.contact_reads = 0
+        self._pressing, self._pressing_body = set(), None   # who pressed on which body at the last read
 
     @property
     def sample_rate_hz(self) -> int:
@@ -142,7 +148,13 @@ class SimAcousticStream:
         grasp = contacts[body].sensor_grasp(self._min_force_n, self.sensor.object_materials())
         # the sensed objects it touches vibrate with it (spring_damper; aas_gym.touching_grasp)
         model, others = touching_grasp(self.sensor, body, contacts, self.variation, grasp.others)
-        return GraspState(model, grasp.actuator, grasp.mic, tuple(others), object_key=body)
+        loads = None
+        if self.stream.passive is not None:
+            c = contacts[body]
+            before = self._pressing if body == self._pressing_body else None
+            loads = c.sensor_loads(self._min_force_n, before)
+            self._pressing, self._pressing_body = c.pressing_bodies(self._min_force_n), body
+        return GraspState(model, grasp.actuator, grasp.mic, tuple(others), object_key=body, loads=loads)
 
     # -- recording ---------------------------------------------------------------------------
     def step_physics(self, n_steps: int, n_samples: int) -> np.ndarray:

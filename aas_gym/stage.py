@@ -37,6 +37,9 @@ def add_lights_and_cameras(spec: mujoco.MjSpec) -> None:
     spec.worldbody.add_light(name="key", pos=[0.3, -0.4, 1.2], dir=[-0.25, 0.35, -1], diffuse=[0.8, 0.8, 0.8])
     spec.worldbody.add_light(name="fill", pos=[-0.5, 0.5, 1.0], dir=[0.4, -0.4, -1], diffuse=[0.3, 0.3, 0.3])
     spec.worldbody.add_camera(name="overview", pos=[0.5, -0.5, 0.5], xyaxes=look_at([0.5, -0.5, 0.5], [0, 0, 0.1]))
+    # The hand at its home pose (TCP 0.3 m above the table) and the table below it: a reach.
+    spec.worldbody.add_camera(name="workspace", pos=[0.55, -0.55, 0.3],
+                              xyaxes=look_at([0.55, -0.55, 0.3], [0, 0, 0.19]))
     # Low side view: sees the fingertips and the object under the hand body.
     spec.worldbody.add_camera(name="closeup", pos=[0.2, -0.24, 0.08],
                               xyaxes=look_at([0.2, -0.24, 0.08], [0, 0, 0.035]))

@@ -28,8 +28,12 @@
    once beforehand), per excitation and object, as a real-time factor = 1 s / wall time
    (goal >= 20x). The cold first call (modal model built or loaded from the disk cache) is
    reported separately.
+3. Vector envs: ``aas_gym/AcousticGrasp-v0`` (defaults: sensing on the action's sense entry)
+   under ``gym.make_vec(..., vectorization_mode="async")`` with 1 and 2 worker processes,
+   random actions, resets included: env steps per second of wall time (the workers' CPU time
+   is not this process's). ``--vector-only`` runs just this part and prints it.
 
-Times are CPU times of this process (``time.process_time``): the machine is shared.
+Times of parts 1 and 2 are CPU times of this process (``time.process_time``): the machine is shared.
 
 Prints a Markdown table and writes ``docs/benchmarks/env.md``.
 """
@@ -210,7 +214,9 @@ def _run_env(env_id: str, kwargs: dict, budget_s: float) -> dict:
             episodes += 1
     elapsed = _clock() - t0
     u = env.unwrapped
-    out = {"steps_s": steps / elapsed, "episodes_s": episodes / elapsed, "dt_s": u.dt, "env": env}
+    # probe envs have no dt (one step is one probe)
+    out = {"steps_s": steps / elapsed, "episodes_s": episodes / elapsed, "dt_s": getattr(u, "dt", float("nan")),
+           "env": env}
     # one control period of bare MuJoCo on the same model, from the env's state
     bare = mujoco.MjData(u.model)
     mujoco.mj_copyData(bare, u.model, u.data)
@@ -318,6 +324,40 @@ def env_lines(rows: list[dict], budget_s: float) -> list[str]:
     return lines
 
 
+def vector_rates(workers: tuple[int, ...], steps: int) -> list[dict]:
+    """Env steps/s (wall) of AcousticGrasp-v0 in an async vector env of each worker count:
+    ``steps`` vector steps after a warm-up of 50 (workers started, modal model loaded)."""
+    rows = []
+    for n in workers:
+        venv = gym.make_vec("aas_gym/AcousticGrasp-v0", num_envs=n, vectorization_mode="async")
+        try:
+            venv.reset(seed=0)
+            venv.action_space.seed(0)
+            actions = [venv.action_space.sample() for _ in range(steps + 50)]
+            for a in actions[:50]:
+                venv.step(a)
+            t0 = time.perf_counter()
+            for a in actions[50:]:
+                venv.step(a)
+            wall = time.perf_counter() - t0
+        finally:
+            venv.close()
+        rows.append({"workers": n, "env_steps": steps * n, "wall_s": wall, "steps_s": steps * n / wall,
+                     "load": os.getloadavg()[0]})
+    return rows
+
+
+def vector_lines(rows: list[dict], steps: int) -> list[str]:
+    lines = ["## Vector envs (async)", "",
+             f"`gym.make_vec(\"aas_gym/AcousticGrasp-v0\", num_envs=N, vectorization_mode=\"async\")`, default "
+             f"acoustic (records when the action's sense entry is positive), random actions, {steps} vector steps "
+             "after 50 of warm-up; wall time (the machine is shared: other jobs slow both alike).", "",
+             "| workers | env steps | wall [s] | env steps/s | load average (1 min) |", "|---:|---:|---:|---:|---:|"]
+    lines += [f"| {r['workers']} | {r['env_steps']} | {r['wall_s']:.2f} | {r['steps_s']:.0f} | {r['load']:.1f} |"
+              for r in rows]
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--chunks", type=int, default=40)
@@ -327,10 +367,15 @@ def main() -> None:
     parser.add_argument("--objects", nargs="+", default=list(DEFAULT_OBJECT_NAMES))
     parser.add_argument("--excitations", nargs="+", default=["impulse", "linear", "exponential"])
     parser.add_argument("--budget-s", type=float, default=4.0, help="CPU seconds per env figure")
-    parser.add_argument("--sections", nargs="+", default=["envs", "physics", "robots", "acoustic"],
-                        choices=["envs", "physics", "robots", "acoustic"])
+    parser.add_argument("--sections", nargs="+", default=["envs", "physics", "robots", "acoustic", "vector"],
+                        choices=["envs", "physics", "robots", "acoustic", "vector"])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "benchmarks" / "env.md")
+    parser.add_argument("--vector-steps", type=int, default=2000, help="vector steps per worker count")
+    parser.add_argument("--vector-only", action="store_true", help="only the vector-env rows, printed (no file)")
     args = parser.parse_args()
+    if args.vector_only:
+        print("\n".join(vector_lines(vector_rates((1, 2), args.vector_steps), args.vector_steps)))
+        return
 
     envs = env_throughput(args.budget_s) if "envs" in args.sections else None
     lines = [
@@ -351,6 +396,8 @@ def main() -> None:
     if "acoustic" in args.sections:
         acoustic = acoustic_cost(args.objects, args.excitations, args.repeats)
         lines += acoustic_lines(acoustic, args)
+    if "vector" in args.sections:
+        lines += ["", *vector_lines(vector_rates((1, 2), args.vector_steps), args.vector_steps)]
     text = "\n".join(lines) + "\n"
     print(text)
     args.out.parent.mkdir(parents=True, exist_ok=True)

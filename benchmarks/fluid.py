@@ -7,8 +7,10 @@ process (``time.process_time``):
   from the cached tet mesh (the mug's pytetwild meshing is reported on its own);
 * container: the per-container static correction (assembly, one factorization, one static
   solve per pressure pattern), cold, and its load from the disk cache;
-* per fill: each new fill level 10 %, 20 %, ..., 100 % of water (upright), and each new tilt
-  (50 % full, free surface tilted by 5 to 25 degrees): liquid mesh, Laplace solve, wet modes;
+* per fill, for both liquid models (incompressible added mass; compressible: plus the
+  liquid's acoustic modes up to twice the band): each new fill level 10 %, 20 %, ..., 100 % of
+  water (upright), and each new tilt (50 % full, free surface tilted by 5 to 25 degrees):
+  liquid mesh, Laplace solve (and the liquid's modes), wet modes;
 * the ratio of the slowest new fill or tilt to the cold FEM build (the target is <= 1/10).
 
 Writes docs/benchmarks/fluid.md. Run: python benchmarks/fluid.py [mug glass can bottle]
@@ -55,29 +57,39 @@ def run(name: str, cache_dir: str) -> dict:
     dry, t_fem = cpu(ModalModel.from_tet_mesh, tm, obj.material, cache_dir=cache_dir, progress=False)
     container, t_prep = cpu(Container.of, obj, dry=dry, cache_dir=cache_dir)
     _, t_load = cpu(Container.of, obj, dry=dry, cache_dir=cache_dir)
-    fills = []
-    for f in FILLS:
-        wet, t = cpu(filled, container, float(f))
-        fills.append(t)
-    full = wet
-    tilts = [cpu(filled, container, 0.5, surface_normal=tilted(a))[1] for a in TILTS_DEG]
-    worst = max(fills + tilts)
-    return dict(name=name, material=obj.material.name, dof=dry.metadata["n_dof"], n_dry=dry.n_modes,
-                n_corr=container.n_correction, mesh_s=t_mesh, fem_s=t_fem, prep_s=t_prep, load_s=t_load,
-                fill_median_s=float(np.median(fills)), fill_max_s=max(fills), tilt_max_s=max(tilts),
-                ratio=worst / t_fem, f1_dry=float(dry.frequencies_hz[0]), f1_full=float(full.frequencies_hz[0]),
-                n_full=full.n_modes, liquid_kg=full.liquid.mass_kg)
+    row = dict(name=name, material=obj.material.name, dof=dry.metadata["n_dof"], n_dry=dry.n_modes,
+               n_corr=container.n_correction, mesh_s=t_mesh, fem_s=t_fem, prep_s=t_prep, load_s=t_load,
+               f1_dry=float(dry.frequencies_hz[0]))
+    for model, compressible in (("inc", False), ("cmp", True)):
+        fills = []
+        for f in FILLS:
+            wet, t = cpu(filled, container, float(f), compressible=compressible)
+            fills.append(t)
+        full = wet
+        tilts = [cpu(filled, container, 0.5, surface_normal=tilted(a), compressible=compressible)[1]
+                 for a in TILTS_DEG]
+        row.update({f"{model}_fill_median_s": float(np.median(fills)), f"{model}_fill_max_s": max(fills),
+                    f"{model}_tilt_max_s": max(tilts), f"{model}_ratio": max(fills + tilts) / t_fem,
+                    f"{model}_f1_full": float(full.frequencies_hz[0]), f"{model}_n_liquid": full.n_liquid_modes,
+                    "liquid_kg": full.liquid.mass_kg})
+    return row
 
 
 def table(rows) -> str:
     head = ("| container | material | dof | dry modes + correction | tet mesh s | cold FEM s | container s (cached) "
-            "| new fill s (median / max) | new tilt s (max) | slowest / cold FEM | f1 dry -> full Hz | "
-            "water full kg |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n")
-    body = "".join(
-        f"| {r['name']} | {r['material']} | {r['dof']:,} | {r['n_dry']} + {r['n_corr']} | {r['mesh_s']:.1f} | "
-        f"{r['fem_s']:.1f} | {r['prep_s']:.1f} ({r['load_s']:.2f}) | {r['fill_median_s']:.2f} / {r['fill_max_s']:.2f} "
-        f"| {r['tilt_max_s']:.2f} | 1/{1 / r['ratio']:.0f} | {r['f1_dry']:.0f} -> {r['f1_full']:.0f} | "
-        f"{r['liquid_kg']:.3f} |\n" for r in rows)
+            "| liquid model | new fill s (median / max) | new tilt s (max) | slowest / cold FEM | liquid modes (full) "
+            "| f1 dry -> full Hz | water full kg |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+    body = ""
+    for r in rows:
+        for model, label in (("inc", "incompressible"), ("cmp", "compressible")):
+            first = model == "inc"
+            body += (
+                f"| {r['name'] if first else ''} | {r['material'] if first else ''} | "
+                + (f"{r['dof']:,} | {r['n_dry']} + {r['n_corr']} | {r['mesh_s']:.1f} | {r['fem_s']:.1f} | "
+                   f"{r['prep_s']:.1f} ({r['load_s']:.2f}) | " if first else "| | | | | ")
+                + f"{label} | {r[model + '_fill_median_s']:.2f} / {r[model + '_fill_max_s']:.2f} | "
+                f"{r[model + '_tilt_max_s']:.2f} | 1/{1 / r[model + '_ratio']:.0f} | {r[model + '_n_liquid']} | "
+                f"{r['f1_dry']:.0f} -> {r[model + '_f1_full']:.0f} | {r['liquid_kg']:.3f} |\n")
     return head + body
 
 
@@ -93,8 +105,9 @@ def main(argv=None):
         "stiffness and one static solve per wall pressure pattern), once per container; in brackets its "
         "load from the disk cache. New fill: 10 %, 20 %, ..., 100 % of water, upright; new tilt: 50 % full, "
         f"free surface tilted by {', '.join(map(str, TILTS_DEG))} degrees. Slowest / cold FEM: the slowest new "
-        "fill or tilt over the cold FEM build (target: at most 1/10). f1: the lowest elastic mode, dry and "
-        "full of water.")
+        "fill or tilt over the cold FEM build (target: at most 1/10). Liquid model: incompressible "
+        "(potential-flow added mass) or compressible (plus the liquid's own acoustic modes up to twice the band, "
+        "their number in the full container given). f1: the lowest elastic mode, dry and full of water.")
 
 
 if __name__ == "__main__":

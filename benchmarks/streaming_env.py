@@ -3,8 +3,9 @@
     python benchmarks/streaming_env.py [--chunks 9] [--steps 20] [--no-write]
 
 For objects of about 12, 46 and 100 modes below Nyquist (aluminium bar, ABS bar, PLA tube),
-two envs are built with the same seed: ``acoustic={"cadence": "stream"}`` and
-``acoustic={"enabled": False}``. Two scenes per object:
+three envs are built with the same seed: ``acoustic={"cadence": "stream"}`` (passive sound on,
+the streaming default), the same with ``"passive_sound": False`` and ``acoustic={"enabled":
+False}``. Two scenes per object:
 
 - ``held``: ``aas_gym/AcousticGrasp-v0``, the object grasped (scripted ``planar_grasp``) and
   held still; each step streams 0.05 s (2205 samples through 25 physics steps); timed after
@@ -70,12 +71,13 @@ def _moving_env(obj: str, acoustic: dict):
 
 def measure(make, obj: str, chunks: int, steps: int, warm: int) -> dict:
     on, step_on = make(obj, {"cadence": "stream"})
+    quiet, step_quiet = make(obj, {"cadence": "stream", "passive_sound": False})
     off, step_off = make(obj, {"enabled": False})
     for _ in range(warm):           # systems, drive, imports; a held grasp reaches its steady state
-        step_on(), step_off()
-    costs_on, costs_off = [], []
+        step_on(), step_quiet(), step_off()
+    costs_on, costs_quiet, costs_off = [], [], []
     for _ in range(chunks):
-        for step, costs in ((step_on, costs_on), (step_off, costs_off)):
+        for step, costs in ((step_on, costs_on), (step_quiet, costs_quiet), (step_off, costs_off)):
             t0 = _clock()
             for _ in range(steps):
                 step()
@@ -84,10 +86,12 @@ def measure(make, obj: str, chunks: int, steps: int, warm: int) -> dict:
     stream = u._stream
     modes = int((stream.sensor.modal_model(stream.sensor.bodies[0]).frequencies_hz < 22050).sum())
     on_s, off_s = statistics.median(costs_on), statistics.median(costs_off)
+    quiet_s = statistics.median(costs_quiet)
     out = {"object": obj, "modes": modes, "on_ms": on_s * 1e3, "off_ms": off_s * 1e3, "ratio": on_s / off_s,
+           "quiet_ms": quiet_s * 1e3, "passive_ratio": on_s / quiet_s,
            "rtf": u.dt / on_s, "builds": stream.stream.systems.misses, "reads": stream.contact_reads,
            "steps": chunks * steps + warm, "warm": warm}
-    on.close(), off.close()
+    on.close(), quiet.close(), off.close()
     return out
 
 
@@ -103,7 +107,8 @@ def main(argv=None):
             r = measure(make, obj, args.chunks, args.steps, warm)
             r["scene"] = scene
             rows.append(r)
-            print(f"{scene:6s} {obj:14s} {r['modes']:4d} modes  streamed {r['on_ms']:7.2f} ms  off {r['off_ms']:6.2f} ms"
+            print(f"{scene:6s} {obj:14s} {r['modes']:4d} modes  streamed {r['on_ms']:7.2f} ms  "
+                  f"(passive off {r['quiet_ms']:7.2f} ms)  off {r['off_ms']:6.2f} ms"
                   f"  ratio {r['ratio']:6.1f}  {r['rtf']:6.1f}x real time  builds {r['builds']}, reads {r['reads']}"
                   f" in {r['steps']} steps", flush=True)
     lines = ["# Streaming microphone: cost per env step", "",
@@ -112,12 +117,14 @@ def main(argv=None):
              f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}. See the script's docstring for the scenes.",
              "Medians over interleaved chunks after the warm-up steps, CPU time of the process; real-time factor "
              "= 0.05 s / streamed cost. Steps: warm-up + timed.", "",
-             "| scene | object | modes < Nyquist | streamed [ms/step] | sensing off [ms/step] | streamed / off |"
-             " real-time factor | goal | system builds | contact reads | steps |",
-             "|---|---|---:|---:|---:|---:|---:|---|---:|---:|---:|"]
+             "| scene | object | modes < Nyquist | streamed [ms/step] | streamed, passive sound off [ms/step] | "
+             "passive on / off | sensing off [ms/step] | streamed / off | real-time factor | goal | system builds | "
+             "contact reads | steps |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|"]
     for r in rows:
         goal = ">= 50x" if r["modes"] <= 50 else ""
-        lines.append(f"| {r['scene']} | {r['object']} | {r['modes']} | {r['on_ms']:.2f} | {r['off_ms']:.2f} | "
+        lines.append(f"| {r['scene']} | {r['object']} | {r['modes']} | {r['on_ms']:.2f} | {r['quiet_ms']:.2f} | "
+                     f"{r['passive_ratio']:.2f} | {r['off_ms']:.2f} | "
                      f"{r['ratio']:.1f} | {r['rtf']:.0f}x | {goal} | {r['builds']} | {r['reads']} | {r['steps']} |")
     text = "\n".join(lines) + "\n"
     print(text)

@@ -5,7 +5,8 @@ saves it as an STL file the way a CAD export would be, names it to ``gym.make`` 
 ``"<file>:<material>"``, grasps it and records it; then grasps the shipped mug, can and
 L-bracket too and draws each grasp with the spectrum it gave to ``--out``.
 
-    python examples/any_object.py [--out docs/images/any_object.png]
+    python examples/any_object.py [--out outputs/any_object.png]
+    python examples/any_object.py --out docs/images/any_object.png   # the README's figure
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ import trimesh  # noqa: E402
 import aas_gym  # noqa: E402, F401  (registers the envs)
 from sensors import feature_frequencies_hz  # noqa: E402
 
+#: Where this example writes, whatever the current folder: the repository's outputs/ (git-ignored).
+OUTPUTS = Path(__file__).resolve().parents[1] / "outputs"
+
 
 def make_part(folder: Path) -> Path:
     """A user's part as an STL file in metres."""
@@ -38,7 +42,7 @@ def make_part(folder: Path) -> Path:
 
 def main(argv=None) -> Path:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="docs/images/any_object.png")
+    ap.add_argument("--out", default=OUTPUTS / "any_object.png", help="figure file (default: outputs/ of the repository)")
     args = ap.parse_args(argv)
     part = make_part(Path(tempfile.mkdtemp(prefix="aas-part-")))
     objects = [f"{part}:aluminium", "mug", "can", "l_bracket"]

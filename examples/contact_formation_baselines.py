@@ -6,7 +6,7 @@ down there), then trains random forests on some episodes and tests them on the o
 the streamed sound, from proprioception, and from both. Prints the per-class recall table
 and writes it to ``--out``.
 
-    python examples/contact_formation_baselines.py [--episodes 24] [--out contact_formation.md]
+    python examples/contact_formation_baselines.py [--episodes 24] [--out outputs/contact_formation.md]
 """
 
 from __future__ import annotations
@@ -19,13 +19,16 @@ from pathlib import Path
 from aas_gym.experiments.contact_formation import collect, evaluate, format_table
 from sensors._infra.atomic import atomic_write_text
 
+#: Where this example writes, whatever the current folder: the repository's outputs/ (git-ignored).
+OUTPUTS = Path(__file__).resolve().parents[1] / "outputs"
+
 
 def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--episodes", type=int, default=24)
     ap.add_argument("--steps", type=int, default=200, help="env steps per episode (0.05 s each)")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", default="contact_formation.md", help="Markdown table to write")
+    ap.add_argument("--out", default=OUTPUTS / "contact_formation.md", help="Markdown table to write")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     data = collect(args.episodes, seed=args.seed, steps=args.steps)

@@ -21,14 +21,17 @@ from aas_gym.experiments.config import DatasetConfig
 from aas_gym.experiments.generate import generate_dataset
 from aas_gym.experiments.run import report_dataset
 
+#: Where this example writes, whatever the current folder: the repository's outputs/ (git-ignored).
+OUTPUTS = Path(__file__).resolve().parents[1] / "outputs"
+
 EVERYDAY = ("mug", "bottle", "can", "glass", "box", "spoon", "l_bracket")
 BARS = ("ceramic_bar", "glass_bar", "steel_bar", "abs_bar", "wood_bar", "aluminium_bar")
 
 
 def main(argv=None) -> Path:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="docs/results/everyday", help="report folder")
-    ap.add_argument("--data", default="outputs/everyday", help="dataset folder (resumable)")
+    ap.add_argument("--out", default=OUTPUTS.parent / "docs" / "results" / "everyday", help="report folder")
+    ap.add_argument("--data", default=OUTPUTS / "everyday", help="dataset folder (resumable)")
     ap.add_argument("--grasps", type=int, default=20, help="single-object grasps per object (multi: half)")
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args(argv)

@@ -25,6 +25,9 @@ from aas_gym.scene import build_scene
 from aas_gym.sim_sensor import SimAcousticSensor
 from sensors import Excitation, feature_frequencies_hz, smooth_spectrum
 
+#: Where this example writes, whatever the current folder: the repository's outputs/ (git-ignored).
+OUTPUTS = Path(__file__).resolve().parents[1] / "outputs"
+
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -33,7 +36,7 @@ def main() -> None:
     parser.add_argument("--position", type=float, default=0.03, help="grasp point along the object axis [m]")
     parser.add_argument("--grip-force", type=float, default=40.0, help="grip force [N]")
     parser.add_argument("--robot", default="floating_hand", choices=ROBOT_NAMES, help="who grasps")
-    parser.add_argument("--out", type=Path, default=Path("outputs"))
+    parser.add_argument("--out", type=Path, default=OUTPUTS)
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
 

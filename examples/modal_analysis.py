@@ -17,6 +17,9 @@ import numpy as np
 
 from sensors import MATERIALS, ModalModel
 
+#: Where this example writes, whatever the current folder: the repository's outputs/ (git-ignored).
+OUTPUTS = Path(__file__).resolve().parents[1] / "outputs"
+
 ROOTS = [4.730041, 7.853205, 10.995608, 14.137165, 17.278760]  # free-free beta_n L
 
 
@@ -47,7 +50,7 @@ points = np.c_[x, np.zeros_like(x), np.full_like(x, 0.0125)]
 shape = bar.mode_shapes_at(points)[:, :, 0]  # (n, 3) of mode 0
 component = int(np.argmax(np.abs(shape).max(axis=0)))
 
-out = Path("outputs")
+out = OUTPUTS
 out.mkdir(exist_ok=True)
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.5))
 ax1.plot(1000 * x, shape[:, component], "o-")

@@ -19,7 +19,7 @@ INPUT = None    # contact microphone: None = system default, or a name / index
 OUTPUT = None   # actuator amplifier
 GAIN = 0.5      # output level (full scale 1); leave headroom for the microphone
 SECONDS = 1.0   # the paper uses the first second of each recording
-OUT_DIR = Path("recordings")
+OUT_DIR = Path(__file__).resolve().parents[1] / "recordings"  # the repository's (git-ignored), whatever the cwd
 
 
 def main() -> int:

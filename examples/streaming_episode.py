@@ -19,10 +19,13 @@ import numpy as np
 
 import aas_gym  # noqa: F401  (registers the envs)
 
+#: Where this example writes, whatever the current folder: the repository's outputs/ (git-ignored).
+OUTPUTS = Path(__file__).resolve().parents[1] / "outputs"
+
 
 def main(argv=None) -> Path:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="streaming_episode.png", help="figure file (PNG)")
+    ap.add_argument("--out", default=OUTPUTS / "streaming_episode.png", help="figure file (PNG)")
     args = ap.parse_args(argv)
 
     env = gym.make("aas_gym/AcousticGrasp-v0", randomization=False, max_episode_steps=None,

@@ -19,6 +19,9 @@ import numpy as np  # noqa: E402
 
 import sensors  # noqa: E402
 
+#: Where this example writes, whatever the current folder: the repository's outputs/ (git-ignored).
+OUTPUTS = Path(__file__).resolve().parents[1] / "outputs"
+
 h = 0.01  # half thickness: the fingers touch the +y and -y faces
 actuator = sensors.Contact([0.04, h, 0.0], [0, 1, 0], force_n=40.0, friction=0.8)
 mic = sensors.Contact([0.04, -h, 0.0], [0, -1, 0], force_n=40.0, friction=0.8)
@@ -41,7 +44,7 @@ ax.set_ylabel("amplitude (full scale 1)")
 ax.set_title("Simulated recordings: 200 x 20 x 20 mm bars, linear sweep, 40 N grasp, on a table")
 ax.legend(fontsize=8)
 fig.tight_layout()
-out = Path("outputs")
+out = OUTPUTS
 out.mkdir(exist_ok=True)
 fig.savefig(out / "synthesis_spectrum.png", dpi=120)
 print("wrote", out / "synthesis_spectrum.png")

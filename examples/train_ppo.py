@@ -33,6 +33,9 @@ import numpy as np
 from stable_baselines3 import PPO
 from stable_baselines3.common.monitor import Monitor
 
+#: Where this example writes, whatever the current folder: the repository's outputs/ (git-ignored).
+OUTPUTS = Path(__file__).resolve().parents[1] / "outputs"
+
 ACOUSTIC = {"feature_scale": "db"}
 
 
@@ -62,7 +65,7 @@ def main() -> None:
     parser.add_argument("--grasp-steps", type=int, default=30000)
     parser.add_argument("--recognition-steps", type=int, default=3000)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", default="outputs")
+    parser.add_argument("--out", default=OUTPUTS)
     args = parser.parse_args()
 
     runs = {

@@ -43,6 +43,7 @@ from .synthesis.caches import SynthesisCache
 from .synthesis.grasp_state import ContactTolerance, GraspState
 from .synthesis.recording import simulate_recording
 from .synthesis.stream import AcousticStream
+from .synthesis.passive import ContactLoads, PassiveSound
 from .materials.solids import Material, MATERIALS, get_material
 from .modal.basis import MaterialView, ModalBasis, with_material
 from .modal.model import ModalModel

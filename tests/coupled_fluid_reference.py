@@ -13,6 +13,9 @@ project liquid mesh or quadrature):
   P2 basis functions evaluated at the liquid's facet quadrature points (the two meshes do not
   match there; the points are moved 0.2 mm into the wall and located in its curved elements).
 
+The compressible liquid (``compressible_coupled_frequencies_hz``) is the same FEM with the
+liquid's mass matrix over c^2 added, solved as an unsymmetric pencil by shift-invert Arnoldi.
+
 The coupled eigenproblem (Morand & Ohayon, Fluid-Structure Interaction, Wiley 1995, ch. 5,
 incompressible liquid) K u = w^2 (M u + rho C psi), H psi = C^T u is solved in full, as
 K u = w^2 M_tot u with M_tot = M + rho C H^-1 C^T applied exactly (a sparse factorization of H
@@ -134,10 +137,9 @@ def liquid_mesh(mug, height_m, element_m=LIQUID_ELEMENT_M):
     return curved_p2_mesh(v, rod.tets, (ri,)), floor + height_m
 
 
-def coupled_frequencies_hz(mug, wall, height_m, rho, n_modes, liquid_element_m=LIQUID_ELEMENT_M):
-    """The lowest ``n_modes`` elastic frequencies (Hz) of the mug's wall (``wall_fem``) coupled
-    to ``height_m`` of incompressible liquid of density ``rho`` (kg/m^3), the liquid meshed at
-    ``liquid_element_m``."""
+def liquid_fem(mug, wall, height_m, liquid_element_m=LIQUID_ELEMENT_M):
+    """The liquid's P2 matrices on its free dofs (psi = 0 on the free surface): coupling C
+    (wall dofs, liquid dofs), Laplacian H and mass matrix Q0 (integral psi_a psi_b dV)."""
     from skfem import Basis, BilinearForm, ElementTetP2, FacetBasis, asm
     from skfem.helpers import dot, grad
 
@@ -148,7 +150,12 @@ def coupled_frequencies_hz(mug, wall, height_m, rho, n_modes, liquid_element_m=L
     def laplace(u, v, w):
         return dot(grad(u), grad(v))
 
+    @BilinearForm
+    def mass(u, v, w):
+        return u * v
+
     H = asm(laplace, pb)
+    Q0 = asm(mass, pb)
     boundary = mesh.boundary_facets()
     on_top = np.all(np.abs(mesh.p[0, mesh.facets[:, boundary]] - top) < 1e-9, axis=0)
     free, wet = boundary[on_top], boundary[~on_top]
@@ -182,9 +189,65 @@ def coupled_frequencies_hz(mug, wall, height_m, rho, n_modes, liquid_element_m=L
     C = scipy.sparse.csc_matrix((vals, (rows, cols)), shape=(wall["K"].shape[0], pb.N))
     dirichlet = np.unique(pb.get_dofs(facets=free).all())
     keep = np.setdiff1d(np.arange(pb.N), dirichlet)
-    C, H = C[:, keep].tocsc(), H[keep][:, keep].tocsc()
+    return C[:, keep].tocsc(), H[keep][:, keep].tocsc(), Q0[keep][:, keep].tocsc()
+
+
+def coupled_frequencies_hz(mug, wall, height_m, rho, n_modes, liquid_element_m=LIQUID_ELEMENT_M):
+    """The lowest ``n_modes`` elastic frequencies (Hz) of the mug's wall (``wall_fem``) coupled
+    to ``height_m`` of incompressible liquid of density ``rho`` (kg/m^3), the liquid meshed at
+    ``liquid_element_m``."""
+    C, H, _ = liquid_fem(mug, wall, height_m, liquid_element_m)
     Hlu = splu(H)
     return eigen_block_krylov(wall, lambda X: wall["M"] @ X + rho * (C @ Hlu.solve(np.asarray(C.T @ X))), n_modes)
+
+
+def compressible_coupled_frequencies_hz(mug, wall, height_m, rho, speed_of_sound_m_per_s, up_to_hz,
+                                        liquid_element_m=LIQUID_ELEMENT_M, shift_hz=200.0):
+    """Every elastic frequency (Hz) up to ``up_to_hz`` of the wall coupled to ``height_m`` of a
+    compressible liquid (density ``rho``, speed of sound c), and the next one above, solved in
+    full: the unsymmetric pencil
+
+        [K  0; -C^T  H] [u; psi] = w^2 [M  rho C; 0  Q0 / c^2] [u; psi]
+
+    (wall: K u = w^2 (M u + rho C psi), pressure p = rho w^2 psi; liquid: Helmholtz'
+    equation H psi - (w / c)^2 Q0 psi = C^T u with psi = 0 on the free surface) by shift-invert
+    Arnoldi on all its dofs (one sparse LU of A - s B at a small shift s), no modal reduction.
+    The six rigid-body modes (w = 0) are dropped."""
+    C, H, Q0 = liquid_fem(mug, wall, height_m, liquid_element_m)
+    K, M = wall["K"], wall["M"]
+    n_u, n_p = K.shape[0], H.shape[0]
+    # Balanced: psi = alpha psi' puts rho C beside M, the liquid's rows times gamma put H beside
+    # K. Unbalanced (entries 1e11 apart) the LU and Arnoldi return pressure-only vectors that
+    # violate the liquid's equation, with complex "eigenvalues".
+    alpha = abs(M).max() / (rho * abs(C).max())
+    gamma = abs(K).max() / (alpha * abs(H).max())
+    A = scipy.sparse.bmat([[K, None], [-gamma * C.T, gamma * alpha * H]], format="csc")
+    B = scipy.sparse.bmat([[M, rho * alpha * C], [None, gamma * alpha / speed_of_sound_m_per_s**2 * Q0]],
+                          format="csc")
+    s = (2 * math.pi * shift_hz) ** 2
+    lu = scipy.sparse.linalg.splu((A - s * B).tocsc())
+    op = scipy.sparse.linalg.LinearOperator((n_u + n_p,) * 2, matvec=lambda x: lu.solve(B @ x), dtype=np.float64)
+    limit = (2 * math.pi * up_to_hz) ** 2
+    k = 24
+    while True:
+        nu, X = scipy.sparse.linalg.eigs(op, k=k, which="LM", tol=1e-12, v0=np.ones(n_u + n_p))
+        lam = s + 1.0 / nu
+        order = np.argsort(lam.real)
+        lam, X = lam[order], X[:, order]
+        if lam[-1].real > limit:
+            break
+        k += 16
+    assert np.all(np.abs(lam.real[:6]) < 1e-4 * limit), f"the six rigid-body modes are not at zero: {lam[:6]}"
+    lam, X = lam[6:], X[:, 6:]
+    assert np.all(np.abs(lam.imag) <= 1e-8 * lam.real), f"complex coupled modes: {lam}"
+    u, psi = X[:n_u], alpha * X[n_u:]
+    wall_res = np.linalg.norm(K @ u - (M @ u + rho * (C @ psi)) * lam, axis=0) / np.linalg.norm(K @ u, axis=0)
+    liquid_res = (np.linalg.norm(H @ psi - C.T @ u - (Q0 @ psi) * (lam / speed_of_sound_m_per_s**2), axis=0)
+                  / np.linalg.norm(H @ psi, axis=0))
+    assert max(wall_res.max(), liquid_res.max()) < 1e-6, f"residuals {wall_res}, {liquid_res}"
+    lam = lam.real
+    n = int(np.searchsorted(lam, limit, side="right"))
+    return np.sqrt(lam[: n + 1]) / (2 * math.pi)
 
 
 def eigen_block_krylov(wall, mtot, n_modes, block=24, rtol=1e-9, residual_tol=1e-4, max_blocks=12):

@@ -7,6 +7,8 @@ recorded waveform of ``simulate_recording`` is float32; its rounding (5e-8 of th
 the only difference left against it.
 """
 
+import functools
+
 import mujoco
 import numpy as np
 import pytest
@@ -15,8 +17,13 @@ from aas_gym.grasp import planar_grasp
 from aas_gym.scene import build_scene
 from aas_gym.sim_sensor import SimAcousticSensor
 from sensors import Excitation, spectral_features
-from sensors.synthesis import (AcousticStream, GraspState, SynthesisCache, mic_gain, simulate_features,
-                               simulate_recording)
+from sensors import synthesis
+from sensors.synthesis import AcousticStream, GraspState, SynthesisCache, mic_gain
+
+# The closed form follows the piecewise-linear drive ("foh"); with the band-limited drive (the
+# default) simulate_features synthesizes (tests/test_bandlimited_drive.py covers that drive).
+simulate_features = functools.partial(synthesis.simulate_features, bandlimited=False)
+simulate_recording = functools.partial(synthesis.simulate_recording, bandlimited=False)
 
 OBJECTS = ("aluminium_bar", "wood_bar", "abs_bar", "aluminium_tube")
 
@@ -38,7 +45,7 @@ def grasp(request):
 def time_domain_features(model, excitation, duration_s, act, mic, others, noise_std, seed, steady):
     """Features of the sample-by-sample chain in float64 (no float32 recording)."""
     n = len(excitation.loop(duration_s))
-    stream = AcousticStream(excitation, carry_state=False)
+    stream = AcousticStream(excitation, carry_state=False, bandlimited=False)
     g = GraspState(model, act, mic, tuple(others))
     if steady:
         stream.settle(g)

@@ -73,7 +73,7 @@ def test_reference_wall_is_the_project_dry_model(wall, wet_container):
 @pytest.mark.parametrize("fill", FILLS)
 def test_wet_frequencies_match_coupled_fem(mug, wall, wet_container, fill):
     height = fill * (mug.dimensions_m["height_m"] - mug.dimensions_m["floor_m"])
-    wet = filled(wet_container, fill_height_m=height)
+    wet = filled(wet_container, fill_height_m=height, compressible=False)  # the reference is incompressible
     got = wet.frequencies_hz[wet.frequencies_hz <= COMPARED_UP_TO_HZ]
     assert len(got) >= 10, "the band must hold the first ten wet modes"
     ref = coupled_frequencies_hz(mug, wall, height, RHO_WATER, len(got) + 2)

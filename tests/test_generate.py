@@ -113,6 +113,21 @@ def test_source_hash_changes_with_any_module(tmp_path):
     assert source_hash(pkg) != before
 
 
+def test_source_hash_changes_with_an_mjcf_asset(tmp_path):
+    """A dataset made with another robot or scene model is another dataset."""
+    import shutil
+
+    from aas_gym.assets import ASSETS_DIR
+    from aas_gym.experiments.config import source_hash
+
+    assets = tmp_path / "assets"
+    shutil.copytree(ASSETS_DIR, assets)
+    before = source_hash(assets)
+    hand = assets / "franka_hand.xml"
+    hand.write_text(hand.read_text().replace("<mujoco", "<mujoco ", 1))
+    assert source_hash(assets) != before
+
+
 @pytest.mark.slow
 def test_ray_gives_the_same_bytes(reference, tmp_path):
     pytest.importorskip("ray")

@@ -114,7 +114,7 @@ def _randomization_fields():
 
 COMMON_VALID = {"frame_skip": st.integers(1, 50), "grip_force_n": st.floats(1.0, 140.0),
                 "width": st.integers(1, 480), "height": st.integers(1, 480),
-                "camera_name": st.sampled_from(["closeup", "overview"]),
+                "camera_name": st.sampled_from(["closeup", "overview", "workspace"]),
                 "render_mode": st.sampled_from([None, "rgb_array"]),
                 "randomization": _randomization_fields(),
                 "acoustic": _fields({k: ACOUSTIC_VALID[k] for k in ("enabled", "waveform", "duration_s",
@@ -149,7 +149,8 @@ def test_env_constructor_builds_valid_or_refuses_clearly(env_id):
         base = env.unwrapped
         try:
             assert isinstance(base, AasEnv)
-            assert type(base.frame_skip) is int and 1 <= base.frame_skip <= base.max_frame_skip and base.dt > 0
+            assert type(base.frame_skip) is int and 1 <= base.frame_skip <= base.max_frame_skip
+            assert not hasattr(base, "dt") or base.dt > 0  # the probe envs have no dt
             assert type(base.width) is int and type(base.height) is int and base.width >= 1 and base.height >= 1
             assert 0 < base.grip_force_n <= 140
             _check_acoustic(base.acoustic)

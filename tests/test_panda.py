@@ -134,8 +134,11 @@ def test_panda_grasps_at_40_n_and_senses(scene):
     mujoco.mj_forward(hand_model, hand_data)
     planar_grasp(hand_model, hand_data, "aluminium_bar", 0.02, 40.0)
     hand = SimAcousticSensor(hand_model, hand_data).sense(Excitation("impulse", duration_s=0.5), 0.5)
-    a, b = panda.waveform, hand.waveform
-    assert np.max(np.abs(a)) > 0
+    assert np.max(np.abs(panda.waveform)) > 0
+    # Compared in the sensed band (the 140 features): below it, the grasped bar's suspension
+    # modes on the pad and table springs (tens to hundreds of Hz) ring for long and shift with
+    # sub-millimetre differences of the contact points, which is physics, not the arm.
+    a, b = panda.features(), hand.features()
     assert np.linalg.norm(a - b) < 0.05 * np.linalg.norm(b)
 
 

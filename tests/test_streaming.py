@@ -161,10 +161,12 @@ def test_matches_segmentwise_lsim_with_switching_contacts(model_name, bar, conta
     exc = Excitation.linear_sweep()
     tip = FingertipModel()
     sched = _switching_schedule(model, act, mic, tab)
-    stream = AcousticStream(exc, tip, tolerance=ContactTolerance.exact(), contact_model=contact_model)
+    stream = AcousticStream(exc, tip, tolerance=ContactTolerance.exact(), contact_model=contact_model,
+                            bandlimited=False)
     # one call per physics step, and one per env step (25 physics steps): both exact
     y1 = np.concatenate([stream.advance(k, g) for k, g in sched]).astype(float) / mic_gain()
-    stream2 = AcousticStream(exc, tip, tolerance=ContactTolerance.exact(), contact_model=contact_model)
+    stream2 = AcousticStream(exc, tip, tolerance=ContactTolerance.exact(), contact_model=contact_model,
+                            bandlimited=False)
     y2 = np.concatenate([stream2.advance(sched[i:i + 25]) for i in range(0, len(sched), 25)]) / mic_gain()
     ref = _reference(model, exc, tip, sched, contact_model)
     scale = np.abs(ref).max()
@@ -195,8 +197,13 @@ def test_grip_force_does_not_enter_the_linear_drive():
 # (2) continuity: a static grasp streamed in uneven chunks == one long recording
 # ----------------------------------------------------------------------------------------
 
+@pytest.mark.parametrize("bandlimited", [False, True], ids=["foh_drive", "bandlimited_drive"])
 @pytest.mark.parametrize("kind", ["linear", "impulse"])
-def test_static_grasp_chunks_equal_one_recording(bar, kind):
+def test_static_grasp_chunks_equal_one_recording(bar, kind, bandlimited):
+    """To rounding with the piecewise-linear drive; with the band-limited drive, the switch
+    from the first-order-hold runs to the exact periodic steady state falls at a chunk
+    boundary, and the two differ by the holds' images (sensors.synthesis.bandlimit): a few
+    1e-4 of the peak at most."""
     exc = Excitation.by_name(kind)
     act, mic = fingers()
     tab = table()
@@ -209,10 +216,12 @@ def test_static_grasp_chunks_equal_one_recording(bar, kind):
     # (rigid-body motion on the pads, damped by alpha only) need ~10 s to settle; chunking does
     # not depend on the contact model (spring_damper: test_batch_recording_is_the_stream...).
     rec = simulate_recording(bar, exc, 4.5, act, mic, tab, fingertip=tip, leak=leak, noise_std=1e-4,
-                             rng=np.random.default_rng(11), contact_model="damping")
+                             rng=np.random.default_rng(11), contact_model="damping",
+                             bandlimited=bandlimited)
     ref = rec.waveform.astype(float)
     stream = AcousticStream(exc, tip, leak=leak, noise_std=1e-4, rng=np.random.default_rng(11),
-                            leak_lag_samples=rec.metadata["leak_target_lag"], contact_model="damping")
+                            leak_lag_samples=rec.metadata["leak_target_lag"], contact_model="damping",
+                            bandlimited=bandlimited)
     g = GraspState(bar, act, mic, tab)
     sizes = [88, 2205, 1, 89, 17, 5000, 88, 2205, 3, 22050]
     out, n, i = [], len(ref), 0
@@ -223,7 +232,7 @@ def test_static_grasp_chunks_equal_one_recording(bar, kind):
         i += 1
     y = np.concatenate(out)
     assert y.dtype == np.float32 and len(y) == len(ref)
-    assert np.abs(y - ref).max() / np.abs(ref).max() <= 1e-9
+    assert np.abs(y - ref).max() / np.abs(ref).max() <= (1e-3 if bandlimited else 1e-9)
     assert stream.systems.misses == 1
     assert not stream.metadata["fingertip_separated"]
     assert stream.steady_samples > 0.15 * len(ref), stream.steady_samples

@@ -8,9 +8,9 @@ from gymnasium import spaces
 from aas_gym.envs.base import AasEnv
 from aas_gym.grasp import SQUEEZE_TARGET_M
 from aas_gym.scenario import position_along_path
-from sensors.task import (HOME_TCP, MAX_OPENING_M, STATE_LAYOUT, GraspHold, check_action, check_choice,
-                          decode_grasp_action, grasp_reward_terms, next_tcp_target, records_this_step, reward_total,
-                          step_success, tcp_object_distance_m)
+from sensors.task import (GRASP_REWARD_TERMS, HOME_TCP, MAX_OPENING_M, STATE_LAYOUT, GraspHold, check_action,
+                          check_choice, decode_grasp_action, grasp_reward_terms, next_tcp_target, records_this_step,
+                          reward_total, step_success, tcp_object_distance_m)
 
 # The TCP position and the object's centre in the state vector.
 _TCP = slice(STATE_LAYOUT["tcp"].start, STATE_LAYOUT["tcp"].start + 3)
@@ -37,6 +37,10 @@ class AcousticGraspEnv(AasEnv):
     Reward (``info["reward_terms"]``: ``reach``, ``grasp``, ``success``): minus the
     TCP-object distance [m], +1 while both sensor fingertips press the object, +10 for a
     recording of the grasped object, which ends the episode (success).
+    ``info`` every step: ``is_success``, ``grasped``, ``label`` (the target), ``distance_m``
+    (TCP to the object's centre [m]), ``reward_terms``; on a recording step also the ground
+    truth of ``reset`` (object pose, padded contacts, ...), ``recording_grasped`` and
+    ``grasp_position_m``.
     ``acoustic.cadence`` ``"every_step"`` records every step, ``"never"`` never (pure
     control); ``{"enabled": False}`` drops the entries.
     ``"stream"``: the microphone records through every physics step while the excitation
@@ -58,6 +62,9 @@ class AcousticGraspEnv(AasEnv):
     """
 
     _acoustic_defaults = {"cadence": "action"}
+    reward_term_names = GRASP_REWARD_TERMS
+    # The episode starts with the hand 0.3 m above the object: the closeup would miss the reach.
+    _default_camera = "workspace"
 
     def __init__(self, objects=("aluminium_bar",), *, control: str = "cartesian", **kwargs) -> None:
         self.control = check_choice("control", control, ("cartesian", "joint"))
@@ -101,13 +108,13 @@ class AcousticGraspEnv(AasEnv):
         due = self._acoustic_due()  # acoustic.update_period_s
         grasped = self._is_grasped()
         cadence = self.cadence
-        info = {"grasped": grasped, "is_success": False}
+        info = {"grasped": bool(grasped), "is_success": False, "label": sc.objects[0].label}
         success = False
         if cadence == "stream":
             if due:
                 self._last_acoustic = self._stream_entries()
             stream = self._stream.stream
-            info["heard_fraction"] = stream.latest_features_heard
+            info["heard_fraction"] = float(stream.latest_features_heard)
             self._hold.update(grasped, stream.sample_index)
             success = step_success(cadence, sense=act.sense, grasped=grasped,
                                    heard_whole_period=self._hold.heard_whole_period(stream.latest_features_period))
@@ -124,8 +131,10 @@ class AcousticGraspEnv(AasEnv):
             success = step_success(cadence, sense=act.sense, grasped=grasped,
                                    recording_grasped=info["recording_grasped"])
         obs, v = self._obs_and_values()
-        terms = grasp_reward_terms(tcp_object_distance_m(v[_TCP], v[_OBJECT]), grasped, success)
-        info["is_success"] = success
+        distance_m = tcp_object_distance_m(v[_TCP], v[_OBJECT])
+        terms = grasp_reward_terms(distance_m, grasped, success)
+        info["is_success"] = bool(success)
+        info["distance_m"] = distance_m
         info["reward_terms"] = terms
         if self.render_mode == "human":
             self.render()

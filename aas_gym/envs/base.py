@@ -20,6 +20,7 @@ from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
 from aas_gym.robots import DEFAULT_ROBOT, check_robot, robot_controller
 from aas_gym.contact_sensors import touch_sensor_name
+from aas_gym.envs.info import contacts_info
 from aas_gym.object_names import DEFAULT_OBJECT_NAMES
 from aas_gym.physics_memo import PhysicsMemo
 from aas_gym.scene import build_scene
@@ -43,6 +44,11 @@ __all__ = ["AasEnv", "DomainRandomization", "EXCITATION_NAMES", "HOME_TCP", "MAX
 MAX_FRAME_SKIP = 5000
 
 EXCITATION_NAMES = ("impulse", "linear", "exponential")
+#: The scene's cameras (``aas_gym.stage``).
+CAMERA_NAMES = ("closeup", "overview", "workspace")
+#: ``metadata["render_fps"]`` of the probe envs: a viewing rate for frames that are one probe
+#: each (Gymnasium's turn-based toy_text envs use 4), not a physical rate.
+PROBE_RENDER_FPS = 4
 # Where the proprioceptive entries sit in the state vector (sensors.task.grasp.STATE_LAYOUT),
 # as plain ints for the per-step code.
 _TCP = STATE_LAYOUT["tcp"].start
@@ -52,6 +58,10 @@ _MOTOR_FORCE = STATE_LAYOUT["gripper"].stop - 1
 
 
 _LAYOUT_ITEMS = tuple(STATE_LAYOUT.items())
+
+
+#: The attributes of a ``_Scene`` that are views into its MjData.
+_DATA_VIEWS = ("sensordata", "qpos", "qvel", "ctrl", "actuator_force", "xpos", "site_xpos")
 
 
 class _Scene:
@@ -82,12 +92,7 @@ class _Scene:
             int(self.model.sensor_adr[mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR,
                                                          touch_sensor_name(self.bodies[0], side))])
             for side in ("actuator", "mic"))
-        self.sensordata = self.data.sensordata
-        # Views into the MjData arrays (their memory never moves): saves the per-access view
-        # creation of the mujoco bindings in the per-step code.
-        d = self.data
-        self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl
-        self.actuator_force, self.xpos, self.site_xpos = d.actuator_force, d.xpos, d.site_xpos
+        self._bind_views()
         self.tcp_ctrl = None if not self.carriage else \
             slice(int(self.hand.tcp_actuators[0]), int(self.hand.tcp_actuators[0]) + 4) \
             if np.array_equal(self.hand.tcp_actuators, np.arange(self.hand.tcp_actuators[0], self.hand.tcp_actuators[0] + 4)) \
@@ -113,6 +118,23 @@ class _Scene:
         self.obs_map = obs_map
         self.state = np.empty(nq + nv)
 
+    def _bind_views(self) -> None:
+        """Views into the MjData arrays (their memory never moves): saves the per-access view
+        creation of the mujoco bindings in the per-step code."""
+        d = self.data
+        self.sensordata = d.sensordata
+        self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl
+        self.actuator_force, self.xpos, self.site_xpos = d.actuator_force, d.xpos, d.site_xpos
+
+    def __getstate__(self) -> dict:
+        # copy.deepcopy and pickle would turn the views into arrays detached from the copied
+        # MjData (a copied env's controls would never reach its physics): rebound on restore.
+        return {k: v for k, v in self.__dict__.items() if k not in _DATA_VIEWS}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._bind_views()
+
     def tcp_target(self) -> list[float]:
         """The commanded TCP (x, y, z [m], yaw [rad])."""
         if self.carriage:
@@ -132,14 +154,14 @@ class _Scene:
 COMMON_ARGUMENTS = """
     | `scene` | str | `"single"` | `"single"`: the target alone on the table; `"multi"`: one or two `distractors` lean across its ends (random object contacts) |
     | `distractors` | sequence of str or `ObjectSpec`, or None | None | objects that may lean on the target; None: the bars of the default objects |
-    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `enabled`, `features` (`"fft140"`, `"spectrogram"`, `"mel"`), `history`, `update_period_s`, `corruption`, `max_samples` (the longest recording or streamed step, default 60 s at 44.1 kHz); None or missing fields: this env's defaults |
+    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the acoustic sensor: `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `noise_std`, `leak`, `fingertip`, `stream_tolerance`, `drive` (`"bandlimited"` or the former `"foh"`), `passive_sound` (impacts and slides heard; default on when streaming), `enabled`, `features` (`"fft140"`, `"spectrogram"`, `"mel"`), `history`, `update_period_s`, `corruption`, `max_samples` (the longest recording or streamed step, default 60 s at 44.1 kHz); None or missing fields: this env's defaults |
     | `robot` | str | `"floating_hand"` | `"floating_hand"`: the Franka hand on a Cartesian carriage (fast); `"panda"`: the Franka Panda arm with the same hand (needs `gymnasium-robotics` for its meshes), Cartesian TCP actions through inverse kinematics |
     | `grip_force_n` | float | 40.0 | nominal grip force [N], in (0, 140] |
     | `randomization` | `DomainRandomization`, dict of its knobs, None or False | None | domain randomization; None: its defaults; False: none |
     | `frame_skip` | int | 25 | MuJoCo steps (2 ms) per env step, 1 to `AasEnv.max_frame_skip` (5000) |
     | `render_mode` | str or None | None | `"rgb_array"`, `"depth_array"` or `"human"` |
     | `width`, `height` | int | 480, 480 | rendered image size [pixels], at most the scene's offscreen buffer (640 x 480) |
-    | `camera_name` | str | `"closeup"` | `"closeup"` or `"overview"` |
+    | `camera_name` | str or None | None | `"closeup"` (the fingertips and the grasped part), `"overview"` or `"workspace"` (the hand at home above the object); None: this env's default (`"workspace"` for AcousticGrasp-v0, else `"closeup"`) |
 
     Deprecated (one more release, with a `DeprecationWarning`): the keywords `excitation`,
     `duration_s`, `include_waveform`, `sense_mode`, `leak`, `fingertip`, `stream_tolerance`
@@ -179,8 +201,12 @@ class AasEnv(AcousticEnvMixin, gym.Env):
     ``frame_skip``, ``render_mode``, ``width``, ``height``, ``camera_name``) is appended.
 
     ``frame_skip``, ``dt``, ``render_mode``, ``width``/``height``/``camera_name`` follow
-    Gymnasium's MuJoCo envs. Every env with a reward reports its terms in
-    ``info["reward_terms"]`` (fixed keys, plain floats, summing to the reward).
+    Gymnasium's MuJoCo envs; the probe envs (a step is a scripted grasp and recording, or an
+    answer) have no ``dt`` and render at :data:`PROBE_RENDER_FPS`, as Gymnasium's turn-based
+    envs. Every step's ``info`` holds ``is_success``, the ground truth the task is scored
+    against, and ``reward_terms`` (the keys :attr:`reward_term_names`, plain floats, summing to
+    the reward); every entry has a fixed shape, so ``gym.make_vec`` stacks it
+    (``aas_gym.envs.info``).
     """
 
     # 20 Hz control (timestep 2 ms x frame_skip 25), like Gymnasium's Ant and HalfCheetah.
@@ -192,6 +218,12 @@ class AasEnv(AcousticEnvMixin, gym.Env):
 
     #: A step is one scripted grasp and recording (a probe), not one control period.
     _step_is_probe = False
+
+    #: The camera ``render`` uses unless ``camera_name`` says otherwise (``CAMERA_NAMES``).
+    _default_camera = "closeup"
+
+    #: The keys of ``info["reward_terms"]``, in the order they are summed.
+    reward_term_names: tuple[str, ...] = ()
 
     #: The acoustic observation's defaults for this task (subclasses override ``cadence``).
     _acoustic_defaults: dict = {}
@@ -213,7 +245,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
                  acoustic: AcousticConfig | dict | None = None, robot: str = DEFAULT_ROBOT,
                  grip_force_n: float = DEFAULT_GRIP_FORCE_N,
                  randomization=None, frame_skip: int = 25, render_mode: str | None = None,
-                 width: int = 480, height: int = 480, camera_name: str = "closeup", **deprecated) -> None:
+                 width: int = 480, height: int = 480, camera_name: str | None = None, **deprecated) -> None:
         unknown = sorted(set(deprecated) - set(LEGACY_KEYWORDS))
         if unknown:
             raise TypeError(f"{type(self).__name__}() got an unexpected keyword argument {unknown[0]!r}")
@@ -238,7 +270,8 @@ class AasEnv(AcousticEnvMixin, gym.Env):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
         self.width, self.height = check_integer("width", width, 1), check_integer("height", height, 1)
-        self.camera_name = check_choice("camera_name", camera_name, ("closeup", "overview"))
+        self.camera_name = check_choice("camera_name", self._default_camera if camera_name is None else camera_name,
+                                        CAMERA_NAMES)
         self._leaks = _load_leaks(self.acoustic.leak)
         self._variation = SensorVariation()
         self._stream: SimAcousticStream | None = None
@@ -251,7 +284,10 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         if self.width > vis.offwidth or self.height > vis.offheight:
             raise ValueError(f"width x height = {self.width} x {self.height} exceeds the scene's offscreen buffer "
                              f"{vis.offwidth} x {vis.offheight} pixels (aas_gym.stage): render smaller")
-        self.metadata = dict(self.metadata, render_fps=max(1, int(round(1.0 / self.dt))))
+        # render_fps: the control rate; a probe env's frames are probes, shown at a viewing rate
+        # as Gymnasium's turn-based toy_text envs do (no physical time passes between them).
+        self.metadata = dict(self.metadata, render_fps=PROBE_RENDER_FPS if self._step_is_probe
+                             else max(1, int(round(1.0 / self.dt))))
         if self.acoustic.streaming and not self._step_is_probe:
             self.acoustic.check_samples(self.step_samples, f"one streamed step (frame_skip={self.frame_skip}, "
                                                            f"dt = {self.dt:g} s)")
@@ -331,6 +367,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         scene = _Scene(objects, contact_signature=self.acoustic.streaming, robot=self.robot)
         scene.sensor.leak, scene.sensor.fingertip = self._leaks, self.acoustic.fingertip
         scene.sensor.contact_model = self.acoustic.contact_model
+        scene.sensor.bandlimited = self.acoustic.drive == "bandlimited"
         return scene
 
     @property
@@ -351,6 +388,11 @@ class AasEnv(AcousticEnvMixin, gym.Env):
 
     @property
     def dt(self) -> float:
+        """Simulated time per env step [s] (``frame_skip`` x the 2 ms timestep). A probe env
+        (a step is one scripted grasp and recording, or an answer) has none: ``AttributeError``."""
+        if self._step_is_probe:
+            raise AttributeError(f"{type(self).__name__} has no dt: a step is a whole probe (a scripted grasp "
+                                 "and recording) or an answer, not a control period")
         return self._scene.model.opt.timestep * self.frame_skip
 
     def _target_object(self, options: dict) -> ObjectSpec:
@@ -474,7 +516,8 @@ class AasEnv(AcousticEnvMixin, gym.Env):
     # --- streaming --------------------------------------------------------------------------
     def _new_stream(self, excitation=None) -> SimAcousticStream:
         return SimAcousticStream(self.sensor, self.excitation if excitation is None else excitation,
-                                 variation=self._variation, rng=self.np_random, tolerance=self.acoustic.stream_tolerance)
+                                 variation=self._variation, rng=self.np_random, tolerance=self.acoustic.stream_tolerance,
+                                 passive=self.acoustic.passive)
 
     def _simulate(self) -> None:
         """One env step of physics (``frame_skip`` MuJoCo steps); streamed, the microphone
@@ -520,7 +563,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         info["randomization"] = self._variation.to_dict()
         if contacts is not False:
             read = sc.stream.read(self.data) if contacts is True else contacts
-            info["contacts"] = {b: c.to_dict() for b, c in read.items()}
+            info["contacts"] = contacts_info(read)
         return info
 
     # --- rendering --------------------------------------------------------------------------

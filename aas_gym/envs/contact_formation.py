@@ -79,7 +79,8 @@ class ContactFormationEnv(AasEnv):
     after the step, else 0.
     ``info``: ``formation`` / ``formation_index`` (ground truth from the contact forces of
     the target: table, plinth, or neither), ``segment`` (the script's current kind), the
-    external forces ``table_force_n`` and ``object_force_n``, ``grasped``.
+    external forces ``table_force_n`` and ``object_force_n``, ``grasped``, ``label``;
+    ``is_success``: this step's report is right (the episode never ends by itself).
 
     ``scene`` is not accepted (the env builds its own). ``acoustic`` defaults here:
     ``cadence="stream"``, ``feature_scale="db"``, ``stream_tolerance=MOVING_TOLERANCE``.
@@ -93,6 +94,7 @@ class ContactFormationEnv(AasEnv):
     """
 
     _acoustic_defaults = {"cadence": "stream", "feature_scale": "db", "stream_tolerance": MOVING_TOLERANCE}
+    reward_term_names = ("report",)
 
     def __init__(self, objects=("aluminium_bar", "steel_bar", "wood_bar"), *,
                  plinths=("aluminium_bar", "steel_bar", "wood_bar"), **kwargs) -> None:
@@ -193,7 +195,8 @@ class ContactFormationEnv(AasEnv):
             self._last_acoustic = self._stream_entries()
         truth = self._truth()
         reward = 1.0 if report == truth["formation_index"] else 0.0
-        info = dict(truth, segment=self._script[self._segment].kind, grasped=self._is_grasped(), report=report,
+        info = dict(truth, is_success=bool(reward > 0), label=self._scene.objects[0].label,
+                    segment=self._script[self._segment].kind, grasped=bool(self._is_grasped()), report=report,
                     reward_terms={"report": reward})
         if self.render_mode == "human":
             self.render()
@@ -221,7 +224,8 @@ class ContactFormationEnv(AasEnv):
         table = c.total_normal_force_n("environment")
         other = c.total_normal_force_n("object")
         k = 2 if other > TRUTH_FORCE_N else (1 if table > TRUTH_FORCE_N else 0)
-        return {"formation": FORMATIONS[k], "formation_index": k, "table_force_n": table, "object_force_n": other}
+        return {"formation": FORMATIONS[k], "formation_index": k, "table_force_n": float(table),
+                "object_force_n": float(other)}
 
     def _obs(self) -> dict:
         obs = self._proprio()

@@ -12,6 +12,9 @@ from sensors.task import check_action, check_choice, check_integer, check_number
 TASKS = ("fill", "liquid")
 #: The everyday containers a liquid can fill (``sensors.fluid``).
 CONTAINERS = ("mug", "glass", "can", "bottle")
+#: Task ``"fill"`` succeeds when the estimate is within this of the true fill fraction
+#: (5 percentage points of the container's height).
+FILL_SUCCESS_TOLERANCE = 0.05
 
 
 class FillLevelEnv(AasEnv):
@@ -31,8 +34,11 @@ class FillLevelEnv(AasEnv):
     Action: Box(1) in [-1, 1]. Task ``"fill"``: the fill fraction estimate, -1 .. 1 mapped
     onto 0 .. 1; reward minus the absolute error. Task ``"liquid"``: the interval cut into
     ``len(liquids)`` equal bins, one per liquid; reward 1 if right, else 0. One step.
-    ``info``: ``fill_fraction``, ``liquid``, ``liquid_index``, ``liquid_mass_kg``, label,
-    grasp, contacts, ``reward_terms`` (``error`` for task ``"fill"``, ``answer`` for
+    ``info``: ``fill_fraction``, ``liquid``, ``liquid_index``, ``liquid_mass_kg``, ``liquid_model``
+    (``"compressible"`` or ``"incompressible"``), label,
+    grasp, padded contacts; the step adds ``estimate``, ``is_success`` (task ``"fill"``: the
+    estimate within :data:`FILL_SUCCESS_TOLERANCE` of the true fraction; ``"liquid"``: the
+    right liquid) and ``reward_terms`` (``error`` for task ``"fill"``, ``answer`` for
     ``"liquid"``).
 
     ``acoustic``: every episode records once, through its grasp, whatever the cadence.
@@ -46,6 +52,7 @@ class FillLevelEnv(AasEnv):
     | `liquids` | sequence of str or float | `("water",)` | candidate liquids (`"water"`, `"oil"`, `"honey"`, `"ethanol"` or a density [kg/m^3]) |
     | `fill_range` | (float, float) | (0.0, 0.9) | task `"fill"`: the fill fraction is drawn uniformly in it |
     | `fill_fraction` | float | 0.6 | task `"liquid"`: the fill fraction of every episode |
+    | `compressible` | bool | True | the liquid compresses (its acoustic modes couple to the wall); False: incompressible added mass |
     """
 
     _step_is_probe = True
@@ -54,7 +61,10 @@ class FillLevelEnv(AasEnv):
     _min_grasp_width_m = 0.02
 
     def __init__(self, objects=("mug",), *, task: str = "fill", liquids=("water",),
-                 fill_range: tuple[float, float] = (0.0, 0.9), fill_fraction: float = 0.6, **kwargs) -> None:
+                 fill_range: tuple[float, float] = (0.0, 0.9), fill_fraction: float = 0.6, compressible: bool = True,
+                 **kwargs) -> None:
+        if not isinstance(compressible, (bool, np.bool_)):
+            raise TypeError(f"compressible must be True or False, got {compressible!r}")
         check_choice("task", task, TASKS)
         if isinstance(fill_range, (str, bytes)) or not hasattr(fill_range, "__len__") or len(fill_range) != 2:
             raise TypeError(f"fill_range must be a pair (low, high), got {fill_range!r}")
@@ -80,6 +90,8 @@ class FillLevelEnv(AasEnv):
         if task == "liquid" and len(self.liquids) < 2:
             raise ValueError("task 'liquid' needs at least two liquids to tell apart")
         self.task, self.fill_range, self.fill_fraction = task, (lo, hi), float(fill_fraction)
+        self.reward_term_names = ("error",) if task == "fill" else ("answer",)
+        self.compressible = bool(compressible)
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
         self.observation_space = spaces.Dict({**self._proprio_spaces(), **self._acoustic_spaces()})
         self._truth = {}
@@ -100,7 +112,7 @@ class FillLevelEnv(AasEnv):
         k = check_integer("liquid_index", options.get("liquid_index", k), 0, len(self.liquids) - 1)
         self._wet = self._fill(fill, self.liquids[k])
         self._truth = {"fill_fraction": fill, "liquid": str(self.liquids[k]), "liquid_index": k,
-                       "liquid_mass_kg": float(self._wet.liquid.mass_kg)}
+                       "liquid_mass_kg": float(self._wet.liquid.mass_kg), "liquid_model": self._wet.liquid_model}
         super()._place_objects(settle_s)
 
     def _reset_episode(self, options: dict):
@@ -124,7 +136,7 @@ class FillLevelEnv(AasEnv):
 
         sc = self._scene
         target, body = sc.objects[0], sc.bodies[0]
-        wet = filled(target.solid(), fill_fraction, liquid=liquid)
+        wet = filled(target.solid(), fill_fraction, liquid=liquid, compressible=self.compressible)
         sc.sensor.set_modal_model(body, wet)
         self._set_liquid_mass(sc.body_ids[0], wet.liquid)
         return wet
@@ -174,13 +186,14 @@ class FillLevelEnv(AasEnv):
         estimate = self.estimate_from_action(action)
         obs = self._proprio()
         obs.update(self._empty_acoustic())
-        info = dict(self._truth, estimate=estimate)
+        info = dict(self._truth, estimate=estimate, label=self._scene.objects[0].label)
         if self.task == "fill":
             error = abs(estimate - self._truth["fill_fraction"])
             info["abs_error"] = error
+            info["is_success"] = bool(error <= FILL_SUCCESS_TOLERANCE)
             info["reward_terms"] = {"error": -error}
             return obs, -error, True, False, info
         correct = estimate == self._truth["liquid_index"]
-        info["is_success"] = correct
+        info["is_success"] = bool(correct)
         info["reward_terms"] = {"answer": 1.0 if correct else 0.0}
         return obs, 1.0 if correct else 0.0, True, False, info

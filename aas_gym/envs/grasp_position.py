@@ -32,8 +32,11 @@ class GraspPositionEnv(AasEnv):
     ``"metres"``: the position in metres from the centre, Box(0, last position).
     Reward (``info["reward_terms"]``: ``error``): minus the absolute error [m]; the episode
     ends after the estimate.
-    ``info``: ``grasp_position_m`` (true, including the randomized placement error),
-    ``position_index``, label, material, shape, object pose, contacts.
+    ``info`` (reset): ``grasp_position_m`` (true, including the randomized placement error),
+    ``position_index``, ``nominal_position_m``, label, material, shape, object pose, padded
+    contacts. ``info`` (step): ``is_success`` (the estimate is within half a ``spacing_m`` of
+    the true position: the nearest grid position is the right one), ``grasp_position_m``,
+    ``position_index``, ``label``, ``estimate_m``, ``abs_error_m``, ``reward_terms``.
 
     ``acoustic``: every episode records once, through its grasp, whatever the cadence.
 
@@ -50,6 +53,7 @@ class GraspPositionEnv(AasEnv):
     _far_end_only = True
     _step_is_probe = True
     reset_options = ("object", "position_index")
+    reward_term_names = ("error",)
 
     def __init__(self, objects=("wood_bar",), *, n_positions: int = 13, spacing_m: float = 0.005,
                  action_format: str = "normalized", **kwargs) -> None:
@@ -58,6 +62,7 @@ class GraspPositionEnv(AasEnv):
         check_choice("action_format", action_format, ACTION_FORMATS)
         super().__init__(objects, **kwargs)
         self.positions_m = np.arange(n_positions) * spacing_m
+        self.spacing_m = float(spacing_m)
         for obj in self.objects:
             lo, hi = grasp_span_m(obj)
             if self.positions_m[-1] > hi - max(lo, 0.0):
@@ -70,6 +75,7 @@ class GraspPositionEnv(AasEnv):
                              else spaces.Box(0.0, top, (1,), np.float32))
         self.observation_space = spaces.Dict({**self._proprio_spaces(), **self._acoustic_spaces()})
         self._true_position = 0.0
+        self._position_index = 0
 
     def position_from_action(self, action) -> float:
         """The position estimate [m] an action stands for."""
@@ -87,6 +93,7 @@ class GraspPositionEnv(AasEnv):
         grasp["grasp_position_m"] -= start
         acoustic, rec, truth = self._sense_and_truth()
         self._true_position = grasp["grasp_position_m"]
+        self._position_index = int(k)
         obs = self._proprio()
         obs.update(acoustic)
         info = truth
@@ -99,6 +106,7 @@ class GraspPositionEnv(AasEnv):
         error = abs(estimate - self._true_position)
         obs = self._proprio()
         obs.update(self._empty_acoustic())
-        info = {"grasp_position_m": self._true_position, "estimate_m": estimate, "abs_error_m": error,
-                "reward_terms": {"error": -error}}
+        info = {"is_success": bool(error <= self.spacing_m / 2), "grasp_position_m": self._true_position,
+                "position_index": self._position_index, "label": self._scene.objects[0].label,
+                "estimate_m": estimate, "abs_error_m": error, "reward_terms": {"error": -error}}
         return obs, -error, True, False, info

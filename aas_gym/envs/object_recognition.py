@@ -31,7 +31,9 @@ class ObjectRecognitionEnv(AasEnv):
     Reward (``info["reward_terms"]``: ``probe``, ``answer``): ``-probe_cost`` per probe; on
     answer 1 if correct else 0, and the episode ends.
     With ``scene="multi"`` other objects lie across one end of the target (random contacts).
-    ``info``: true ``label`` / ``label_index``, material, shape, grasp position, contacts.
+    ``info``: ``is_success`` (the answer names the target; False on probe steps), true
+    ``label`` / ``label_index``, ``reward_terms``; a probe step adds material, shape, grasp
+    position, excitation, padded contacts; an answer adds ``guess``.
 
     ``acoustic`` defaults here: ``cadence="every_step"`` (every probe records, with the
     excitation the action chooses; ``acoustic.excitation`` is not used).
@@ -49,6 +51,7 @@ class ObjectRecognitionEnv(AasEnv):
     _acoustic_defaults = {"cadence": "every_step"}
     _step_is_probe = True
     reset_options = ("label_index",)
+    reward_term_names = ("probe", "answer")
 
     def __init__(self, objects=None, *, probe_cost: float = 0.01, max_position_m: float = 0.05,
                  action_format: str = "box", **kwargs) -> None:
@@ -119,7 +122,7 @@ class ObjectRecognitionEnv(AasEnv):
         if command == 1:
             correct = guess == self._label_index
             info = {"label": self.labels[self._label_index], "label_index": self._label_index,
-                    "guess": guess, "is_success": correct}
+                    "guess": guess, "is_success": bool(correct)}
             info["reward_terms"] = {"probe": 0.0, "answer": 1.0 if correct else 0.0}
             return self._obs(), 1.0 if correct else 0.0, True, False, info
         target = self._scene.objects[0]
@@ -134,7 +137,7 @@ class ObjectRecognitionEnv(AasEnv):
         self._probe[0], self._probe[1 + e] = fraction, 1.0
         self._n_probes += 1
         info = truth
-        info.update(grasp, label_index=self._label_index, excitation=EXCITATION_NAMES[e],
+        info.update(grasp, is_success=False, label_index=self._label_index, excitation=EXCITATION_NAMES[e],
                     recording_grasped=bool(rec.metadata.get("grasped", False)),
                     reward_terms={"probe": -self.probe_cost, "answer": 0.0})
         if self.render_mode == "human":

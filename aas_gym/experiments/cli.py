@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shlex
 import time
 from pathlib import Path
 
@@ -109,8 +110,9 @@ def _generate(args: argparse.Namespace, out: Path) -> Path:
     _writable_folder(out.parent if not out.exists() else out)
     args.interrupt_hint = "rerun the same command to resume"
     print(f"dataset: {len(config.tasks())} grasps x {len(config.excitations)} excitations -> {out}")
+    argv = getattr(args, "argv", None)
     return generate_dataset(config, out, workers=args.workers, ray_address=args.ray_address,
-                            overwrite=args.overwrite)
+                            overwrite=args.overwrite, command=None if argv is None else shlex.join(["aas", *argv]))
 
 
 def _cmd_generate(args: argparse.Namespace) -> int:

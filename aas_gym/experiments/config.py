@@ -58,6 +58,9 @@ class DatasetConfig:
         shard_size: tasks per output file.
         robot: who grasps (``aas_gym.robots``): ``"floating_hand"`` (the paper's figures) or
             ``"panda"`` (the Franka Panda arm with the same hand); recorded in the manifest.
+        drive: how the excitation reaches the fingertip: ``"bandlimited"`` (the signal a
+            sound card plays) or ``"foh"`` (piecewise linear between samples); recorded in
+            the manifest's config. A manifest without it was made with ``"foh"``.
     """
 
     objects: tuple[str, ...] = DEFAULT_OBJECT_NAMES
@@ -77,6 +80,7 @@ class DatasetConfig:
     seed: int = 0
     shard_size: int = 16
     robot: str = "floating_hand"
+    drive: str = "bandlimited"
 
     #: The most grasps a configuration may expand to (:data:`MAX_TASKS`); raise it on the class
     #: (``DatasetConfig.max_tasks = ...``) for a larger dataset. Not a field: not fingerprinted.
@@ -108,6 +112,8 @@ class DatasetConfig:
 
         if self.contact_model not in CONTACT_MODELS:
             raise ValueError(f"contact_model must be one of {CONTACT_MODELS}, got {self.contact_model!r}")
+        if self.drive not in ("bandlimited", "foh"):
+            raise ValueError(f"drive must be 'bandlimited' or 'foh', got {self.drive!r}")
         samples = self.duration_s * 44_100
         if samples > MAX_SAMPLES:
             raise ValueError(f"duration_s={self.duration_s:g} s would record {samples:,.0f} samples per recording "
@@ -207,22 +213,24 @@ class Task:
 
 @functools.lru_cache(maxsize=1)
 def code_version() -> str:
-    """Hash of every module of ``sensors`` and ``aas_gym``: the code a dataset's bytes come from.
+    """Hash of every module of ``sensors`` and ``aas_gym`` and of the MJCF assets (the robots,
+    objects and scenes): the code a dataset's bytes come from.
 
-    Part of a dataset's fingerprint, so a dataset begun by other code (a changed mesh, damping
-    or scene) is never finished by this one: its shards would mix two physics and nothing would
-    tell them apart.
+    Part of a dataset's fingerprint, so a dataset begun by other code (a changed mesh, damping,
+    scene or robot model) is never finished by this one: its shards would mix two physics and
+    nothing would tell them apart.
     """
     import sensors
+    from aas_gym.assets import ASSETS_DIR
 
-    return source_hash(Path(sensors.__file__).parent, Path(__file__).resolve().parents[1])
+    return source_hash(Path(sensors.__file__).parent, Path(__file__).resolve().parents[1], ASSETS_DIR)
 
 
 def source_hash(*packages: Path) -> str:
-    """Hash of the names and bytes of every ``.py`` file under the given package folders."""
+    """Hash of the names and bytes of every ``.py`` and ``.xml`` file under the given folders."""
     h = hashlib.sha256()
     for package in packages:
-        for path in sorted(package.rglob("*.py")):
+        for path in sorted([*package.rglob("*.py"), *package.rglob("*.xml")]):
             h.update(f"{package.name}/{path.relative_to(package).as_posix()}".encode() + b"\0")
             h.update(path.read_bytes())
     return h.hexdigest()[:16]

@@ -4,6 +4,8 @@ Output folder::
 
     .dataset.json         config, its fingerprint, shard count (written first; a dot file,
                           so Arrow, pandas and Hugging Face datasets read the folder as shards)
+    README.md             the dataset card (Hugging Face's format: columns, units, how it was
+                          made, licence), written once every shard is on disk
     shard-00000.parquet   one Parquet file per shard, written atomically, carrying the
     ...                   config fingerprint and a checksum of its rows
 
@@ -11,9 +13,10 @@ Each shard is computed by a worker (a local process or a Ray task) and returned 
 bytes; only the driver writes, by write-to-temporary-then-rename, so an interrupted run
 leaves whole shards only, and a rerun computes just the missing ones. A shard's bytes depend
 only on the config, never on the backend or the worker count. Read the result with
-:func:`load_dataset` (pandas, every shard verified), ``pandas.read_parquet(folder)``,
-``pyarrow.dataset.dataset(folder)`` or Hugging Face ``datasets.load_dataset("parquet",
-data_dir=folder)``.
+:func:`load_dataset` (pandas, every shard verified), Hugging Face ``datasets.load_dataset(folder)``
+(through the card), or the shards themselves: ``pandas.read_parquet(folder,
+ignore_prefixes=[".", "_", "README"])``, ``pyarrow.dataset.dataset(sorted(folder.glob("shard-*.parquet")))``
+(Arrow reads every file of a folder as Parquet unless told to skip the card).
 
 A shard is trusted only if its footer names this configuration's fingerprint and its rows
 hash to the checksum it carries: on resume a foreign (another seed) or corrupt shard is
@@ -352,6 +355,7 @@ def generate_dataset(
     overwrite: bool = False,
     progress: bool = True,
     on_shard: Callable[[int], None] | None = None,
+    command: str | None = None,
 ) -> Path:
     """Generate (or finish generating) a dataset into ``out_dir``.
 
@@ -366,7 +370,10 @@ def generate_dataset(
         overwrite: discard an existing dataset with another config.
         progress: show a progress bar.
         on_shard: called with each shard index once it is on disk.
+        command: how the dataset was made, for its card (``aas generate`` passes its command
+            line; None: this function's call).
     """
+    from aas_gym.experiments.card import write_card
     from tqdm.auto import tqdm
 
     out = Path(out_dir)
@@ -383,6 +390,7 @@ def generate_dataset(
             bar.update(len(shards[index]))
             if on_shard is not None:
                 on_shard(index)
+    write_card(out, config, read_manifest(out / MANIFEST, "regenerate it with overwrite=True"), command)
     return out
 
 

@@ -56,7 +56,8 @@ def run_task(task: Task, config: DatasetConfig) -> list[dict[str, Any]]:
     hand = robot_controller(model)
     hand.set_grip_force(config.grip_force_n)
     hand.teleport(data, HOME_TCP, MAX_OPENING_M)
-    sensor = SimAcousticSensor(model, data, noise_std=config.noise_std, rng=rng, contact_model=config.contact_model)
+    sensor = SimAcousticSensor(model, data, noise_std=config.noise_std, rng=rng, contact_model=config.contact_model,
+                               bandlimited=config.drive == "bandlimited")
     joints = []
     for name in sensor.bodies:  # the scene's object bodies, in the order of ``objects``
         jnt = model.body_jntadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)]

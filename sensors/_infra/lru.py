@@ -22,9 +22,11 @@ CACHE_SIZES: dict[str, int] = {
     "synthesis.drive_spectra": 8,    # fingertip drive steady period + transient (closed-form features)
     "synthesis.window_spectra": 8,   # models whose grasps' feature-window spectra are kept (closed form)
     "synthesis.grasp_spectra": 64,   # ... and per model, its grasps' spectra (4.5 kB each)
+    "synthesis.prefilter_taps": 4,   # one-shot band-limited prefilters (passes, length): a few floats each
     "stream.systems": 16,            # streamed contact systems (SystemCache)
     "stream.drive_systems": 4,       # fingertip drive systems per fingertip model
     "stream.steady_states": 8,       # periodic steady states per (system, drive)
+    "passive.load_projections": 4,   # one contact read's loads on the modes of the latest contact sets
     "modal.flexibility": 2,          # K, M and factorization of K + sigma M per model (static correction)
     "modal.spring_modes": 32,        # contact-coupled modes per (model, contact springs)
     "modal.coupled_grasps": 16,      # modes of a grasped object with the objects it touches, per contact set

@@ -1,4 +1,5 @@
-"""Stage 8, liquids in containers: the added mass of a liquid on the wetted wall, per fill and tilt.
+"""Stage 8, liquids in containers: the added mass of a liquid on the wetted wall and (by default)
+its own acoustic modes coupled to the wall (:mod:`.acoustic`), per fill and tilt.
 
 ``filled(obj, fill_fraction, liquid=...)`` is the entry point (:mod:`.filling`); a
 :class:`Container` (:mod:`.container`) holds the per-container work, a

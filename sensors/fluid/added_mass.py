@@ -18,6 +18,7 @@ Used by :mod:`sensors.fluid` (the physics is described in :mod:`sensors.fluid.fi
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -28,8 +29,8 @@ import scipy.sparse.linalg
 from ..fem.eigen import rigid_body_modes
 from ..fem.assembly import QUADRATURE, assemble, shape_functions, shape_gradients_ref
 
-__all__ = ["laplace_stiffness", "boundary_quadrature", "liquid_loading", "static_correction",
-           "pressure_patterns"]
+__all__ = ["laplace_stiffness", "boundary_quadrature", "WallCoupling", "wall_coupling", "symmetric_lu",
+           "potential_flow", "liquid_loading", "static_correction", "pressure_patterns"]
 
 #: Degree-5 7-point rule on a triangle (Dunavant 1985): barycentric points, weights summing to 1.
 _A1, _B1, _W1 = 0.059715871789770, 0.470142064105115, 0.132394152788506
@@ -105,6 +106,65 @@ def boundary_quadrature(nodes_m: np.ndarray, tets10: np.ndarray, select) -> dict
             "gradients": G.reshape(-1, 10, 3), "nodes": np.repeat(tets10[owner], n_q, axis=0)}
 
 
+@dataclasses.dataclass
+class WallCoupling:
+    """A liquid mesh coupled to a basis of wall motions (:func:`wall_coupling`).
+
+    Attributes:
+        quadrature: :func:`boundary_quadrature` on the wetted wall (every boundary face not on
+            the free surface).
+        shapes: (P, 3, k) the wall displacement of each basis vector at its points.
+        load: (n, k) C[a, j] = integral over the wetted wall of N_a (n . u_j) dS [m^2 * the
+            basis' unit], n out of the liquid: the Neumann load of each vector.
+        laplace: (n, n) H of the liquid mesh (:func:`laplace_stiffness`).
+        free: Indices of the nodes off the free surface (p = 0 on it).
+    """
+
+    quadrature: dict
+    shapes: np.ndarray
+    load: np.ndarray
+    laplace: scipy.sparse.csr_matrix
+    free: np.ndarray
+
+
+def wall_coupling(nodes_m: np.ndarray, tets10: np.ndarray, free_surface: np.ndarray, shapes_at) -> WallCoupling:
+    """The coupling of a liquid's P2 mesh (``free_surface``: (n,) True on the free surface; every
+    other boundary face is wetted wall) to the wall motions ``shapes_at(points (P, 3)) -> (P, 3, k)``."""
+    q = boundary_quadrature(nodes_m, tets10, lambda corners, _: ~np.all(free_surface[corners], axis=1))
+    U = np.asarray(shapes_at(q["points_m"]), dtype=np.float64)  # (P, 3, k)
+    g = np.einsum("pi,pik->pk", q["normal_area_m2"], U)  # (n . u) dS
+    n_nodes = len(nodes_m)
+    P = len(g)
+    B = scipy.sparse.csr_matrix((q["shape"].ravel(), (q["nodes"].ravel(), np.repeat(np.arange(P), 10))),
+                                shape=(n_nodes, P))
+    return WallCoupling(q, U, B @ g, laplace_stiffness(nodes_m, tets10), np.flatnonzero(~free_surface))
+
+
+def symmetric_lu(A):
+    """Sparse LU of a symmetric positive definite matrix (no pivoting, symmetric ordering)."""
+    return scipy.sparse.linalg.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                    options={"SymmetricMode": True})
+
+
+def potential_flow(coupling: WallCoupling, density_kg_m3: float):
+    """Added mass M_a, wall-slip matrix S (as :func:`liquid_loading`) and the factorization of
+    the liquid's Laplacian on its free nodes (for reuse)."""
+    F, free, q, U = coupling.load, coupling.free, coupling.quadrature, coupling.shapes
+    lu = symmetric_lu(coupling.laplace[free][:, free])
+    phi = np.zeros_like(F)
+    phi[free] = lu.solve(np.ascontiguousarray(F[free]))
+    Ma = density_kg_m3 * (phi.T @ F)
+    Ma = 0.5 * (Ma + Ma.T)
+    grad = np.matmul(q["gradients"].transpose(0, 2, 1), phi[q["nodes"]])  # (P, 3, k)
+    dS = np.linalg.norm(q["normal_area_m2"], axis=1)
+    n = q["normal_area_m2"] / dS[:, None]
+    rel = U - grad
+    rel_t = rel - n[:, :, None] * np.einsum("pi,pik->pk", n, rel)[:, None, :]
+    W = (np.sqrt(dS)[:, None, None] * rel_t).reshape(-1, rel_t.shape[2])
+    S = W.T @ W
+    return Ma, 0.5 * (S + S.T), lu
+
+
 def liquid_loading(nodes_m: np.ndarray, tets10: np.ndarray, free_surface: np.ndarray, shapes_at,
                    density_kg_m3: float):
     """Added-mass matrix and wall-slip matrix of a liquid mesh on a basis of wall motions.
@@ -121,30 +181,8 @@ def liquid_loading(nodes_m: np.ndarray, tets10: np.ndarray, free_surface: np.nda
         integral over the wetted wall of the tangential slip between wall and potential flow,
         S[i, j] = integral (u_i - grad phi_i)_t . (u_j - grad phi_j)_t dS).
     """
-    q = boundary_quadrature(nodes_m, tets10, lambda corners, _: ~np.all(free_surface[corners], axis=1))
-    U = np.asarray(shapes_at(q["points_m"]), dtype=np.float64)  # (P, 3, k)
-    g = np.einsum("pi,pik->pk", q["normal_area_m2"], U)  # (n . u) dS
-    n_nodes = len(nodes_m)
-    P = len(g)
-    B = scipy.sparse.csr_matrix((q["shape"].ravel(), (q["nodes"].ravel(), np.repeat(np.arange(P), 10))),
-                                shape=(n_nodes, P))
-    F = B @ g  # (n, k) Neumann load of each vector
-    H = laplace_stiffness(nodes_m, tets10)
-    free = np.flatnonzero(~free_surface)
-    lu = scipy.sparse.linalg.splu(H[free][:, free].tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                                  options={"SymmetricMode": True})  # H is SPD: no pivoting, symmetric ordering
-    phi = np.zeros_like(F)
-    phi[free] = lu.solve(np.ascontiguousarray(F[free]))
-    Ma = density_kg_m3 * (phi.T @ F)
-    Ma = 0.5 * (Ma + Ma.T)
-    grad = np.matmul(q["gradients"].transpose(0, 2, 1), phi[q["nodes"]])  # (P, 3, k)
-    dS = np.linalg.norm(q["normal_area_m2"], axis=1)
-    n = q["normal_area_m2"] / dS[:, None]
-    rel = U - grad
-    rel_t = rel - n[:, :, None] * np.einsum("pi,pik->pk", n, rel)[:, None, :]
-    W = (np.sqrt(dS)[:, None, None] * rel_t).reshape(-1, rel_t.shape[2])
-    S = W.T @ W
-    return Ma, 0.5 * (S + S.T)
+    Ma, S, _ = potential_flow(wall_coupling(nodes_m, tets10, free_surface, shapes_at), density_kg_m3)
+    return Ma, S
 
 
 def pressure_patterns(points_m: np.ndarray, lower_m, upper_m, degree: int) -> np.ndarray:

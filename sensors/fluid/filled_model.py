@@ -1,4 +1,5 @@
-"""The wet modes of a container holding a liquid: the dry modes and a potential-flow added mass.
+"""The wet modes of a container holding a liquid: the dry modes, a potential-flow added mass and,
+for a compressible liquid, the liquid's own acoustic modes.
 
 Built by :func:`sensors.fluid.filled` (the entry point, :mod:`sensors.fluid.filling`) on a
 :class:`~sensors.fluid.container.Container`.
@@ -8,15 +9,15 @@ Physics (potential flow, the classic added-mass model of liquid-filled shells; L
 
 * The liquid's velocity is grad(phi) with Laplace's equation in the liquid volume,
   phi = 0 (p = -rho dphi/dt = 0) on the free surface, and d(phi)/dn = u . n on the wetted
-  wall (normal velocity continuity). Gravity waves (sloshing, < 10 Hz) are ignored, and so is
-  compressibility. That is exact for the ovalling modes, which change no volume, but not for
-  the axisymmetric (breathing) ones: a water column h deep over a rigid floor under a free
-  surface rings at c / 4h, 4.2 kHz in a full mug, inside the band; the volume-changing wall
-  modes near it couple to it, which this model misses (the issue's model is incompressible;
-  a compressible liquid adds its acoustic modes to the coupled problem).
+  wall (normal velocity continuity). Gravity waves (sloshing, < 10 Hz) are ignored. This is the
+  incompressible model (``compressible=False``): exact for the ovalling modes, which change no
+  volume, but not for the volume-changing (breathing) ones, which couple to the liquid's own
+  acoustic modes (a water column h deep over a rigid floor under a free surface rings at
+  c / 4h, 4.2 kHz in a full mug).
 * With the wall motion expanded on a basis, u = sum_i qdot_i u_i, each vector's potential
   phi_i solves that problem with Neumann data n . u_i, and the liquid's kinetic energy is
-  1/2 qdot^T M_a qdot with M_a[i, j] = rho integral_wet phi_i (n . u_j) dS.
+  1/2 qdot^T M_a qdot with M_a[i, j] = rho integral_wet phi_i (n . u_j) dS = rho C^T H^-1 C
+  (H the liquid's Laplacian, C[a, j] = integral_wet N_a (n . u_j) dS).
 * The basis: the six rigid-body modes of the free container (the liquid couples them to the
   elastic modes), its dry elastic modes, and a static correction (:mod:`sensors.fluid.added_mass`):
   the container's static response to smooth pressures on its wetted wall, with the dry modes
@@ -26,6 +27,25 @@ Physics (potential flow, the classic added-mass model of liquid-filled shells; L
   M-orthogonal, so the wet modes solve Lambda q = w^2 (I + M_a) q; the wet shapes are
   U q with q^T (I + M_a) q = 1 (mass-normalized including the liquid). Wet modes are kept up to
   the dry model's band limit (never cutting a cluster).
+* The compressible liquid (``compressible=True``, the default): the pressure obeys Helmholtz'
+  equation with the liquid's speed of sound c, p = 0 on the free surface, dp/dn = rho w^2 u . n
+  on the wetted wall, and the pressure loads the wall. On the liquid's P2 mesh
+  (H - w^2 Q) p = rho w^2 C q and (Lambda - w^2 I) q = C^T p, with Q = Q0 / c^2 (Q0 the liquid's
+  mass matrix): the unsymmetric coupled problem [Lambda 0; -C^T H] = w^2 [I 0; rho C Q]. The
+  liquid's basis is its own acoustic modes with rigid walls, H psi_l = w_l^2 Q psi_l
+  (psi^T Q psi = I), kept up to twice the band limit, plus their static remainder:
+  (H - w^2 Q)^-1 = H^-1 + sum_l psi_l psi_l^T w^2 / (w_l^2 (w_l^2 - w^2)) exactly, and the
+  first term is the incompressible added mass. With B[:, l] = sqrt(rho) C^T psi_l / w_l and
+  the liquid coordinates r_l = w^2 B[:, l]^T q / (w_l^2 - w^2), the coupled problem becomes the
+  symmetric one
+
+      [Lambda 0; 0 diag(w_l^2)] [q; r] = w^2 [I + M_a  B; B^T  I] [q; r],
+
+  whose mass matrix is positive definite (B B^T <= M_a). Dropped: the modes above the cut, each
+  of which would add w^2 / (w_l^2 - w^2) of its (small) share of M_a, at most 1/3 at the band's
+  top, 1/15 at half of it. As c -> infinity every w_l leaves the cut and the model is exactly
+  the incompressible one. The wet shapes are U q, normalized with the liquid's kinetic and
+  compressive energy.
 
 Numerics: P2 tets on the liquid (:mod:`sensors.fluid.cavity`: structured and cheap for revolved
 cavities, any tilt), Neumann data from the basis at the wetted boundary's quadrature points,
@@ -45,7 +65,9 @@ Damping (a documented approximation):
   given to synthesis as the extra modal damping 2 sigma_k (``added_damping_per_s``). Bulk
   dissipation of the potential flow (smaller by the layer thickness over the container size)
   and free-surface losses are neglected; the layer is thin for every built-in liquid (honey's
-  is about 1 mm at 3 kHz, against a 30 mm cup).
+  is about 1 mm at 3 kHz, against a 30 mm cup). The compressible model takes the slip of the
+  incompressible flow (its tangential velocity near the wall), an approximation for modes with
+  a large share of liquid compression.
 """
 
 
@@ -87,8 +109,13 @@ class FilledModalModel:
     #: the liquid's added mass does not scale with the wall's density. ``with_material`` is.
     material_scales_modes = False
 
-    def __init__(self, container, liquid: LiquidBody, added_mass, slip, material=None):
+    def __init__(self, container, liquid: LiquidBody, added_mass, slip, material=None, *,
+                 liquid_coupling=None, liquid_eigenvalues=None, compressible: bool = False):
+        """``added_mass`` M_a and ``slip`` S on the container's basis (None: empty); for a
+        compressible liquid ``liquid_coupling`` B (n_basis, m) and ``liquid_eigenvalues`` w_l^2
+        (m,) [rad^2/s^2] of its acoustic modes (:mod:`sensors.fluid.acoustic`)."""
         self.container = container
+        self.compressible = bool(compressible)
         self.dry = container.dry
         self.liquid = liquid
         self.material = get_material(material) if material is not None else self.dry.material
@@ -101,10 +128,17 @@ class FilledModalModel:
             Q = np.zeros((container.n_basis, n))
             Q[6:6 + n] = np.eye(n)
             w2, self._Ma, self._S = lam[6:6 + n].copy(), None, None
+            self._B, self._wl2 = None, None
         else:
             self._Ma = added_mass * self._shape_scale**2
             self._S = slip * self._shape_scale**2
-            w2, Q = scipy.linalg.eigh(np.diag(lam), np.eye(len(lam)) + self._Ma)
+            B = np.zeros((len(lam), 0)) if liquid_coupling is None else liquid_coupling * self._shape_scale
+            wl2 = np.zeros(0) if liquid_eigenvalues is None else np.asarray(liquid_eigenvalues, float)
+            self._B, self._wl2 = B, wl2
+            nb, m = len(lam), len(wl2)
+            mass = np.block([[np.eye(nb) + self._Ma, B], [B.T, np.eye(m)]])
+            w2, X = scipy.linalg.eigh(np.diag(np.concatenate([lam, wl2])), 0.5 * (mass + mass.T))
+            Q = X[:nb]
             if np.any(np.abs(w2[:6]) > 1e-8 * lam.max()):
                 raise ArithmeticError(f"the six rigid-body modes of the filled container are not at zero: {w2[:6]}")
             w2, Q = w2[6:], Q[:, 6:]
@@ -120,6 +154,7 @@ class FilledModalModel:
         self.metadata = dict(self.dry.metadata, kind=f"{container.name} with {liquid.liquid.name}",
                              material=self.material.name, liquid=liquid.liquid.to_dict(),
                              liquid_volume_m3=liquid.volume_m3, fill_fraction=self.fill_fraction,
+                             liquid_model=self.liquid_model,
                              surface_normal=np.asarray(liquid.surface_normal).tolist(), max_frequency_hz=band)
 
     # ---------------------------------------------------------------- modal quantities
@@ -128,6 +163,22 @@ class FilledModalModel:
     def n_modes(self) -> int:
         """Number of wet elastic modes r."""
         return len(self.eigenvalues)
+
+    @property
+    def liquid_model(self) -> str:
+        """``"compressible"`` (the liquid's acoustic modes coupled to the wall) or
+        ``"incompressible"`` (potential-flow added mass)."""
+        return "compressible" if self.compressible else "incompressible"
+
+    @property
+    def n_liquid_modes(self) -> int:
+        """Acoustic modes of the liquid in the basis (0 for an incompressible or no liquid)."""
+        return 0 if self._wl2 is None else len(self._wl2)
+
+    @property
+    def liquid_modes_hz(self) -> np.ndarray:
+        """The liquid's own acoustic modes [Hz] (rigid walls, free surface) in the basis."""
+        return np.zeros(0) if self._wl2 is None else np.sqrt(self._wl2) / (2 * np.pi)
 
     @property
     def liquid_volume_m3(self) -> float:
@@ -171,7 +222,9 @@ class FilledModalModel:
             return self
         ma = None if self._Ma is None else self._Ma / self._shape_scale**2
         s = None if self._S is None else self._S / self._shape_scale**2
-        return FilledModalModel(self.container, self.liquid, ma, s, material)
+        b = None if self._B is None else self._B / self._shape_scale
+        return FilledModalModel(self.container, self.liquid, ma, s, material, liquid_coupling=b,
+                                liquid_eigenvalues=self._wl2, compressible=self.compressible)
 
     # ---------------------------------------------------------------- geometry (the wall's)
 
@@ -191,7 +244,8 @@ class FilledModalModel:
     def describe(self) -> str:
         band = band_text(self.frequencies_hz)
         return (f"{self.container.name} of {self.material.name} holding {self.liquid.volume_m3 * 1e6:.4g} ml of "
-                f"{self.liquid.liquid.name} ({100 * self.fill_fraction:.0f}% full), {self.n_modes} wet modes {band}")
+                f"{self.liquid.liquid.name} ({100 * self.fill_fraction:.0f}% full, {self.liquid_model}), "
+                f"{self.n_modes} wet modes {band}")
 
     def __repr__(self) -> str:
         return f"FilledModalModel<{self.describe()}>"

@@ -4,8 +4,10 @@
     wet.frequencies_hz, wet.mode_shapes_at(points_m)     # a ModalBasis
     wet.liquid.mass_kg, wet.liquid.centre_of_mass_m      # what MuJoCo should carry
 
-Containers (dry model and static correction) and their fills are memoized in this process
-(``CACHE_SIZES["fluid.containers"]`` and ``["fluid.fills"]``); the physics is described in
+``compressible=True`` (the default) couples the liquid's own acoustic modes to the wall;
+``compressible=False`` is the incompressible added-mass model. Containers (dry model and
+static correction) and their fills (per liquid, volume, tilt and model) are memoized in this
+process (``CACHE_SIZES["fluid.containers"]`` and ``["fluid.fills"]``); the physics is described in
 :mod:`sensors.fluid.filled_model`.
 """
 
@@ -17,6 +19,7 @@ import numpy as np
 
 from .._infra.checks import holds_bool
 from .._infra.lru import CACHE_SIZES, LRU
+from .acoustic import LIQUID_MODES_BAND_FACTOR, acoustic_loading
 from .added_mass import liquid_loading
 from .cavity import AxisymmetricCavity, cavity_of, unit
 from .container import CONTAINER_OPTIONS, Container, check_container_options, liquid_volume_in, solid_of
@@ -67,7 +70,7 @@ def container(obj, *, cavity=None, **options) -> Container:
 
 def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_normal=None,
            fill_height_m: float | None = None, volume_m3: float | None = None, cavity=None,
-           **options) -> FilledModalModel:
+           compressible: bool = True, **options) -> FilledModalModel:
     """A container holding a liquid, as a :class:`~sensors.ModalBasis`.
 
     Args:
@@ -86,6 +89,9 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
             the world's up direction seen from the object, ``R.T @ (0, 0, 1)`` for the object's
             world rotation R. Default: standing upright (the container's up axis, +x for the
             everyday containers).
+        compressible: True (default): the liquid compresses with its speed of sound, and its
+            own acoustic modes (up to twice the band limit) couple to the wall; False: the
+            incompressible potential-flow added mass alone (the model before 2026-11-26).
         options: :class:`Container` and dry-model build options (:func:`container`).
 
     Returns:
@@ -103,6 +109,9 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
             container is built.
     """
     liquid = get_liquid(liquid)
+    if not isinstance(compressible, (bool, np.bool_)):
+        raise TypeError(f"compressible must be True or False, got {compressible!r}")
+    compressible = bool(compressible)
     # Every input checked before the container is built (minutes with an empty cache).
     volume = _checked_fill(obj, cavity, options, fill_fraction=fill_fraction, fill_height_m=fill_height_m,
                            volume_m3=volume_m3, surface_normal=surface_normal)
@@ -111,12 +120,21 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
 
     def wet() -> FilledModalModel:
         if volume <= 0.0:
-            return FilledModalModel(c, LiquidBody.in_cavity(c.cavity, liquid, 0.0, up, None), None, None)
+            return FilledModalModel(c, LiquidBody.in_cavity(c.cavity, liquid, 0.0, up, None), None, None,
+                                    compressible=compressible)
         mesh = c.liquid_mesh(volume, up)
-        Ma, S = liquid_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at, liquid.density_kg_m3)
-        return FilledModalModel(c, LiquidBody.in_cavity(c.cavity, liquid, volume, up, mesh), Ma, S)
+        body = LiquidBody.in_cavity(c.cavity, liquid, volume, up, mesh)
+        if not compressible:
+            Ma, S = liquid_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at,
+                                   liquid.density_kg_m3)
+            return FilledModalModel(c, body, Ma, S)
+        Ma, S, B, wl2 = acoustic_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at,
+                                         liquid.density_kg_m3, liquid.speed_of_sound_m_per_s,
+                                         LIQUID_MODES_BAND_FACTOR * c.band_limit_hz)
+        return FilledModalModel(c, body, Ma, S, liquid_coupling=B, liquid_eigenvalues=wl2, compressible=True)
 
-    return c.fills.get_or_build((liquid, round(volume, 15), tuple(np.round(up, 12))), wet)
+    key = (liquid, round(volume, 15), tuple(np.round(up, 12)), compressible)
+    return c.fills.get_or_build(key, wet)
 
 
 def _checked_fill(obj, cavity, options, *, surface_normal, **amount):

@@ -1,4 +1,4 @@
-"""Liquids for filled containers: density and dynamic viscosity at 20 C, with sources.
+"""Liquids for filled containers: density, dynamic viscosity and speed of sound at 20 C, with sources.
 
 Sources:
     water, ethanol: CRC Handbook of Chemistry and Physics, 97th ed. (2016), "Density of
@@ -11,8 +11,20 @@ Sources:
         honey at different temperatures", J. Food Eng. 72 (2006) 372: ~1420 kg/m^3 and
         2-20 Pa s at 20 C depending on water content (17-18 % water: ~10 Pa s).
 
-Only the density enters the added mass; the viscosity sets the boundary-layer damping
-(see :mod:`sensors.fluid.filled_model`).
+Speed of sound at 20 C:
+    water: Del Grosso & Mader, "Speed of sound in pure water", J. Acoust. Soc. Am. 52 (1972)
+        1442: 1482.3 m/s.
+    ethanol: CRC Handbook of Chemistry and Physics, "Speed of sound in liquids" (about 1143 m/s
+        at 25 C, falling by about 3.5 m/s per K): about 1160 m/s at 20 C.
+    oil (olive oil): McClements & Povey, "Ultrasonic velocity measurements in some liquid
+        triglycerides and vegetable oils", J. Am. Oil Chem. Soc. 65 (1988) 1787: vegetable oils
+        1440-1470 m/s near 20 C; 1450 m/s taken.
+    honey: about 2000 m/s, an estimate (not a measurement of honey) from concentrated sugar
+        solutions of honey's 80 % solids, uncertain by about 5 %.
+    A liquid given only by its density takes water's speed of sound.
+
+The density enters the added mass, the speed of sound the compressible liquid's acoustic modes,
+the viscosity the boundary-layer damping (see :mod:`sensors.fluid.filled_model`).
 """
 
 from __future__ import annotations
@@ -20,22 +32,30 @@ from __future__ import annotations
 import dataclasses
 import math
 
-__all__ = ["Liquid", "LIQUIDS", "get_liquid"]
+__all__ = ["Liquid", "LIQUIDS", "get_liquid", "WATER_SPEED_OF_SOUND_M_PER_S"]
+
+#: Water's speed of sound at 20 C [m/s] (Del Grosso & Mader 1972).
+WATER_SPEED_OF_SOUND_M_PER_S = 1482.3
 
 
 @dataclasses.dataclass(frozen=True)
 class Liquid:
-    """An incompressible Newtonian liquid: density [kg/m^3] and dynamic viscosity [Pa s]."""
+    """A Newtonian liquid: density [kg/m^3], dynamic viscosity [Pa s] and speed of sound [m/s]
+    (default water's; ``math.inf`` makes it incompressible)."""
 
     name: str
     density_kg_m3: float
     viscosity_pa_s: float = 0.0
+    speed_of_sound_m_per_s: float = WATER_SPEED_OF_SOUND_M_PER_S
 
     def __post_init__(self):
-        for field in ("density_kg_m3", "viscosity_pa_s"):
+        for field in ("density_kg_m3", "viscosity_pa_s", "speed_of_sound_m_per_s"):
             value = float(getattr(self, field))
-            if not math.isfinite(value) or value < 0 or (field == "density_kg_m3" and value == 0):
-                raise ValueError(f"Liquid {self.name!r}: {field} must be finite and positive, got {value!r}")
+            bad = (math.isnan(value) or value < 0 or (field != "speed_of_sound_m_per_s" and not math.isfinite(value))
+                   or (field != "viscosity_pa_s" and value == 0))
+            if bad:
+                raise ValueError(f"Liquid {self.name!r}: {field} must be positive (and finite, except a speed of "
+                                 f"sound), got {value!r}")
             object.__setattr__(self, field, value)
 
     def to_dict(self) -> dict:
@@ -43,10 +63,10 @@ class Liquid:
 
 
 LIQUIDS: dict[str, Liquid] = {
-    "water": Liquid("water", 998.2, 1.002e-3),
-    "ethanol": Liquid("ethanol", 789.3, 1.074e-3),
-    "oil": Liquid("oil", 912.0, 8.0e-2),
-    "honey": Liquid("honey", 1420.0, 10.0),
+    "water": Liquid("water", 998.2, 1.002e-3, 1482.3),
+    "ethanol": Liquid("ethanol", 789.3, 1.074e-3, 1160.0),
+    "oil": Liquid("oil", 912.0, 8.0e-2, 1450.0),
+    "honey": Liquid("honey", 1420.0, 10.0, 2000.0),
 }
 
 

@@ -139,6 +139,11 @@ class MaterialView:
         return f"MaterialView({self.base!r}, material={self.material.name!r})"
 
     def __getattr__(self, name: str):
+        # Only for attributes not found normally. ``base`` itself, and dunders, are never
+        # forwarded: copy/pickle look them up on an instance made without __init__ (no
+        # ``base`` yet), where forwarding would recurse forever.
+        if name == "base" or (name.startswith("__") and name.endswith("__")):
+            raise AttributeError(name)
         if name in ("save", "nodes_m", "mode_shapes", "elements", "mode_matrix", "assemble_matrices"):
             # material-dependent data of the base (or a file of it) must not pass as this view's
             raise AttributeError(f"a MaterialView has no {name!r}: build the model in {self.material.name} instead")

@@ -90,13 +90,16 @@ def _solve(cls, key, make_mesh, material, opts, meta):
     meta = dict(meta)
     meta.update(key_options(opts), n_dof=int(K.shape[0]), n_tets=int(len(elements)), build_time_s=end - t0,
                 stage_times_s=stage_s, cache_key=key, code_version=cache_mod.CODE_VERSION,
-                solver=solved.get("solver"))
+                solver=solved.get("solver"),
+                eigensolve=dict(solved))  # the factorization's time, the Krylov solves (fem.eigen.solve_modes)
     r = U.shape[1]
     model = cls(nodes, elements, np.sqrt(lam) / (2.0 * np.pi), U.reshape(len(nodes), 3, r), material,
                 element=opts["element"], metadata=meta)
     log.info("built %s in %.2f s", model.describe(), end - t0)
     if opts["cache"]:
+        start = time.perf_counter()
         cache_mod.save_arrays(key, modal_io.to_arrays(model), opts["cache_dir"])
+        model.metadata["write_s"] = time.perf_counter() - start  # this build's only (not in the entry)
     return model
 
 

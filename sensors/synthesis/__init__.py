@@ -9,10 +9,11 @@ from .fingertip import FingertipModel
 from .grasp_state import ContactTolerance, GraspState
 from .microphone import MIC_GAIN_PER_M, mic_gain
 from .modal_system import ModalSystem, modal_response, modal_state_matrix, periodic_response
+from .passive import ContactLoads, PassiveSound
 from .recording import simulate_recording
 from .stream import AcousticStream
 
 __all__ = ["contact_modes", "FingertipModel", "ModalSystem", "modal_response", "modal_state_matrix", "periodic_response",
            "SynthesisCache", "simulate_recording", "simulate_features", "FeatureObservation",
            "AcousticStream", "ContactTolerance", "GraspState",
-           "SystemCache", "MIC_GAIN_PER_M", "mic_gain"]
+           "SystemCache", "MIC_GAIN_PER_M", "mic_gain", "ContactLoads", "PassiveSound"]

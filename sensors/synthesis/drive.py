@@ -15,6 +15,17 @@ carrying the model's state while the actuator fingertip stays on the same object
 
 Forces are given at the samples s .. s + n of a span of n samples: the force is piecewise
 linear between samples and continuous across span boundaries.
+
+Band-limited drive (``bandlimited=True``, the default of the stream and of batch recordings):
+the sound card plays the band-limited signal through the excitation's samples, not the
+piecewise-linear one.  The drive then works on the excitation prefiltered by 1 / sinc^4(f/fs)
+per harmonic of the loop (``sensors.synthesis.lti.bandlimited_samples``, two passes: the
+fingertip's and the object's first-order holds), and its forces are the samples whose
+piecewise-linear interpolant has the true band-limited contact force as its baseband: the
+periodic steady states (fingertip and object, ``SteadyState(..., bandlimited=True)``) are then
+exact, and the time-domain (first-order-hold) runs differ from them only by the holds'
+images (see ``sensors.synthesis.bandlimit``).  ``bandlimited=False`` is the drive of datasets
+made before (piecewise-linear excitation, the spectrum tilted by about sinc^4(f/fs)).
 """
 
 from __future__ import annotations
@@ -27,7 +38,7 @@ import numpy as np
 from .._infra.lru import CACHE_SIZES, LRU
 from ..signals.excitation import Excitation
 from .fingertip import DriveSystems, FingertipModel
-from .lti import SETTLE_E_FOLDS, SteadyState
+from .lti import SETTLE_E_FOLDS, SteadyState, bandlimited_samples
 
 __all__ = ["FingertipDrive", "grasp_fingertip"]
 
@@ -49,9 +60,11 @@ class _TipSystems:
     """One fingertip model's discretised systems and periodic steady states (on first use:
     a batch recording's cached drive run needs neither)."""
 
-    def __init__(self, tip: FingertipModel, excitation: Excitation) -> None:
+    def __init__(self, tip: FingertipModel, excitation: Excitation, period: np.ndarray, bandlimited: bool) -> None:
         self.tip = tip
         self.excitation = excitation
+        self.period = period                  # the exciter's samples per unit force (prefiltered if band-limited)
+        self.bandlimited = bandlimited
         self._steady: tuple[SteadyState, SteadyState] | None = None
 
     @cached_property
@@ -61,8 +74,9 @@ class _TipSystems:
     def steady(self) -> tuple[SteadyState, SteadyState]:
         """Periodic steady state of the actuator and mic contact forces under the looped excitation."""
         if self._steady is None:
-            fe = self.tip.actuator_force_n * self.excitation.signal
-            self._steady = (SteadyState(self.drive.act, fe), SteadyState(self.drive.mic, fe))
+            fe = self.tip.actuator_force_n * self.period
+            self._steady = (SteadyState(self.drive.act, fe, self.bandlimited),
+                            SteadyState(self.drive.mic, fe, self.bandlimited))
         return self._steady
 
 
@@ -85,10 +99,13 @@ class FingertipDrive:
     with grip force 0: the grip force does not enter the linear dynamics (tests check it),
     only the separation check and the one-sided model, so one discretised model serves every
     grip force.  ``runs`` (an LRU, e.g. ``SynthesisCache.forces``) keeps runs from rest.
+    ``bandlimited``: the excitation is the band-limited signal a sound card plays (see the
+    module docstring); False: piecewise linear between its samples (the former drive).
     """
 
-    def __init__(self, excitation: Excitation, runs: LRU | None = None) -> None:
+    def __init__(self, excitation: Excitation, runs: LRU | None = None, bandlimited: bool = True) -> None:
         self.excitation = excitation
+        self.bandlimited = bool(bandlimited)
         self.sample_rate_hz = int(excitation.sample_rate_hz)
         self._systems: LRU[_TipSystems] = LRU(CACHE_SIZES["stream.drive_systems"])
         self._runs = runs
@@ -98,15 +115,17 @@ class FingertipDrive:
 
     @cached_property
     def period(self) -> np.ndarray:
-        """One loop period of the excitation (computed on first use)."""
-        return self.excitation.signal
+        """One loop period of the excitation samples the drive works on (computed on first
+        use): band-limited, prefiltered for the two first-order holds of the chain."""
+        e = self.excitation.signal
+        return bandlimited_samples(e, passes=2) if self.bandlimited else e
 
     def reset(self) -> None:
         """The actuator fingertip left the object: the next grasp starts from rest."""
         self._state = None
 
     def systems(self, tip: FingertipModel) -> _TipSystems:
-        return self._systems.get_or_build(tip, lambda: _TipSystems(tip, self.excitation))
+        return self._systems.get_or_build(tip, lambda: _TipSystems(tip, self.excitation, self.period, self.bandlimited))
 
     def settle(self, tip: FingertipModel, grip_force_n: float) -> SteadyState:
         """Put the drive into its periodic steady state (a grasp held for ever) and return the
@@ -176,5 +195,6 @@ class FingertipDrive:
 
         if x0 is not None or self._runs is None:
             return run()
-        f, mic_low, x = self._runs.get_or_build((sy.tip, self.excitation, s % self.excitation.period_samples, n), run)
+        key = (sy.tip, self.excitation, self.bandlimited, s % self.excitation.period_samples, n)
+        f, mic_low, x = self._runs.get_or_build(key, run)
         return f, mic_low, x.copy()

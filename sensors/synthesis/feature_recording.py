@@ -121,7 +121,7 @@ def simulate_features(model, excitation: Excitation, duration_s: float,
                       leak: LeakRecording | str | os.PathLike | None = None, noise_std: float = 0.0,
                       rng=None, output: str = "displacement", method: str = "exact",
                       steady_state: bool = False, cache: SynthesisCache | None = None,
-                      contact_model: str = "spring_damper") -> FeatureObservation:
+                      contact_model: str = "spring_damper", bandlimited: bool = True) -> FeatureObservation:
     """The features of ``simulate_recording(...)`` (same arguments) without synthesizing its
     samples where the closed form applies (module docstring); the time-domain chain otherwise.
 
@@ -140,13 +140,15 @@ def simulate_features(model, excitation: Excitation, duration_s: float,
     grasp = GraspState(model, actuator_contact, mic_contact, others)
     spectra = None
     meta: dict = {}
-    if bins is not None and leak is None and n >= P:
+    # the closed form follows the piecewise-linear drive; the band-limited one is synthesized
+    if bins is not None and leak is None and n >= P and not bandlimited:
         spectra, meta = _object_spectra(grasp, excitation, fingertip, output, method, steady_state, cache,
-                                        bins, n // P, contact_model)
+                                        bins, n // P, contact_model, bandlimited)
     if spectra is None:
         rec = simulate_recording(model, excitation, duration_s, actuator_contact, mic_contact, others,
                                  fingertip=fingertip, leak=leak, noise_std=noise_std, rng=rng, output=output,
-                                 method=method, steady_state=steady_state, cache=cache, contact_model=contact_model)
+                                 method=method, steady_state=steady_state, cache=cache, contact_model=contact_model,
+                                 bandlimited=bandlimited)
         meta = dict(rec.metadata, features_path="time_domain", duration_s=rec.duration_s)
         return FeatureObservation(rec.features(average=False), sample_rate_hz, excitation, meta)
     rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
@@ -165,7 +167,8 @@ def simulate_features(model, excitation: Excitation, duration_s: float,
 
 
 def _object_spectra(grasp: GraspState, excitation: Excitation, fingertip, output, method, steady_state,
-                    cache: SynthesisCache, bins: np.ndarray, n_windows: int, contact_model: str):
+                    cache: SynthesisCache, bins: np.ndarray, n_windows: int, contact_model: str,
+                    bandlimited: bool):
     """The motion at the microphone as window spectra (``None`` where the closed form does not
     apply) and its metadata.  Cached per contact table (the spectra of the system the table was
     first resolved to), fingertip model, excitation and windows: sensing a grasp again costs
@@ -177,12 +180,12 @@ def _object_spectra(grasp: GraspState, excitation: Excitation, fingertip, output
     grasps = cache.window_spectra.get_or_build(IdentityKey(grasp.model),
                                                lambda: LRU(CACHE_SIZES["synthesis.grasp_spectra"]))
     key = (table.shape, table.tobytes(), fingertip, excitation, output, method, n_windows, bool(steady_state),
-           bins.tobytes(), contact_model)
+           bins.tobytes(), contact_model, bandlimited)
     grip = grasp.actuator.force_n
     hit = grasps.get(key)
     if hit is None:
         hit = grasps.put(key, _build_spectra(grasp, excitation, fingertip, output, method, steady_state, cache,
-                                             bins, n_windows, contact_model))
+                                             bins, n_windows, contact_model, bandlimited))
     spectra, drive, tip = hit
     if spectra is None or grip + drive.lowest_dynamic_n < 0:
         return None, {}     # no closed form, or the contact may separate: the time-domain chain decides
@@ -192,12 +195,12 @@ def _object_spectra(grasp: GraspState, excitation: Excitation, fingertip, output
 
 
 def _build_spectra(grasp, excitation, fingertip, output, method, steady_state, cache, bins, n_windows,
-                   contact_model):
+                   contact_model, bandlimited):
     """(window spectra or None, drive spectrum, fingertip model with grip force 0)."""
     stream = AcousticStream(excitation, fingertip, output=output, method=method, cache=cache, carry_state=False,
-                            contact_model=contact_model)
+                            contact_model=contact_model, bandlimited=bandlimited)
     system, tip = stream.grasp_systems(grasp)
-    drive = cache.drive_spectra.get_or_build((tip, excitation, bool(steady_state)),
+    drive = cache.drive_spectra.get_or_build((tip, excitation, bool(steady_state), bandlimited),
                                              lambda: _drive_spectrum(stream, tip, not steady_state))
     if drive is None:
         return None, None, tip

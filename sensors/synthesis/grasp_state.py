@@ -32,6 +32,9 @@ class GraspState:
     others : further contacts (table, other objects); they damp the object.
     object_key : which object this is; its modal state is carried under this key.  Default:
         the identity of ``model``.
+    loads : the forces every touching body exerts on the object
+        (``sensors.synthesis.passive.ContactLoads``), for a stream with passive sound; they do
+        not change the system (``others`` damp it), only excite it.
     """
 
     model: Any
@@ -39,6 +42,7 @@ class GraspState:
     mic: Contact | None = None
     others: tuple[Contact, ...] = ()
     object_key: Hashable | None = None
+    loads: Any = None
 
     def __post_init__(self) -> None:
         others = tuple(self.others)

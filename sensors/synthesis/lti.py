@@ -30,6 +30,20 @@ input, :meth:`DiscreteSystem.periodic_response` gives the exact periodic steady 
 circular convolution, i.e. one complex gain per harmonic of the loop frequency), and
 :class:`SteadyState` holds one.  ``sensors.synthesis.modal_system`` builds the parts of a
 modal system; :func:`lti_system` those of any small system (the fingertip drive).
+
+Band-limited periodic inputs
+----------------------------
+A sound card does not play its samples piecewise linear: it plays the band-limited signal
+through them.  For a looped input that signal is a finite Fourier series (harmonics of the
+loop frequency up to Nyquist; the Nyquist harmonic taken as a cosine), and each mode's
+response to each harmonic is closed form, g / (j w - lambda).  ``bandlimited=True`` in
+:meth:`DiscreteSystem.periodic_response`, :meth:`DiscreteSystem.periodic_state` and
+:class:`SteadyState` evaluates that exactly, for the band-limited signal whose harmonics are
+those of the hold's interpolant of the samples without its images: U_m S(f_m), with
+S = sinc^2(f / fs) for the first-order hold (:func:`hold_gain`).  Samples prefiltered by
+1 / S (:func:`bandlimited_samples`) therefore stand for the band-limited signal through the
+original samples, in the periodic (exact) and in the time-domain (FOH) evaluation alike; the
+latter adds only the hold's images (see ``sensors.synthesis.bandlimit``).
 """
 
 from __future__ import annotations
@@ -37,7 +51,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["DiscreteSystem", "EigenPart", "DensePart", "SteadyState", "SETTLE_E_FOLDS", "lti_system", "lti_parts",
-           "force_signal", "one_blas_thread", "scipy_linalg"]
+           "force_signal", "hold_gain", "bandlimited_samples", "one_blas_thread", "scipy_linalg"]
 
 _HOLDS = ("foh", "zoh")
 # cond(V) above this: the complex-mode sums lose more than ~1e-8 relative -> dense fallback.
@@ -129,6 +143,46 @@ def force_signal(force_n) -> np.ndarray:
     if not np.all(np.isfinite(u)):
         raise ValueError("force_n contains NaN or inf")
     return u
+
+
+def hold_gain(freq_hz, sample_rate_hz: float, hold: str = "foh") -> np.ndarray:
+    """Baseband gain of a hold's interpolant of sampled data at ``freq_hz``, relative to the
+    band-limited signal through the same samples: sinc^2(f / fs) for the first-order hold
+    (piecewise linear, zero phase), sinc(f / fs) e^(-j pi f / fs) for the zero-order hold."""
+    if hold not in _HOLDS:
+        raise ValueError(f"hold must be one of {_HOLDS}, got {hold!r}")
+    x = np.asarray(freq_hz, dtype=float) / float(sample_rate_hz)
+    s = np.sinc(x)
+    return (s * s).astype(complex) if hold == "foh" else s * np.exp(-1j * np.pi * x)
+
+
+def bandlimited_samples(period, passes: int = 1, hold: str = "foh") -> np.ndarray:
+    """One period of a looped signal prefiltered by 1 / S^passes per harmonic (S:
+    :func:`hold_gain`), so that ``passes`` cascaded hold discretisations see the band-limited
+    signal through ``period`` in their baseband (exact per harmonic: a circular filter)."""
+    u = force_signal(period)
+    P = len(u)
+    if P == 0:
+        return u.copy()
+    S = hold_gain(np.arange(P // 2 + 1) / P, 1.0, hold)
+    return np.fft.irfft(np.fft.rfft(u) / S ** int(passes), P)
+
+
+def _harmonics(u: np.ndarray, sample_rate_hz: float, hold: str):
+    """The band-limited periodic signal of the samples ``u`` (one period, the hold's
+    interpolant without its images): angular frequencies [rad/s] of harmonics 0 .. P // 2,
+    their one-sided weights (2, or 1 for DC and Nyquist) and complex amplitudes, so that the
+    signal is Re sum_m alpha_m c_m e^(j w_m t) (the Nyquist harmonic a cosine)."""
+    P = len(u)
+    m = np.arange(P // 2 + 1)
+    c = np.fft.rfft(u) / P * hold_gain(m / P, 1.0, hold)
+    if P % 2 == 0:
+        c[-1] = c[-1].real         # the Nyquist harmonic as a cosine (its sine is 0 at every sample)
+    alpha = np.full(len(m), 2.0)
+    alpha[0] = 1.0
+    if P % 2 == 0:
+        alpha[-1] = 1.0
+    return 2 * np.pi * m * (sample_rate_hz / P), alpha, c
 
 
 class EigenPart:
@@ -239,6 +293,27 @@ class EigenPart:
     def periodic_vector(self, v, P: int):
         return v / (1.0 - np.exp(self.lam * self.T * P))
 
+    # continuous time (band-limited inputs) ----------------------------------------------
+    def frequency_response(self, omega: np.ndarray) -> np.ndarray:
+        """Cout (j w - A)^-1 B + D at angular frequencies ``omega`` [rad/s], both members of a
+        conjugate pair summed (closed form per mode)."""
+        s = 1j * np.asarray(omega, dtype=float)
+        cg = (self.co / self.w) * self.g                       # residue of each kept eigenvalue
+        H = cg @ (1.0 / (s[None, :] - self.lam[:, None]))
+        pair = self.w == 2.0
+        if pair.any():
+            H = H + np.conj(cg[pair]) @ (1.0 / (s[None, :] - np.conj(self.lam[pair])[:, None]))
+        return H + self.D
+
+    def periodic_coords(self, omega, alpha, c, t_s: float) -> np.ndarray:
+        """Coordinates at time ``t_s`` of the periodic steady state under the real signal
+        Re sum alpha_m c_m e^(j w_m t) (see ``_harmonics``): both signs of each harmonic."""
+        e = alpha * c * np.exp(1j * np.asarray(omega) * t_s)
+        s = 1j * np.asarray(omega, dtype=float)
+        pos = (1.0 / (s[None, :] - self.lam[:, None])) @ e
+        neg = (1.0 / (-s[None, :] - self.lam[:, None])) @ np.conj(e)
+        return 0.5 * self.g * (pos + neg)
+
     def transition(self):
         return (self.V @ (self.w[:, None] * self.a[:, None] * self.Vinv)).real
 
@@ -265,6 +340,7 @@ class DensePart:
             self.G0, self.G1 = F1, np.zeros(n)
         self.C = Cout
         self.D = float(D)
+        self.B0 = np.asarray(B, dtype=float)
         self._phiB = {}
 
     def to_coords(self, x):
@@ -324,6 +400,28 @@ class DensePart:
 
     def periodic_vector(self, v, P: int):
         return np.linalg.solve(np.eye(self.Phi.shape[0]) - self._power(P), v)
+
+    # continuous time (band-limited inputs) ----------------------------------------------
+    def _resolvent_b(self, omega: np.ndarray) -> np.ndarray:
+        """(j w - A)^-1 B for each w [rad/s], (n, M): back substitution in the complex
+        Schur form, vectorised over the frequencies (robust where eigenvectors are not)."""
+        if getattr(self, "_schur", None) is None:
+            T, Z = scipy_linalg().schur(self.A.astype(complex), output="complex")
+            self._schur = (T, Z, Z.conj().T @ self.B0)
+        T, Z, zb = self._schur
+        s = 1j * np.asarray(omega, dtype=float)
+        n = T.shape[0]
+        X = np.empty((n, len(s)), dtype=complex)
+        for i in range(n - 1, -1, -1):
+            X[i] = (zb[i] + T[i, i + 1:] @ X[i + 1:]) / (s - T[i, i])
+        return Z @ X
+
+    def frequency_response(self, omega: np.ndarray) -> np.ndarray:
+        return self.C @ self._resolvent_b(omega) + self.D
+
+    def periodic_coords(self, omega, alpha, c, t_s: float) -> np.ndarray:
+        e = alpha * c * np.exp(1j * np.asarray(omega) * t_s)
+        return (self._resolvent_b(omega) @ e).real
 
     def transition(self):
         return self.Phi
@@ -414,18 +512,34 @@ class DiscreteSystem:
             y += p.output(x[p.idx]) + p.D * u
         return float(y)
 
-    def periodic_response(self, force_period_n) -> np.ndarray:
+    def frequency_response(self, freq_hz) -> np.ndarray:
+        """The continuous-time system's transfer function Cout (j w - A)^-1 B + D at
+        ``freq_hz`` [Hz] (complex; the simulated parts only), in closed form per mode."""
+        omega = 2 * np.pi * np.atleast_1d(np.asarray(freq_hz, dtype=float))
+        H = np.zeros(omega.shape, dtype=complex)
+        for p in self.parts:
+            H += p.frequency_response(omega)
+        return H
+
+    def periodic_response(self, force_period_n, bandlimited: bool = False) -> np.ndarray:
         """Exact periodic steady state for a force that repeats ``force_period_n`` forever.
 
         One period of output; equals :meth:`response` of the looped force once the
         transient has decayed.  (Circular convolution with the period-aliased impulse
         response: one complex gain per harmonic of the loop frequency sample_rate_hz / P.)
+        ``bandlimited``: the force is the band-limited signal of the hold's interpolant
+        without its images (harmonics U_m S(f_m), see the module docstring), evaluated with
+        the continuous-time transfer function per harmonic: no images fold into the band.
         """
         u = force_signal(force_period_n)
         P = len(u)
         y = np.zeros(P)
         if P == 0 or not np.any(u != 0):
             return y
+        if bandlimited:
+            m = np.arange(P // 2 + 1)
+            gain = hold_gain(m / P, 1.0, self.hold) * self.frequency_response(m * (self.sample_rate_hz / P))
+            return np.fft.irfft(np.fft.rfft(u) * gain, P)
         for p in self.parts:
             v = p.periodic_vector(p.step(p.G1) + p.G0, P)
             ps = p.power_sums(np.array([v]), P)[0]
@@ -435,19 +549,28 @@ class DiscreteSystem:
             y += np.fft.irfft(np.fft.rfft(u) * np.fft.rfft(hp), P)
         return y
 
-    def periodic_state(self, force_period_n) -> np.ndarray:
-        """State at phase 0 of the periodic steady state under a force that repeats
-        ``force_period_n`` forever (the state :meth:`periodic_response` runs through):
-        x0 = Phi^P x0 + (one period from rest), solved per part in its own coordinates."""
+    def periodic_state(self, force_period_n, bandlimited: bool = False, phase: int = 0) -> np.ndarray:
+        """State at phase ``phase`` (default 0) of the periodic steady state under a force
+        that repeats ``force_period_n`` forever (the state :meth:`periodic_response` runs
+        through).  Sampled: x0 = Phi^P x0 + (one period from rest), solved per part in its
+        own coordinates, then propagated to ``phase``; ``bandlimited``: the closed-form sum
+        over the harmonics at that phase (as :meth:`periodic_response`)."""
         u = force_signal(force_period_n)
         P = len(u)
         x = np.zeros(self.state_size)
         if P == 0:
             return x
+        if bandlimited:
+            omega, alpha, c = _harmonics(u, self.sample_rate_hz, self.hold)
+            t = (int(phase) % P) / self.sample_rate_hz
+            for p in self.parts:
+                x[p.idx] = p.from_coords(p.periodic_coords(omega, alpha, c, t))
+            return x
         ext = np.concatenate([u, u[:1]])      # samples 0 .. P of the looped force
         for p in self.parts:
             x[p.idx] = p.from_coords(p.periodic_vector(p.propagate(None, ext), P))
-        return x
+        p0 = int(phase) % P
+        return x if p0 == 0 else self.final_state(u[:p0 + 1], x)
 
     def slowest_decay_rate_per_s(self) -> float:
         """The smallest decay rate [1/s] of the simulated modes (0: one does not decay):
@@ -571,20 +694,25 @@ class SteadyState:
     period (the transient decayed below exp(-SETTLE_E_FOLDS)).
 
     ``output`` holds one period indexed by loop phase; the state at phase 0 is computed on
-    first use (:meth:`state_at`: leaving the steady state).
+    first use (:meth:`state_at`: leaving the steady state).  ``bandlimited``: the input
+    samples stand for the band-limited signal of their hold (see the module docstring).
     """
 
-    def __init__(self, system: DiscreteSystem, input_period: np.ndarray) -> None:
+    def __init__(self, system: DiscreteSystem, input_period: np.ndarray, bandlimited: bool = False) -> None:
         self.system = system
         self.input = input_period
-        self.output = system.periodic_response(input_period)
+        self.bandlimited = bool(bandlimited)
+        self.output = system.periodic_response(input_period, self.bandlimited)
         self._state0 = None
 
     def state_at(self, s: int) -> np.ndarray:
-        """The state at absolute sample ``s`` (propagated from phase 0)."""
+        """The state at absolute sample ``s`` (propagated from phase 0; band-limited: in
+        closed form at that phase)."""
+        p = s % len(self.input)
+        if self.bandlimited:
+            return self.system.periodic_state(self.input, True, p)
         if self._state0 is None:
             self._state0 = self.system.periodic_state(self.input)
-        p = s % len(self.input)
         if p == 0:
             return self._state0.copy()
         return self.system.final_state(self.input[:p + 1], self._state0)

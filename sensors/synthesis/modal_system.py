@@ -236,7 +236,11 @@ class ModalSystem(DiscreteSystem):
         glob = np.concatenate([kept, r_all + kept])
         for p in parts:
             p.idx = glob[p.idx]
-        return cls(parts, r_all, kept, sample_rate_hz, hold, model)
+        system = cls(parts, r_all, kept, sample_rate_hz, hold, model)
+        # what a load on the kept modes needs (sensors.synthesis.passive: x' = A x + [0; p]),
+        # in the modes the state is in (``model``: with springs, the coupled modes)
+        system.kept_modal = (su.w, su.C)
+        return system
 
 
 def _relevant_modes(kept, C, b, o, keep_unobservable, excited):
@@ -438,13 +442,17 @@ def modal_response(model, force_n, sample_rate_hz, drive_point_m, drive_normal, 
 def periodic_response(model, force_period_n, sample_rate_hz, drive_point_m, drive_normal, mic_point_m,
                       mic_normal, contacts=(), method: str = "exact",
                       output: str = "displacement", hold: str = "foh",
-                      max_frequency_hz: float | None = None, contact_model: str = "spring_damper") -> np.ndarray:
+                      max_frequency_hz: float | None = None, contact_model: str = "spring_damper",
+                      bandlimited: bool = False) -> np.ndarray:
     """Exact periodic steady state (one period) for a static grasp under a looping force.
 
     Same arguments as :func:`modal_response`; ``force_period_n`` is one period of the
     looping force.  Equals the time-domain response once the transient has decayed.
+    ``bandlimited``: the force is the band-limited signal of the hold's interpolant without
+    its images (``DiscreteSystem.periodic_response``; prefilter the samples with
+    ``sensors.synthesis.lti.bandlimited_samples`` for the band-limited signal through them).
     """
     sysm = ModalSystem.build(model, sample_rate_hz, drive_point_m, drive_normal, mic_point_m, mic_normal,
                              contacts, method=method, output=output, hold=hold,
                              max_frequency_hz=max_frequency_hz, contact_model=contact_model)
-    return sysm.periodic_response(force_period_n)
+    return sysm.periodic_response(force_period_n, bandlimited)

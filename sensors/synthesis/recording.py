@@ -36,7 +36,7 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
                        leak: LeakRecording | str | os.PathLike | None = None, noise_std: float = 0.0,
                        rng=None, output: str = "displacement", method: str = "exact",
                        steady_state: bool = False, cache: SynthesisCache | None = None,
-                       contact_model: str = "spring_damper") -> AcousticObservation:
+                       contact_model: str = "spring_damper", bandlimited: bool = True) -> AcousticObservation:
     """Simulate the contact microphone while the actuator plays ``excitation`` in a grasp.
 
     Parameters
@@ -68,6 +68,9 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
         (``sensors.synthesis.modal_system.CONTACT_MODELS``).  Recorded in the metadata.
     cache : a :class:`SynthesisCache` to reuse per-grasp systems and drive forces across
         calls (``None``: nothing is kept).
+    bandlimited : the excitation reaches the fingertip as the band-limited signal a sound
+        card plays (default; exact in steady state); False: piecewise linear between samples,
+        the drive of earlier datasets.  Metadata ``drive`` says which.
 
     Returns
     -------
@@ -84,6 +87,7 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
     grasp = GraspState(model, actuator_contact, mic_contact, others)
     meta: dict = {"source": "sim", "output": output, "method": method, "steady_state": bool(steady_state),
                   "contact_model": contact_model,
+                  "drive": "bandlimited" if bandlimited else "foh",
                   "mic_gain": mic_gain(output), "noise_std": float(noise_std),
                   "contacts": {"actuator": None if actuator_contact is None else actuator_contact.to_dict(),
                                "mic": None if mic_contact is None else mic_contact.to_dict(),
@@ -93,7 +97,7 @@ def simulate_recording(model, excitation: Excitation, duration_s: float,
     if grasp.closed:
         stream = AcousticStream(excitation, fingertip, output=output, method=method,
                                 cache=SynthesisCache() if cache is None else cache, carry_state=False,
-                                contact_model=contact_model)
+                                contact_model=contact_model, bandlimited=bandlimited)
         if steady_state:
             try:
                 stream.settle(grasp)

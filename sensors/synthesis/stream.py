@@ -19,7 +19,8 @@ from rest (or settled into its periodic steady state, :meth:`AcousticStream.sett
 Timing convention (as ``sensors.modal_response`` with a contact schedule): a span of n
 samples starting at sample s covers the time interval [s, s + n) / sample_rate_hz.  Its system governs
 the n steps from sample s to sample s + n; its microphone reads samples s .. s + n - 1.  The
-drive force is piecewise linear between samples and continuous across span boundaries.
+drive force is piecewise linear between samples and continuous across span boundaries (with
+the band-limited drive, those samples stand for the band-limited force: ``sensors.synthesis.drive``).
 
 Open grasps: a parallel gripper opens both fingers together, so the object is heard only while
 BOTH fingertips touch it with a positive force.  Otherwise the microphone records leak and
@@ -47,13 +48,14 @@ from .._infra.lru import CACHE_SIZES, LRU
 from ..signals.excitation import Excitation
 from ..signals.features import spectral_features
 from ..signals.leak import LeakRecording
-from .caches import SynthesisCache, SystemCache
+from .caches import IdentityKey, SynthesisCache, SystemCache
 from .drive import FingertipDrive, grasp_fingertip
 from .fingertip import FingertipModel
 from .grasp_state import ContactTolerance, GraspState
 from .lti import SETTLE_E_FOLDS, SteadyState
 from .microphone import Microphone
 from .modal_system import CONTACT_MODELS, ModalSystem, transfer_state
+from .passive import LoadRead, LoadSolver, PassiveSound
 
 __all__ = ["AcousticStream"]
 
@@ -64,33 +66,45 @@ class _ObjectState:
     n_state: int                     # 2 r: the length of its scaled modal state
     x: np.ndarray | None             # the state at sample ``at`` (None: ``end`` or ``steady`` holds it)
     at: int
-    end: tuple | None = None         # (system, force, start state) of its latest span: the state at its end
+    end: tuple | None = None         # (system, force, start state, offset) of its latest span: the state at its end
     geometry: tuple | None = None    # last closed grasp's (drive p, n, mic p, n): for ring-down builds
     last: GraspState | None = None   # contacts of its latest span (for gaps while not in the stream)
     system: ModalSystem | None = None  # the system of its latest heard samples ...
     settled: int = 0                 # ... and how many of them ran under a periodic drive
     steady: SteadyState | None = None  # while in periodic steady state: the state is periodic
     modes: Any = None                # the modes the state is in (the model, or it with contact springs)
+    # passive sound (sensors.synthesis.passive): reads of the object's loads, physical (each
+    # system projects them onto its own modes); loads count relative to ``base``
+    base: LoadRead | None = None     # the read under which the object started being followed
+    read: LoadRead | None = None     # the latest read ...
+    load_grasp: GraspState | None = None  # ... and the grasp it is of
+    eq: np.ndarray | None = None     # the static state (in ``modes``) under the load the state is
+    #                                  under: added to a steady state, carried across mode changes
 
-    def state_in(self, modes) -> np.ndarray:
+    def state_in(self, modes, eq: np.ndarray | None = None) -> np.ndarray:
         """The state at sample ``at`` in ``modes`` (projected from the modes it is in when the
-        contact springs changed them, ``sensors.synthesis.modal_system.transfer_state``)."""
+        contact springs changed them, ``sensors.synthesis.modal_system.transfer_state``).
+        Under a load the part relative to its static state is projected and ``eq``, the static
+        state under the same load in ``modes``, added (``sensors.synthesis.passive``)."""
         x = self.state()
         if modes is not self.modes:
-            self.x, self.modes = transfer_state(x, self.modes, modes), modes
+            x = transfer_state(x if self.eq is None else x - self.eq, self.modes, modes)
+            self.x, self.modes, self.eq = (x if eq is None else x + eq), modes, eq
         return self.x
 
     def state(self) -> np.ndarray:
         """The state at sample ``at``: propagated through the latest span now, or taken out
         of the periodic steady state."""
         if self.end is not None:
-            system, force, x0 = self.end
-            self.x, self.end = system.final_state(force, x0), None
+            system, force, x0, offset = self.end
+            x = system.final_state(force, x0)
+            self.x, self.end = (x if offset is None else x + offset), None
         elif self.x is None:
             if self.steady is None:
                 raise ValueError("this stream does not carry the modal state (carry_state=False): "
                                  "it records one span per object")
-            self.x, self.steady = self.steady.state_at(self.at), None
+            x = self.steady.state_at(self.at)
+            self.x, self.steady = (x if self.eq is None else x + self.eq), None
         return self.x
 
 
@@ -136,6 +150,15 @@ class AcousticStream:
     carry_state : False for a stream that records one span per object from rest and stops
         (a batch recording): its systems then keep only the modes that the drive reaches and
         the microphone sees, as no later contact set needs the others' state.
+    bandlimited : the excitation reaches the fingertip as the band-limited signal a sound
+        card plays (default; ``sensors.synthesis.drive``); False: piecewise linear between
+        its samples, the drive of earlier datasets (spectrum low by about sinc^4(f/fs)).
+    passive : a ``PassiveSound``: changes of the forces in each span's ``GraspState.loads``
+        (impacts, knocks, slides) excite the object on top of the drive, exactly
+        (``sensors.synthesis.passive``); ``None`` (default): only the drive excites it.  An
+        object's ringing is followed from its first closed grasp on: it starts at rest under
+        the loads it has then, and their changes count from there.  Displacement or velocity
+        output only.
     """
 
     def __init__(self, excitation: Excitation, fingertip: FingertipModel | None = None,
@@ -143,7 +166,8 @@ class AcousticStream:
                  rng=None, output: str = "displacement", method: str = "exact",
                  tolerance: ContactTolerance | None = None, cache_size: int | None = None,
                  leak_lag_samples: int = 0, cache: SynthesisCache | None = None, *, carry_state: bool = True,
-                 contact_model: str = "spring_damper"):
+                 contact_model: str = "spring_damper", bandlimited: bool = True,
+                 passive: PassiveSound | None = None):
         if not isinstance(excitation, Excitation):
             raise TypeError(f"excitation must be a sensors.Excitation, got {type(excitation).__name__}")
         if fingertip is not None and not isinstance(fingertip, FingertipModel):
@@ -161,7 +185,16 @@ class AcousticStream:
         self.method = method
         self.cache = cache
         self.systems = cache.systems
-        self.drive = FingertipDrive(excitation, cache.forces)
+        self.bandlimited = bool(bandlimited)
+        self.drive = FingertipDrive(excitation, cache.forces, self.bandlimited)
+        if passive is not None and not isinstance(passive, PassiveSound):
+            raise TypeError(f"passive must be a sensors.PassiveSound or None, got {type(passive).__name__}")
+        if passive is not None and output == "acceleration":
+            raise ValueError("passive sound needs output 'displacement' or 'velocity' (an acceleration "
+                             "output would carry the load directly)")
+        self.passive = passive
+        self._passive_rng = None if passive is None else np.random.default_rng(passive.seed)
+        self._load_solvers: LRU[LoadSolver] = LRU(CACHE_SIZES["stream.systems"])
         self.carry_state = bool(carry_state)
         if contact_model not in CONTACT_MODELS:
             raise ValueError(f"contact_model must be one of {CONTACT_MODELS}, got {contact_model!r}")
@@ -249,10 +282,13 @@ class AcousticStream:
             raise ValueError("only a closed grasp (both fingertips pressing) has a periodic steady state")
         res = self._resolve(grasp)
         st = self._object_state(grasp)
+        modes = res.system.modes
+        if self._modal_change(st, self._load_change(st, grasp), modes) is not None:
+            raise ValueError("settle() starts an object at rest under its loads: settle it before its loads change")
         drive = self.drive.settle(res.fingertip, res.grip_force_n)
         st.system, st.settled = res.system, 0
         st.steady, st.x, st.end = self._steady_of(res.system, drive), None, None
-        st.modes = res.system.modes
+        st.modes, st.eq = modes, self._equilibrium(res.system, self._load(st, modes))
         st.geometry = (grasp.actuator.position_m, grasp.actuator.normal, grasp.mic.position_m, grasp.mic.normal)
 
     def grasp_systems(self, grasp: GraspState) -> tuple[ModalSystem, FingertipModel]:
@@ -285,6 +321,8 @@ class AcousticStream:
         """Settings and running facts, JSON-serialisable (like ``simulate_recording``'s)."""
         meta = {"source": "sim", "stream": True, "output": self.output, "method": self.method,
                 "contact_model": self.contact_model,
+                "drive": "bandlimited" if self.bandlimited else "foh",
+                "passive": None if self.passive is None else self.passive.to_dict(),
                 "mic_gain": self.gain, "noise_std": self.noise_std,
                 "sample_index": int(self.sample_index), "heard_samples": int(self.heard_samples),
                 "fingertip_separated": bool(self.fingertip_separated),
@@ -317,7 +355,8 @@ class AcousticStream:
         # merge consecutive spans that use the same systems: one synthesis call for them
         groups = []                                       # (n, grasp, resolved, lowest grip)
         for n, g, key in resolved:
-            if groups and key.same_systems(groups[-1][2]):
+            # passive sound: a new contact read may bring new loads, its span starts a group
+            if groups and key.same_systems(groups[-1][2]) and (self.passive is None or g is groups[-1][1]):
                 n0, g0, key0, grip0 = groups[-1]
                 groups[-1] = (n0 + n, g0, key0, min(grip0, key.grip_force_n))
             else:
@@ -399,10 +438,14 @@ class AcousticStream:
         if st.at < self.sample_index:
             # the object was out of the stream: ring it down over the gap under its last contacts
             x = st.state()
-            if np.any(x) and st.geometry is not None and st.last is not None:
+            if (np.any(x) or st.read is not st.base) and st.geometry is not None and st.last is not None:
                 ring = self._ring_system(st.last, st.geometry)
-                x = st.state_in(ring.modes)
-                st.x = np.linalg.matrix_power(ring.transition_matrix(), self.sample_index - st.at) @ x
+                load = self._load(st, ring.modes)
+                x = self._state_in(st, ring, load)
+                eq = self._equilibrium(ring, load)
+                eq = np.zeros_like(x) if eq is None else eq
+                st.x = np.linalg.matrix_power(ring.transition_matrix(), self.sample_index - st.at) @ (x - eq) + eq
+                st.eq = None if not np.any(eq) else eq
             st.at = self.sample_index
         if key != self._current:
             self.drive.reset()      # another object in the hand: the drive starts from rest
@@ -415,42 +458,130 @@ class AcousticStream:
         s .. s + n when heard; ``steady_drive``: the drive is in periodic steady state."""
         st = self._object_state(g)
         s = self.sample_index
+        change = self._load_change(st, g)
         if res.heard:
             sysm = res.system                 # n + 1 samples: s .. s + n
+            change = self._modal_change(st, change, sysm.modes)
             if sysm is not st.system or steady_drive is None:
                 st.system, st.settled = sysm, 0
-            if st.steady is not None and st.steady.system is sysm and steady_drive is not None:
+            if (change is None and st.steady is not None and st.steady.system is sysm
+                    and steady_drive is not None):
                 # periodic steady state: the output repeats every period, nothing to compute
                 out[:] = st.steady.output[(s + np.arange(n)) % len(st.steady.output)]
+                if st.eq is not None:
+                    out += sysm.output(st.eq)
                 self.steady_samples += n
             else:
-                x = st.state_in(sysm.modes)
-                out[:] = sysm.response(u[:n], x)
-                st.x, st.end = None, (sysm, u, x) if self.carry_state else None
+                self._evolve(st, sysm, u, n, change, out, self.carry_state)
                 if steady_drive is not None:
                     st.settled += n
                     if st.settled * sysm.slowest_decay_rate_per_s() >= SETTLE_E_FOLDS * self.sample_rate_hz:
-                        st.steady, st.end = self._steady_of(sysm, steady_drive), None
+                        st.steady, st.end = self._steady_of(sysm, steady_drive), None   # plus st.eq
             st.geometry = (g.actuator.position_m, g.actuator.normal, g.mic.position_m, g.mic.normal)
             self.heard_samples += n
         else:
             self.drive.reset()
             st.system = None
             x = st.state()
-            if np.any(x) and st.geometry is not None:
+            if st.geometry is not None and (np.any(x) or change is not None or st.read is not st.base):
                 ring = self._ring_system(g, st.geometry)
-                x = st.state_in(ring.modes)
-                st.x, st.end = None, (ring, np.zeros(n + 1), x)
+                self._evolve(st, ring, np.zeros(n + 1), n, self._modal_change(st, change, ring.modes), None, True)
         st.last = g
         st.at = s + n
         self.sample_index = s + n
+
+    def _evolve(self, st: _ObjectState, sysm: ModalSystem, u: np.ndarray, n: int, change, out, keep: bool) -> None:
+        """The object's response (into ``out`` unless None) and state over n samples under
+        ``sysm`` and the drive force ``u`` (samples s .. s + n), with the passive load
+        (``sensors.synthesis.passive``): after a change (``change``: loads before and after,
+        and the sharp part of the step) the sharp part ramps in over the rise time and the rest
+        over the span, constant otherwise.  On each piece where the load is affine in time its
+        particular solution (affine too) is added to the exact solution of the drive from the
+        shifted state.  Loads and states are in ``sysm``'s modes (the state carried into them
+        relative to the load's static state).  ``keep``: carry the end state."""
+        load = self._load(st, sysm.modes)             # the latest read's, after any change
+        x = self._state_in(st, sysm, load if change is None else change[0])
+        if change is None and (load is None or not np.any(load)):
+            if out is not None:
+                out[:] = sysm.response(u[:n], x)
+            st.x, st.end, st.eq = None, (sysm, u, x, None) if keep else None, None
+            return
+        solver = self._load_solvers.get_or_build(IdentityKey(sysm), lambda: LoadSolver(sysm))
+        T = 1.0 / self.sample_rate_hz
+        if change is None:
+            pieces = [(0, n, load, load)]
+        else:
+            old, new, sharp = change
+            k = self.passive.rise_samples(self.sample_rate_hz, n)
+            mid = old + sharp + (new - old - sharp) * (k / n)
+            pieces = [(0, k, old, mid)] + ([(k, n, mid, new)] if k < n else [])
+        for i, (a, b, p0, p1) in enumerate(pieces):
+            alpha, beta = solver.particular(p0, p1, (b - a) * T if p1 is not p0 else 0.0)
+            if out is not None:
+                out[a:b] = (sysm.response(u[a:b], x - alpha) + sysm.output(alpha)
+                            + sysm.output(beta) * (np.arange(b - a) * T))
+            end = alpha + beta * ((b - a) * T)
+            if i < len(pieces) - 1:
+                x = sysm.final_state(u[a:b + 1], x - alpha) + end
+            else:
+                st.x, st.end = None, (sysm, u[a:], x - alpha, end) if keep else None
+        # the static state under the load from here on (its ramp's particular solution is not)
+        st.eq = alpha if change is None else self._equilibrium(sysm, load)
+
+    # -- passive sound ---------------------------------------------------------------------
+    def _load_change(self, st: _ObjectState, g: GraspState):
+        """``(previous read, new read)`` of the object's loads when this span brings a new
+        contact read, else ``None`` (passive sound off, the same grasp, or the object not yet
+        followed: until its first closed grasp it is at rest under whatever loads it has, and
+        they become the reference).  Draws the read's roughness (once per read, in order)."""
+        if self.passive is None or g is st.load_grasp:
+            return None
+        read = LoadRead(g.loads, self._passive_rng, self.passive.roughness)
+        st.load_grasp = g
+        if st.base is None or st.geometry is None:
+            st.base = st.read = read
+            return None
+        previous, st.read = st.read, read
+        return previous, read
+
+    def _load(self, st: _ObjectState, modes) -> np.ndarray | None:
+        """The object's modal load on ``modes`` (relative to its base read) after its latest
+        read; ``None`` when there is none."""
+        if st.base is None or st.read is None:
+            return None
+        return st.read.modal(modes)[0] - st.base.modal(modes)[0]
+
+    def _modal_change(self, st: _ObjectState, change, modes):
+        """A load change (``_load_change``) on ``modes``: the load before and after and the
+        sharp part of the step (impacts, stick-slip), or ``None`` when the load is unchanged."""
+        if change is None:
+            return None
+        previous, read = change
+        base = st.base.modal(modes)[0]
+        total, impacts, fluctuation = read.modal(modes)
+        before, _, fluctuation_before = previous.modal(modes)
+        old, new = before - base, total - base
+        return None if np.array_equal(old, new) else (old, new, impacts + fluctuation - fluctuation_before)
+
+    def _state_in(self, st: _ObjectState, sysm: ModalSystem, load) -> np.ndarray:
+        """The object's state in ``sysm``'s modes, carried relative to the static state under
+        ``load`` (on those modes) where the modes change (``_ObjectState.state_in``)."""
+        eq = self._equilibrium(sysm, load) if st.modes is not sysm.modes else None
+        return st.state_in(sysm.modes, eq)
+
+    def _equilibrium(self, sysm: ModalSystem, load) -> np.ndarray | None:
+        """The static state of ``sysm`` under a constant modal load (None: no load)."""
+        if load is None or not np.any(load):
+            return None
+        solver = self._load_solvers.get_or_build(IdentityKey(sysm), lambda: LoadSolver(sysm))
+        return solver.particular(load, load, 0.0)[0]
 
     def _steady_of(self, sysm: ModalSystem, drive: SteadyState) -> SteadyState:
         """The periodic steady state of ``sysm`` under the steady drive force (cached)."""
         key = (id(sysm), id(drive.output))
         hit = self._steadies.get(key)
         if hit is None or hit.system is not sysm or hit.input is not drive.output:
-            hit = self._steadies.put(key, SteadyState(sysm, drive.output))
+            hit = self._steadies.put(key, SteadyState(sysm, drive.output, self.bandlimited))
         return hit
 
     def _feed_features(self, start: int, samples: np.ndarray, heard: np.ndarray) -> None:

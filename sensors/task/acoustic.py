@@ -20,12 +20,13 @@ from ..signals.observation import AcousticObservation
 from ..signals.spectrogram import (N_MELS, mel_spectrogram, n_frames, spectrogram, spectrogram_frequencies_hz)
 from ..synthesis.fingertip import FingertipModel
 from ..synthesis.modal_system import CONTACT_MODELS
+from ..synthesis.passive import PassiveSound
 from ..synthesis.stream import ContactTolerance
 from .checks import check_choice, check_flag, check_integer, check_number
 from .frames import AcousticFrames
 
-__all__ = ["AcousticConfig", "AcousticEnvMixin", "BYTES_PER_SAMPLE", "CADENCES", "FEATURE_MODES", "LEGACY_KEYWORDS",
-           "MAX_HISTORY", "MAX_SAMPLES", "N_FEATURES", "resolve_excitation"]
+__all__ = ["AcousticConfig", "AcousticEnvMixin", "BYTES_PER_SAMPLE", "CADENCES", "DRIVES", "FEATURE_MODES",
+           "LEGACY_KEYWORDS", "MAX_HISTORY", "MAX_SAMPLES", "N_FEATURES", "resolve_excitation"]
 
 #: Length of the spectral feature vector (3-10 kHz in 50 Hz steps).
 N_FEATURES = int(feature_frequencies_hz().size)
@@ -36,6 +37,8 @@ CADENCES = ("action", "every_step", "never", "stream")
 FEATURE_MODES = ("fft140", "spectrogram", "mel")
 #: The most frames ``AcousticConfig.history`` may stack.
 MAX_HISTORY = 256
+#: How the excitation reaches the fingertip (``AcousticConfig.drive``).
+DRIVES = ("bandlimited", "foh")
 
 #: Default of ``AcousticConfig.max_samples``: 60 s at 44.1 kHz, the longest recording (or
 #: streamed step) an env accepts unless told otherwise.
@@ -118,6 +121,14 @@ class AcousticConfig:
         contact_model: simulation only: ``"spring_damper"`` (default: contacts, the fingertip
             pads included, are springs and dampers on the object's modes) or ``"damping"``
             (the paper's model: contacts only damp the free modes).
+        drive: simulation only: ``"bandlimited"`` (default: the excitation reaches the
+            fingertip as the band-limited signal a sound card plays) or ``"foh"`` (piecewise
+            linear between samples, the drive of earlier datasets; spectra low by about
+            sinc^4(f/fs)); see ``sensors.synthesis.drive``.
+        passive_sound: simulation only, with ``cadence="stream"``: impacts, knocks and slides
+            excite the object on top of the drive (``sensors.synthesis.passive``): ``True``,
+            ``False``, a ``PassiveSound`` (its rise time and roughness), or ``None`` (default:
+            on when streaming; per-action recordings hold a static grasp, nothing changes in them).
         stream_tolerance: simulation only, with ``cadence="stream"``: when contacts count as
             unchanged (``sensors.ContactTolerance``); ``None``: its defaults.
         features: what ``acoustic`` holds (:data:`FEATURE_MODES`): ``"fft140"`` (default, the
@@ -163,6 +174,8 @@ class AcousticConfig:
     corruption: CorruptionPipeline | None = None
     max_samples: int = MAX_SAMPLES
     contact_model: str = "spring_damper"
+    drive: str = "bandlimited"
+    passive_sound: Any = None
 
     def __post_init__(self) -> None:
         for name in ("enabled", "waveform"):  # "no" and "False" are true values: refuse strings
@@ -170,6 +183,10 @@ class AcousticConfig:
         check_choice("acoustic.cadence", self.cadence, CADENCES)
         check_choice("acoustic.feature_scale", self.feature_scale, FEATURE_SCALES)
         check_choice("acoustic.contact_model", self.contact_model, CONTACT_MODELS)
+        check_choice("acoustic.drive", self.drive, DRIVES)
+        if not (self.passive_sound is None or isinstance(self.passive_sound, (bool, PassiveSound))):
+            raise TypeError("passive_sound must be True, False, None or a sensors.synthesis.passive.PassiveSound, "
+                            f"got {type(self.passive_sound).__name__}")
         object.__setattr__(self, "noise_std", check_number("acoustic.noise_std", self.noise_std, 0.0))
         object.__setattr__(self, "duration_s", check_number("acoustic.duration_s", self.duration_s, 0.0,
                                                             low_open=True, unit="s"))
@@ -235,7 +252,8 @@ class AcousticConfig:
     def _key(self) -> tuple:
         return (self.enabled, self.cadence, self.waveform, self.feature_scale, self.noise_std, self.duration_s,
                 self.excitation, _leak_key(self.leak), self.fingertip, self.stream_tolerance, self.features,
-                self.history, self.update_period_s, self.corruption, self.contact_model)
+                self.history, self.update_period_s, self.corruption, self.contact_model, self.drive,
+                self.passive_sound)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, AcousticConfig):
@@ -280,6 +298,14 @@ class AcousticConfig:
         """The cadence in effect: ``"never"`` when disabled (nothing is recorded), else
         :attr:`cadence`."""
         return self.cadence if self.enabled else "never"
+
+    @property
+    def passive(self) -> PassiveSound | None:
+        """The passive-sound model a stream uses (``None``: off); see :attr:`passive_sound`."""
+        p = self.passive_sound
+        if isinstance(p, PassiveSound):
+            return p
+        return PassiveSound() if (p is None and self.cadence == "stream") or p is True else None
 
     @property
     def streaming(self) -> bool:
