@@ -24,9 +24,11 @@ import numpy as np
 import sensors
 from aas_gym.contacts import ContactStream, ObjectContacts
 from aas_gym.object_bodies import object_specs_from_model
+from aas_gym.touching_grasp import TouchingMemo, touching_grasp
 from sensors import Excitation, LeakRecording, SynthesisCache, load_leak
 from sensors._infra.lru import CACHE_SIZES, LRU
 from sensors.materials import scaled_material
+from sensors.modal import TouchingObjects
 from sensors.modal.basis import ModalBasis, with_material
 from sensors.objects.catalog import ObjectSpec, get_object
 from sensors.synthesis import simulate_features
@@ -170,6 +172,8 @@ class SimAcousticSensor:
         # material views per (body, scales), with the model they view: the same object for the
         # same episode's grasps, so the synthesis cache recognizes it across excitations
         self._views = LRU(CACHE_SIZES["sim.material_views"])
+        # coupled groups of a grasped object and the objects it touches (reused within a tolerance)
+        self.touching = TouchingMemo()
 
     @property
     def bodies(self) -> list[str]:
@@ -270,8 +274,9 @@ class SimAcousticSensor:
             obs.metadata.update({"grasped": False})
             return obs
         spec = self._specs.get(body)
+        model, others = touching_grasp(self, body, contacts, variation, others)
         obs = record(
-            self.scaled_model(body, variation), excitation, duration_s, act, mic, other_contacts=others,
+            model, excitation, duration_s, act, mic, other_contacts=others,
             fingertip=self.fingertip, leak=leak, noise_std=noise_std, rng=rng, cache=self.cache,
             contact_model=self.contact_model, bandlimited=self.bandlimited)
         obs.metadata.update({
@@ -280,6 +285,7 @@ class SimAcousticSensor:
             "label": spec.label if spec else None,
             "actuator_contact": act.to_dict(), "mic_contact": mic.to_dict(),
             "other_contacts": [o.to_dict() for o in others],
+            "coupled_objects": len(model.partners) if isinstance(model, TouchingObjects) else 0,
         })
         return obs
 

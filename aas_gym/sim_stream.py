@@ -30,6 +30,7 @@ import numpy as np
 
 from aas_gym.contact_sensors import signature_partners, signature_sensor_name
 from aas_gym.sim_sensor import NO_VARIATION, SensorVariation, SimAcousticSensor
+from aas_gym.touching_grasp import touching_grasp
 from sensors import AcousticStream, ContactTolerance, Excitation, GraspState
 from sensors.synthesis.passive import PassiveSound
 
@@ -145,14 +146,15 @@ class SimAcousticStream:
         self._heard = body
         self._heard_index = self.bodies.index(body)
         grasp = contacts[body].sensor_grasp(self._min_force_n, self.sensor.object_materials())
-        model = self.sensor.scaled_model(body, self.variation)
+        # the sensed objects it touches vibrate with it (spring_damper; aas_gym.touching_grasp)
+        model, others = touching_grasp(self.sensor, body, contacts, self.variation, grasp.others)
         loads = None
         if self.stream.passive is not None:
             c = contacts[body]
             before = self._pressing if body == self._pressing_body else None
             loads = c.sensor_loads(self._min_force_n, before)
             self._pressing, self._pressing_body = c.pressing_bodies(self._min_force_n), body
-        return GraspState(model, grasp.actuator, grasp.mic, tuple(grasp.others), object_key=body, loads=loads)
+        return GraspState(model, grasp.actuator, grasp.mic, tuple(others), object_key=body, loads=loads)
 
     # -- recording ---------------------------------------------------------------------------
     def step_physics(self, n_steps: int, n_samples: int) -> np.ndarray:

@@ -172,7 +172,7 @@ def test_fingertip_pads_match_full_fem(bar, reference):
 # ----------------------------------------------------------------------------- stress tests
 
 
-def _dense_response(system_modes, contacts, u, drive, mic):
+def dense_response(system_modes, contacts, u, drive, mic):
     """Reference: the continuous state space [w q; q'] of the coupled modes, integrated by lsim."""
     from sensors.modal.damping import modal_damping_parts
 
@@ -214,7 +214,7 @@ def test_stress_passive_and_dense_reference(bar, reference, case):
     assert rho <= 1.0 + 1e-12
     u = np.random.default_rng(0).standard_normal(400)
     y = sysm.response(u)
-    ref = _dense_response(sysm.modes, contacts, u, drive, mic)
+    ref = dense_response(sysm.modes, contacts, u, drive, mic)
     assert np.max(np.abs(y - ref)) <= 1e-6 * np.max(np.abs(ref))
 
 

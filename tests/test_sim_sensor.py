@@ -237,3 +237,23 @@ def test_leak_is_added_and_chosen_per_excitation(al_bar):
     silent = SimAcousticSensor(empty, mujoco.MjData(empty), leak=leaks, on_no_grasp="silence")
     heard = silent.sense(Excitation.impulse(), DURATION_S)
     assert not heard.metadata["grasped"] and np.max(np.abs(heard.waveform)) == pytest.approx(1e-3, rel=1e-3)
+
+
+def test_a_touching_object_vibrates_with_the_grasped_one():
+    """Multi-object scene: the bar leaning on the target is heard coupled to it (spring_damper),
+    and the coupling changes the sound against the same contacts as grounded springs."""
+    import gymnasium as gym
+
+    from aas_gym.envs.base import DomainRandomization
+    from sensors.synthesis import simulate_features
+
+    env = gym.make("aas_gym/GraspPosition-v0", objects=["abs_bar"], scene="multi", acoustic={"duration_s": DURATION_S},
+                   randomization=DomainRandomization.off())
+    env.reset(seed=3, options={"position_index": 6})
+    sensor = env.unwrapped.sensor
+    obs = sensor.sense(LINEAR, DURATION_S)
+    assert obs.metadata["coupled_objects"] == 1
+    body, act, mic, others = sensor.grasp_contacts()
+    grounded = simulate_features(sensor.modal_model(body), LINEAR, DURATION_S, act, mic, others).features()
+    assert log_distance(obs.features(), grounded) > 1e-3
+    env.close()

@@ -78,22 +78,23 @@ def _notes(df, rec: list[RecognitionResult], pos) -> str:
         if mean_drop > 0:
             lines.append(f"- Multi-object scenes are harder: trained on single-object scenes, the classifiers lose "
                          f"{mean_drop:.1f} points on average on multi-object scenes (from {min(drops):+.1f} to "
-                         f"{max(drops):+.1f}). Objects lying across the target add contact damping (Zheng & James) "
-                         f"at new places, which damps some resonances and not others.")
+                         f"{max(drops):+.1f}). Objects lying across the target touch it at new places: with contact "
+                         f"springs (the default) they vibrate with it, coupled through the contact "
+                         f"(sensors.modal.TouchingObjects), which adds and shifts resonances; with the paper's "
+                         f"damping-only model they only damp some resonances.")
         else:
             lines.append(f"- Multi-object scenes are NOT harder here: transfer accuracy is {-mean_drop:.1f} points "
                          f"above the single-object cross-validation on average (training on all single-object "
                          f"data also uses a quarter more data than a CV fold).")
-        if "other_contact_force_n" in df:
+        if "other_contact_force_n" in df and mean_drop <= 0:
             f_single = df[df.scene == "single"].other_contact_force_n.mean()
             f_multi = df[df.scene == "multi"].other_contact_force_n.mean()
             lines.append(f"- Why contacts matter little in simulation: the table and the objects lying across the "
                          f"target press on it with {f_single:.1f} N (single) and {f_multi:.1f} N (multi) in total on "
                          f"average, against 2 x {df.grip_force_n.mean():.0f} N of grip. In the paper's contact model "
-                         f"(Zheng & James) damping grows with contact force, so these contacts add little damping. "
-                         f"On the real rig the other objects also vibrate and radiate, and the grasp shifts when "
-                         f"they touch: effects this model leaves out, and a likely reason why the paper loses "
-                         f"accuracy in multi-object scenes and the simulation does not.")
+                         f"(Zheng & James) damping grows with contact force, so these contacts add little damping; "
+                         f"the default contact springs couple the touching objects to the target, the paper's "
+                         f"damping-only model does not.")
     geometry = [r for r in rec if r.protocol == "geometry"]
     if geometry:
         best = max(geometry, key=lambda r: r.accuracy)

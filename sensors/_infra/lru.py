@@ -29,11 +29,13 @@ CACHE_SIZES: dict[str, int] = {
     "passive.load_projections": 4,   # one contact read's loads on the modes of the latest contact sets
     "modal.flexibility": 2,          # K, M and factorization of K + sigma M per model (static correction)
     "modal.spring_modes": 32,        # contact-coupled modes per (model, contact springs)
+    "modal.coupled_grasps": 16,      # modes of a grasped object with the objects it touches, per contact set
     "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container
     "fluid.containers": 8,           # containers (dry model + static correction) per object
     "objects.solids": 64,            # surfaces and meshers of the catalog's surface objects
     "sim.models": 32,                # modal models shared by the scenes of one process
-    "sim.material_views": 16,        # randomized material views of those models
+    "sim.material_views": 16,
+    "sim.touching_groups": 16,       # recent coupled groups per (grasped, touching objects) of a sensor        # randomized material views of those models
     "sim.grasp_sets": 64,            # antipodal grasps of surface objects the hand can take
     "env.scenes": 8,                 # compiled MuJoCo scenes per env
     "env.physics_runs": 128,         # settled placements and grasps per scene (~0.5 MB each)

@@ -8,6 +8,8 @@ from .damping import OffSurfaceError, modal_damping_matrix
 from .coupled_bodies import BodyLink, CoupledBodies, coupled_bodies
 from .model import ModalModel
 from .spring_modes import SpringModes, spring_modes
+from .touching import CoupledGraspModes, TouchingObjects, TouchingPartner, coupled_grasp_modes
 
 __all__ = ["MaterialView", "ModalBasis", "with_material", "Contact", "OffSurfaceError", "modal_damping_matrix",
-           "ModalModel", "BodyLink", "CoupledBodies", "coupled_bodies", "SpringModes", "spring_modes"]
+           "ModalModel", "BodyLink", "CoupledBodies", "coupled_bodies", "SpringModes", "spring_modes",
+           "CoupledGraspModes", "TouchingObjects", "TouchingPartner", "coupled_grasp_modes"]

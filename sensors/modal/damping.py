@@ -89,14 +89,19 @@ def modal_damping_parts(model, contacts: Sequence[Contact] = (), *,
             raise TypeError(f"expected sensors.Contact, got {type(c).__name__}")
     w = np.asarray(model.angular_frequencies_rad_s, dtype=float)
     mat = model.material
-    d = float(mat.alpha) + float(mat.beta) * w ** 2
+    # several bodies of different materials (sensors.modal.touching): their own Rayleigh part
+    rayleigh = getattr(model, "rayleigh_damping_per_s", None)
+    d = float(mat.alpha) + float(mat.beta) * w ** 2 if rayleigh is None else np.asarray(rayleigh, float)
     extra = getattr(model, "added_damping_per_s", None)  # e.g. a liquid's boundary layer
     if extra is not None:
         d = d + np.asarray(extra, dtype=float)
+    # dampers between the object and the bodies it touches (sensors.modal.touching)
+    coupling = getattr(model, "coupling_damping_factor", None)
+    coupling = np.zeros((0, w.size)) if coupling is None else np.asarray(coupling, float)
     if not contacts:
-        return d, np.zeros((0, w.size))
+        return d, coupling
     check_on_surface(model, np.array([c.position_m for c in contacts]), "contact", max_surface_distance_m)
-    return d, np.sqrt(float(mat.gamma)) * contact_damping_factor(model, contacts)
+    return d, np.vstack([np.sqrt(float(mat.gamma)) * contact_damping_factor(model, contacts), coupling])
 
 
 def modal_damping_matrix(model, contacts: Sequence[Contact] = (), *,

@@ -194,7 +194,7 @@ def spring_modes(model, contacts):
 def _ritz_parts(modes):
     """``(free coefficients (6 + r, r_c), psi (n_dof, a) or None, psi coefficients (a, r_c),
     flexibility)`` of a model's coordinates in the common Ritz basis [R, U]."""
-    if isinstance(modes, SpringModes):
+    if hasattr(modes, "split"):      # SpringModes, or a grasp coupled to other bodies (modal.touching)
         n_rigid, r, a = modes.split
         free = np.zeros((6 + r, modes.V.shape[1]))
         free[6 - n_rigid:] = modes.V[:n_rigid + r]
@@ -204,7 +204,10 @@ def _ritz_parts(modes):
 
 
 def _root(model):
-    return model.base if isinstance(model, SpringModes) else model
+    if hasattr(model, "split"):
+        return model.base
+    # a grasped object with the objects it touches (modal.touching): its state is the object's
+    return getattr(model, "grasped_model", model)
 
 
 def modal_transfer(from_modes, to_modes) -> np.ndarray:
@@ -221,4 +224,8 @@ def modal_transfer(from_modes, to_modes) -> np.ndarray:
     if pa is not None and pb is not None and pa.shape[1] and pb.shape[1]:
         flex = flex_a if flex_a is not None else flex_b
         T += cb.T @ (pb.T @ (flex.M @ pa)) @ ca   # Psi M-norms are material-invariant (see SpringModes)
+    # the bodies a grasped object touches, when both sides share them (modal.touching)
+    partners = getattr(to_modes, "partner_transfer", None)
+    if partners is not None:
+        T = T + partners(from_modes)
     return T

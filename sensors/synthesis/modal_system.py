@@ -52,6 +52,7 @@ import numpy as np
 from ..modal.contact import Contact
 from ..modal.damping import check_on_surface, modal_damping_matrix, modal_damping_parts
 from ..modal.spring_modes import modal_transfer, spring_modes
+from ..modal.touching import TouchingObjects, coupled_grasp_modes
 from .low_rank_modes import low_rank_modes
 from .lti import DensePart, DiscreteSystem, EigenPart, force_signal, lti_parts, one_blas_thread
 
@@ -104,6 +105,11 @@ def contact_modal_model(model, contacts, contact_model: str = "spring_damper"):
     (``"damping"``)."""
     if contact_model not in CONTACT_MODELS:
         raise ValueError(f"contact_model must be one of {CONTACT_MODELS}, got {contact_model!r}")
+    if isinstance(model, TouchingObjects):
+        if contact_model != "spring_damper":
+            raise ValueError("a TouchingObjects couples bodies through contact springs (contact_model="
+                             "'spring_damper'); for 'damping' pass the object's own model and all its contacts")
+        return coupled_grasp_modes(model, contacts)
     return spring_modes(model, contacts) if contact_model == "spring_damper" else model
 
 

@@ -1,0 +1,136 @@
+"""A grasped object touching another (sensors.modal.touching): the modes the synthesis hears are
+those of both bodies coupled through the contact, checked against a full FEM of the two bars
+joined by the spring (scikit-fem, independent assembly), and stress-tested with a partner
+10^4 times heavier (passive, the same response as a dense reference, and the grounded-spring
+limit it must approach)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg
+
+from sensors import Contact, ModalSystem
+from sensors.materials import scaled_material
+from sensors.modal import TouchingObjects, TouchingPartner, with_material
+from sensors.modal.coupled_bodies import CoupledSizeError
+from sensors.synthesis.modal_system import contact_modal_model, modal_state_energy
+
+from test_contact_stiffness import BAR, FS, dense_response, bar, check_shifts, reference, vertex  # noqa: F401
+
+H = BAR["height_m"]
+DOWN, UP = np.array([0.0, 0.0, -1.0]), np.array([0.0, 0.0, 1.0])
+K_LINK = (1e7, 5e6)        # the contact between the bars [N/m], normal and tangential
+K_TABLE = (2e6, 1e6)       # the lower bar on the table
+K_PAD = (2e6, 0.0)         # a fingertip pad on the grasped bar
+
+
+def _scene(reference, partner_model):
+    """The grasped bar A resting on bar B (B 25 mm below, frames aligned), A held by two pads
+    on its sides, B on the table at two points of its bottom face."""
+    V = reference[2]
+    va, pa = vertex(reference, 0.05, 2, -1)                              # bottom of A
+    vb = int(np.argmin(np.linalg.norm(V - (pa + [0, 0, H]), axis=1)))   # top of B (B frame)
+    assert np.allclose(V[vb] - [0, 0, H], pa)
+    pads = [vertex(reference, -0.03, 1, s) for s in (1, -1)]
+    table = [vertex(reference, x, 2, -1) for x in (-0.08, 0.08)]
+    pad_contacts = [Contact(p, [0.0, s, 0.0], 5.0, 0.5, *K_PAD) for (_, p), s in zip(pads, (1, -1))]
+    link = Contact(pa, DOWN, 5.0, 0.5, *K_LINK, counter_material="aluminium")
+    ground = [Contact(p, DOWN, 5.0, 0.5, *K_TABLE) for _, p in table]
+    partner = TouchingPartner(partner_model, np.eye(3), [0.0, 0.0, -H], (link,), tuple(ground))
+    springs = {"pads": [(v, 1, *K_PAD) for v, _ in pads], "link": (va, vb), "table": [v for v, _ in table]}
+    return pad_contacts, partner, springs
+
+
+def test_coupled_grasp_matches_full_fem_of_both_bars(bar, reference):
+    K, M, _, dofs = reference
+    pads, partner, springs = _scene(reference, bar)
+    n = K.shape[0]
+    K2 = sp.block_diag([K, K]).tolil()
+    for v, axis, kn, kt in springs["pads"]:                                 # A's pads, grounded
+        for j in range(3):
+            K2[dofs[j, v], dofs[j, v]] += kn if j == axis else kt
+    for v in springs["table"]:                                              # B on the table
+        for j, k in ((0, K_TABLE[1]), (1, K_TABLE[1]), (2, K_TABLE[0])):
+            K2[n + dofs[j, v], n + dofs[j, v]] += k
+    va, vb = springs["link"]
+    for j, k in ((0, K_LINK[1]), (1, K_LINK[1]), (2, K_LINK[0])):           # A -- B
+        a, b = dofs[j, va], n + dofs[j, vb]
+        K2[a, a] += k
+        K2[b, b] += k
+        K2[a, b] -= k
+        K2[b, a] -= k
+    lam = scipy.sparse.linalg.eigsh(K2.tocsc(), k=30, M=sp.block_diag([M, M]).tocsc(), sigma=-(2 * math.pi * 10) ** 2,
+                                    which="LM", return_eigenvectors=False)
+    true = np.sqrt(np.maximum(np.sort(lam), 0.0)) / (2 * math.pi)
+    modes = contact_modal_model(TouchingObjects(bar, [partner]), pads)
+    free = np.sort(np.concatenate([bar.frequencies_hz, bar.frequencies_hz]))
+    check_shifts(free, modes.frequencies_hz, true[true > 1.0])
+    # the microphone on A hears B's modes too: without the partner, A alone has fewer modes in band
+    alone = contact_modal_model(bar, pads + list(partner.contacts))
+    assert modes.n_modes > alone.n_modes
+
+
+def test_the_coupled_size_is_bounded_with_a_clear_error(bar, reference):
+    pads, partner, _ = _scene(reference, bar)
+    with pytest.raises(CoupledSizeError, match=r"about \d+ coordinates.*MAX_COUPLED_COORDINATES.*max_frequency_hz"):
+        contact_modal_model(TouchingObjects(bar, [partner], max_coordinates=30), pads)
+
+
+def test_very_different_bodies_passive_dense_reference_and_grounded_limit(bar, reference):
+    """A partner 10^4 times heavier and stiffer (the same frequencies): the grasped bar's
+    modes approach those with the contact as a grounded spring; the coupled grasp's system
+    is passive and equals the dense continuous-time reference."""
+    heavy = with_material(bar, scaled_material(bar.material, modulus_scale=1e4, density_scale=1e4))
+    pads, partner, _ = _scene(reference, heavy)
+    group = TouchingObjects(bar, [partner])
+    modes = contact_modal_model(group, pads)
+    grounded = contact_modal_model(bar, pads + list(partner.contacts))
+    # every mode of A held by the grounded contact has a coupled mode within 0.5 % (the heavy
+    # partner adds its own modes, heard only faintly through the contact)
+    for f in grounded.frequencies_hz[grounded.frequencies_hz < 6000]:
+        assert np.min(np.abs(modes.frequencies_hz - f)) <= 5e-3 * f, f
+    _, pd = vertex(reference, 0.04, 1, 1)
+    _, pm = vertex(reference, 0.04, 1, -1)
+    drive, mic = (pd, np.array([0.0, 1.0, 0.0])), (pm, np.array([0.0, -1.0, 0.0]))
+    sysm = ModalSystem.build(group, FS, drive[0], drive[1], mic[0], mic[1], pads, keep_all_modes=True)
+    assert sysm.modes is modes
+    assert np.abs(np.linalg.eigvals(sysm.transition_matrix())).max() <= 1.0 + 1e-12
+    u = np.random.default_rng(0).standard_normal(300)
+    y = sysm.response(u)
+    ref = dense_response(modes, pads, u, drive, mic)
+    assert np.max(np.abs(y - ref)) <= 1e-6 * np.max(np.abs(ref))
+    # free ring-down from a displaced, moving state: the energy never grows
+    x = np.full(2 * sysm.n_modes, 1e-3)
+    e = [modal_state_energy(x)]
+    for _ in range(50):
+        x = sysm.final_state(np.zeros(2), x)
+        e.append(modal_state_energy(x))
+    assert np.all(np.diff(e) <= 1e-12 * e[0])
+
+
+def test_state_transfer_keeps_the_partners_energy_and_never_adds(bar, reference):
+    """Switching the grasped bar's contacts while it stays on the partner: the partner's motion
+    carries over (a switch to the same contacts, rebuilt, keeps the energy exactly), and a
+    switch to other contacts never adds energy."""
+    from sensors.modal.touching import CoupledGraspModes
+    from sensors.synthesis.modal_system import transfer_state
+
+    pads, partner, _ = _scene(reference, bar)
+    group = TouchingObjects(bar, [partner])
+    a = CoupledGraspModes(group, pads)
+    a_again = CoupledGraspModes(group, pads)
+    b = CoupledGraspModes(group, pads[:1])
+    x = np.random.default_rng(2).standard_normal(2 * a.n_modes)
+    e = modal_state_energy(x)
+    assert modal_state_energy(transfer_state(x, a, a_again)) == pytest.approx(e, rel=1e-9)
+    xb = transfer_state(x, a, b)
+    assert modal_state_energy(xb) <= e * (1 + 1e-12)
+    assert modal_state_energy(transfer_state(xb, b, a)) <= modal_state_energy(xb) * (1 + 1e-12)
+    # the partner's share is kept: more than the grasped bar's own coordinates would carry
+    only_grasped = x.reshape(2, -1)
+    T0 = a_again.V.T @ a.V
+    assert modal_state_energy(np.concatenate([T0 @ only_grasped[0], T0 @ only_grasped[1]])) < e * (1 - 1e-3)
