@@ -222,6 +222,33 @@ class ContactStream:
                 mu[sel], pen[sel], kinds[sel], self._body_names[other_body[sel]], self._geom_names[other_geom[sel]])
         return out
 
+    def normal_force_totals_n(self, data: mujoco.MjData, body: str) -> np.ndarray:
+        """Summed normal force [N] on ``body`` per contact kind (indexed as :data:`KINDS`):
+        ``read(data)[body].total_normal_force_n(kind)`` for every kind at once, the same
+        forces summed in the same order, without building the contact list (a per-step
+        ground truth needs only these sums; elliptic cones: the solver's normal rows)."""
+        i = self.bodies.index(body)
+        if self.model.opt.cone != mujoco.mjtCone.mjCONE_ELLIPTIC:
+            c = self.read(data)[body]
+            return np.array([c.total_normal_force_n(k) for k in KINDS])
+        out = np.zeros(len(KINDS))
+        n = data.ncon
+        if not n:
+            return out
+        con = data.contact
+        geom = con.geom[:n]
+        rows, sides = np.nonzero(self._body_index[self._geom_body[geom]] == i)
+        if rows.size == 0:
+            return out
+        adr = con.efc_address[:n][rows]
+        ok = adr >= 0
+        fn = np.zeros(rows.size)
+        fn[ok] = np.maximum(data.efc_force[adr[ok]], 0.0)
+        kinds = self._kind_of_body[self._geom_body[geom[rows, 1 - sides]]]
+        for k in np.unique(kinds):
+            out[k] = np.sum(fn[kinds == k])
+        return out
+
     def _contact_forces(self, data, con, n: int, rows: np.ndarray) -> np.ndarray:
         """Normal and two tangential force components (contact frame, acting on geom[1])."""
         out = np.zeros((rows.size, 3))
