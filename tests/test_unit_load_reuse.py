@@ -131,3 +131,19 @@ def test_spring_modes_fast_and_reference_paths(bar):
     assert reference is not fast
     assert fast.frequencies_hz.shape == reference.frequencies_hz.shape
     assert np.max(np.abs(fast.frequencies_hz / reference.frequencies_hz - 1)) < 1e-9
+
+
+def test_evicted_solves_are_solved_again_right(bar):
+    """Room for 16 nodes: later contact sets evict earlier nodes (36 distinct here)."""
+    from sensors._infra.lru import LRU
+
+    flex = ContactFlexibility(bar)
+    flex._unit_loads = LRU(16)
+    rng = np.random.default_rng(4)
+    for _ in range(6):
+        pts, dirs = grasp_contacts(rng)
+        fast = flex.attachment_modes(pts, dirs)
+        direct = flex.attachment_modes(pts, dirs, reuse_unit_loads=False)
+        assert span_residual(flex, direct[0], fast[0]) < 1e-9
+        assert np.max(np.abs(np.linalg.eigvalsh(fast[1]) / np.linalg.eigvalsh(direct[1]) - 1)) < 1e-8
+    assert len(flex._unit_loads) == 16 and flex._unit_loads.misses > 16

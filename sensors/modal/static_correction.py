@@ -129,7 +129,8 @@ class ContactFlexibility:
             B[rows, np.arange(rows.size)] = 1.0
             Y = self._projected(np.asarray(self.factor.solve(B)).reshape(self.n_dof, -1))
             for i, n in enumerate(missing):
-                blocks[n] = self._unit_loads.put(n, np.asfortranarray(Y[:, 3 * i:3 * i + 3]))
+                # a copy: a view would keep the whole batch alive after the LRU drops the block
+                blocks[n] = self._unit_loads.put(n, Y[:, 3 * i:3 * i + 3].copy(order="F"))
         return np.concatenate([blocks[int(n)] for n in nodes], axis=1)
 
     def geometry(self) -> "RitzGeometry":
