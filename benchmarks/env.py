@@ -228,16 +228,45 @@ def _run_env(env_id: str, kwargs: dict, budget_s: float) -> dict:
     return out
 
 
-def _features_error(env) -> tuple[float, float]:
-    """Both paths' features of one grasp of the env's target (after a reset; grasped by the env
-    or, for envs whose reset does not grasp, by its scripted grasp): (max relative error per
-    feature, max error / max feature)."""
+def _grasp_once(env):
+    """The env after ``reset(seed=1)``, its target grasped (by the env or, for envs whose reset
+    does not grasp, by its scripted grasp)."""
     u = env.unwrapped
     env.reset(seed=1)
     if not u.sensor.grasped_body():
         from aas_gym.scenario import grasp_position
 
         u._grasp(grasp_position(np.random.default_rng(0), u._scene.objects[0], u._layout), u.grip_force_n)
+    return u
+
+
+def _reference_error(env_id: str, kwargs: dict) -> float:
+    """Closed-form features of the same grasp in two fresh envs: contact modes from kept
+    unit-load solves (the default) and from the direct solve of each contact set
+    (``sensors.modal.static_correction.REUSE_UNIT_LOADS = False``, the reference): largest
+    difference per feature / that feature."""
+    from sensors.modal import static_correction
+
+    features = []
+    for reuse in (True, False):
+        static_correction.REUSE_UNIT_LOADS = reuse
+        try:
+            env = gym.make(env_id, disable_env_checker=True, **kwargs)
+            u = _grasp_once(env)
+            features.append(u.sensor.sense(u.excitation, u.duration_s, variation=u._variation,
+                                           rng=np.random.default_rng(0), waveform=False).features())
+            env.close()
+        finally:
+            static_correction.REUSE_UNIT_LOADS = True
+    fast, reference = features
+    return float(np.max(np.abs(fast - reference) / np.abs(reference)))
+
+
+def _features_error(env) -> tuple[float, float]:
+    """Both paths' features of one grasp of the env's target (after a reset; grasped by the env
+    or, for envs whose reset does not grasp, by its scripted grasp): (max relative error per
+    feature, max error / max feature)."""
+    u = _grasp_once(env)
     ex = u.excitation
     rec = u.sensor.sense(ex, u.duration_s, variation=u._variation, rng=np.random.default_rng(0))  # the samples
     try:
@@ -273,13 +302,14 @@ def env_throughput(budget_s: float) -> list[dict]:
         if key not in runs:                  # a second goal on the same env reuses its run
             on = _run_env(env_id, kwargs, budget_s)
             off = _run_env(env_id, dict(kwargs, acoustic={"enabled": False}), budget_s)
-            runs[key] = (on, off, _features_error(on["env"]))
+            runs[key] = (on, off, _features_error(on["env"]), _reference_error(env_id, kwargs))
             on["env"].close()
             off["env"].close()
-        on, off, err = runs[key]
+        on, off, err, ref_err = runs[key]
         value = {"steps": on["steps_s"], "episodes": on["episodes_s"], "rtf": on["steps_s"] * on["dt_s"]}[goal_kind]
         row = {"label": label, "on": on["steps_s"], "episodes": on["episodes_s"], "off": off["steps_s"],
-               "bare": on["bare_steps_s"], "rel_err": err[0], "err_of_max": err[1], "goal_kind": goal_kind,
+               "bare": on["bare_steps_s"], "rel_err": err[0], "err_of_max": err[1], "ref_err": ref_err,
+               "goal_kind": goal_kind,
                "goal": goal, "value": value, "met": value >= goal}
         if label.startswith("FillLevel"):
             row["fill_s"], row["fill_n"] = fill_cost()
@@ -293,7 +323,7 @@ _UNITS = {"steps": "steps/s", "episodes": "episodes/s", "rtf": "x real time"}
 
 def _env_line(r: dict) -> str:
     return (f"| {r['label']} | {r['on']:.0f} | {r['episodes']:.1f} | {r['off']:.0f} | {r['bare']:.0f} | "
-            f"{r['rel_err']:.1e} | {r['err_of_max']:.1e} | >= {r['goal']} {_UNITS[r['goal_kind']]}: "
+            f"{r['rel_err']:.1e} | {r['err_of_max']:.1e} | {r['ref_err']:.1e} | >= {r['goal']} {_UNITS[r['goal_kind']]}: "
             f"{r['value']:.0f}, {'met' if r['met'] else 'not met'} |")
 
 
@@ -307,10 +337,14 @@ def env_lines(rows: list[dict], budget_s: float) -> list[str]:
         "one grasp of the target through the closed form against the recorded float32 waveform's, largest "
         "difference per feature / that feature, and / the largest feature (the float32 rounding, 2^-24 of "
         "each sample, is the whole difference: against the float64 chain it is below 1e-6 per feature, "
-        "`tests/test_closed_form_features.py`).",
+        "`tests/test_closed_form_features.py`). *Modes error*: the same grasp's closed-form features with the "
+        "contact modes' attachment vectors combined from kept unit-load solves (the default) against the direct "
+        "solve of each contact set (`sensors.modal.static_correction.REUSE_UNIT_LOADS = False`, the reference), "
+        "largest difference per feature / that feature (`tests/test_unit_load_reuse.py`).",
         "",
-        "| env | on [steps/s] | episodes/s | off [steps/s] | bare [steps/s] | error / feature | error / max | goal |",
-        "|---|---:|---:|---:|---:|---:|---:|---|",
+        "| env | on [steps/s] | episodes/s | off [steps/s] | bare [steps/s] | error / feature | error / max | "
+        "modes error | goal |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     lines += [_env_line(r) for r in rows]
     fill = next((r for r in rows if r["label"].startswith("FillLevel")), None)

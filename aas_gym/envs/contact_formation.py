@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from gymnasium import spaces
 
+from aas_gym.contacts import KINDS
 from aas_gym.envs.base import AasEnv
 from aas_gym.grasp import planar_grasp
 from aas_gym.scenario import place_beside, settle
@@ -22,6 +23,8 @@ from sensors.objects.catalog import ObjectSpec
 from aas_gym.envs.base import object_list
 from sensors.task import HOME_TCP, MAX_OPENING_M, check_action
 
+# Where the table's and the other object's forces sit in ContactStream.normal_force_totals_n.
+_ENVIRONMENT, _OBJECT = KINDS.index("environment"), KINDS.index("object")
 #: The classes, in action order: held in the air, touching the table, touching the other object.
 FORMATIONS = ("free", "table", "object")
 #: A contact counts for the ground truth above this normal force [N] (MuJoCo's resting
@@ -220,9 +223,8 @@ class ContactFormationEnv(AasEnv):
 
     def _truth(self) -> dict:
         """The formation from the target's external contact forces after the step."""
-        c = self._scene.stream.read(self.data)[self._scene.bodies[0]]
-        table = c.total_normal_force_n("environment")
-        other = c.total_normal_force_n("object")
+        totals = self._scene.stream.normal_force_totals_n(self.data, self._scene.bodies[0])
+        table, other = float(totals[_ENVIRONMENT]), float(totals[_OBJECT])
         k = 2 if other > TRUTH_FORCE_N else (1 if table > TRUTH_FORCE_N else 0)
         return {"formation": FORMATIONS[k], "formation_index": k, "table_force_n": float(table),
                 "object_force_n": float(other)}

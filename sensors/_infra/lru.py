@@ -27,7 +27,10 @@ CACHE_SIZES: dict[str, int] = {
     "stream.drive_systems": 4,       # fingertip drive systems per fingertip model
     "stream.steady_states": 8,       # periodic steady states per (system, drive)
     "passive.load_projections": 4,   # one contact read's loads on the modes of the latest contact sets
-    "modal.flexibility": 2,          # K, M and factorization of K + sigma M per model (static correction)
+    "modal.flexibility": 8,          # K, M and factorization of K + sigma M per model (static correction; 8: the
+                                     # seven paper objects ObjectRecognition-v0 cycles, 40-130 MB each)
+    "modal.unit_loads": 256,         # per model: nodes' projected unit-load solves (24 n_dof bytes each: 0.26 MB
+                                     # on a 10,935-dof bar; 256 hold every node random grasps of a bar touch)
     "modal.spring_modes": 32,        # contact-coupled modes per (model, contact springs)
     "modal.coupled_grasps": 16,      # modes of a grasped object with the objects it touches, per contact set
     "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container

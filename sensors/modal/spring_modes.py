@@ -28,6 +28,7 @@ import numpy as np
 from .._infra.lru import CACHE_SIZES, LRU
 from .contact import Contact
 from .contact_stiffness import contact_stiffnesses_n_per_m
+from . import static_correction
 from .static_correction import contact_flexibility, nodal_at
 
 __all__ = ["MIN_MODE_FREQUENCY_HZ", "SpringModes", "contact_springs", "flexible_base", "spring_modes",
@@ -173,7 +174,9 @@ def spring_modes(model, contacts):
     springs = contact_springs(model, contacts)
     if not springs:
         return model
-    key = (id(model), tuple((*p.tolist(), *n.tolist(), kn, kt) for p, n, kn, kt in springs))
+    # the reference path (static_correction.REUSE_UNIT_LOADS False) is kept apart from the fast one
+    key = (id(model), tuple((*p.tolist(), *n.tolist(), kn, kt) for p, n, kn, kt in springs),
+           static_correction.REUSE_UNIT_LOADS)
     hit = _CACHE.get(key)
     if hit is not None and hit.base is model:
         return hit

@@ -25,6 +25,19 @@ Cost: one sparse factorization of K + sigma M per model (kept in an LRU,
 eigen-solve), then per contact set one triangular solve per direction and O(n_dof r a) for the
 orthogonalization (``benchmarks/contact_stiffness.py``).  Nothing is added to the model file:
 storing the correction for every possible contact point would be the full flexibility matrix.
+
+Unit loads reused (the default): the projected solve is linear in the load, and the load of a
+point is a combination of unit loads at the nodes of its element (the shape functions times
+the direction).  So each node's three projected unit-load solves P (K + sigma M)^-1 e_(3n+j)
+are solved once and kept (an LRU per model, ``CACHE_SIZES["modal.unit_loads"]`` nodes), and a
+contact set's attachment vectors are their combination minus the inertia relief's (also
+solved once), and Psi^T K Psi follows from the solves without K (see ``attachment_modes``).
+The same span as the direct solve, summed in another order: the reduced stiffness agrees to
+rounding (eigenvalues within 1e-8 relative, 1.5e-9 measured on the 200 mm wood bar; the span
+within 1e-9: ``tests/test_unit_load_reuse.py``); ``reuse_unit_loads=False`` (or
+:data:`REUSE_UNIT_LOADS`) is the direct solve, the reference.  Random grasps of the same
+object touch the same few elements over and over, so after a few contact sets a new one
+needs no solve at all: 36 -> 12 ms per contact set of GraspPosition-v0's wood bar.
 """
 
 from __future__ import annotations
@@ -37,7 +50,8 @@ from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
 from .basis import check_points_m
 
-__all__ = ["MAX_ATTACHMENT_VECTORS", "ContactFlexibility", "RitzGeometry", "contact_flexibility", "nodal_at"]
+__all__ = ["MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "ContactFlexibility", "RitzGeometry", "contact_flexibility",
+           "nodal_at"]
 
 #: The most attachment vectors (constrained directions, up to 3 per contact) one contact set
 #: may add: 20 contacts with normal and tangential springs.  Each costs one solve with the
@@ -45,11 +59,18 @@ __all__ = ["MAX_ATTACHMENT_VECTORS", "ContactFlexibility", "RitzGeometry", "cont
 #: contact list (every mesh vertex of a MuJoCo contact patch) from building a basis of
 #: thousands of columns.  Raise it here when a scene really needs more.
 MAX_ATTACHMENT_VECTORS = 60
+#: Whether attachment modes combine kept unit-load solves (True, fast) or solve each contact
+#: set's loads directly (False: the reference path, e.g. for a benchmark's error column).
+#: Read at each call; ``sensors.modal.spring_modes`` keys its cache on it.
+REUSE_UNIT_LOADS = True
 # The regularising shift of K, relative to the first elastic eigenvalue (see the docstring).
 _SHIFT = 1e-3
 # Attachment vectors whose M-norm after orthogonalisation is below this fraction of the
 # largest are (numerically) in the span of the others and dropped.
 _DEPENDENT = 1e-10
+# Shape-function weights below this are rounding (a point on a vertex, edge or face has exact
+# zeros there): the reused path leaves those nodes out (a load change below 1e-13 relative).
+_NEGLIGIBLE_WEIGHT = 1e-13
 
 _CACHE: LRU = LRU(CACHE_SIZES["modal.flexibility"])
 
@@ -82,8 +103,35 @@ class ContactFlexibility:
         self.MR, self.MU = self.M @ self.R, self.M @ self.U
         self.KU = self.K @ self.U
         lam1 = float(model.eigenvalues[0]) if model.n_modes else 1.0
-        self.factor = factorize((self.K + _SHIFT * lam1 * self.M).tocsc())
+        self.sigma = _SHIFT * lam1                       # the regularising shift [rad^2/s^2]
+        self.factor = factorize((self.K + self.sigma * self.M).tocsc())
         self.n_dof = 3 * n_nodes
+        # P (K + sigma M)^-1 M R: what the inertia relief subtracts from every unit-load solve
+        self.relief = self._projected(np.asarray(self.factor.solve(self.MR)).reshape(self.n_dof, -1))
+        self._unit_loads: LRU = LRU(CACHE_SIZES["modal.unit_loads"])
+
+    def _projected(self, X: np.ndarray) -> np.ndarray:
+        """``X`` made M-orthogonal to the rigid-body and kept elastic modes (in place)."""
+        for _ in range(2):                                           # twice: M-orthogonal to rounding
+            X -= self.R @ (self.MR.T @ X)
+            X -= self.U @ (self.MU.T @ X)
+        return X
+
+    def unit_load_solves(self, nodes) -> np.ndarray:
+        """P (K + sigma M)^-1 [e_3n, e_3n+1, e_3n+2] for each node n of ``nodes`` (distinct),
+        side by side: (n_dof, 3 len(nodes)).  Solved once per node (the missing ones in one
+        call) and kept in this model's LRU."""
+        blocks = {int(n): self._unit_loads.get(int(n)) for n in nodes}
+        missing = [n for n, b in blocks.items() if b is None]
+        if missing:
+            B = np.zeros((self.n_dof, 3 * len(missing)), order="F")
+            rows = (3 * np.asarray(missing)[:, None] + np.arange(3)).ravel()
+            B[rows, np.arange(rows.size)] = 1.0
+            Y = self._projected(np.asarray(self.factor.solve(B)).reshape(self.n_dof, -1))
+            for i, n in enumerate(missing):
+                # a copy: a view would keep the whole batch alive after the LRU drops the block
+                blocks[n] = self._unit_loads.put(n, Y[:, 3 * i:3 * i + 3].copy(order="F"))
+        return np.concatenate([blocks[int(n)] for n in nodes], axis=1)
 
     def geometry(self) -> "RitzGeometry":
         """What the coupled modes keep of this (the mesh model, rigid-body modes and M): not
@@ -101,11 +149,13 @@ class ContactFlexibility:
         R0[:, 0, 5], R0[:, 1, 5] = -y, x
         return R0 @ self.rigid_transform
 
-    def attachment_modes(self, points_m: np.ndarray, directions: np.ndarray):
+    def attachment_modes(self, points_m: np.ndarray, directions: np.ndarray, reuse_unit_loads: bool | None = None):
         """``(Psi, K_psi, K_psi_u)``: attachment modes (n_dof, a) for unit forces at
         ``points_m`` (a, 3) along ``directions`` (a, 3), M-orthonormal and M-orthogonal to
         the rigid-body and kept elastic modes; their stiffness Psi^T K Psi and the coupling
-        Psi^T K U (rounding level).  ValueError beyond :data:`MAX_ATTACHMENT_VECTORS`."""
+        Psi^T K U (rounding level).  ValueError beyond :data:`MAX_ATTACHMENT_VECTORS`.
+        ``reuse_unit_loads``: combine the kept unit-load solves (module docstring); False:
+        solve the contact set's loads directly (the reference); None: :data:`REUSE_UNIT_LOADS`."""
         a = len(points_m)
         if a > MAX_ATTACHMENT_VECTORS:
             raise ValueError(
@@ -119,21 +169,40 @@ class ContactFlexibility:
         p = check_points_m(points_m)
         tet, bary = model.locator.locate(p)
         N = shape_functions(bary, model.element)                     # (a, n_el)
-        F = np.zeros((self.n_dof, a))
         nodes = model.elements[tet]                                  # (a, n_el)
         cols = np.arange(a)
-        for j in range(3):
-            np.add.at(F, (3 * nodes + j, np.broadcast_to(cols[:, None], nodes.shape)), N * directions[:, j:j + 1])
-        F -= self.MR @ (self.R.T @ F)                                # inertia relief: no rigid-body load
-        X = np.asarray(self.factor.solve(F)).reshape(self.n_dof, a)
-        for _ in range(2):                                           # twice: M-orthogonal to rounding
-            X -= self.R @ (self.MR.T @ X)
-            X -= self.U @ (self.MU.T @ X)
+        reuse = REUSE_UNIT_LOADS if reuse_unit_loads is None else reuse_unit_loads
+        if reuse:
+            # The loads on the distinct nodes: C[3i + j, c] = sum of N * d_j over node i's
+            # entries.  Shape functions below _NEGLIGIBLE_WEIGHT are a point on a vertex or face
+            # seen from the element's other nodes (rounding of its barycentric coordinates).
+            used = np.abs(N) > _NEGLIGIBLE_WEIGHT
+            distinct, index = np.unique(nodes[used], return_inverse=True)
+            C = np.zeros((3 * distinct.size, a))
+            cols_used = np.broadcast_to(cols[:, None], nodes.shape)[used]
+            for j in range(3):
+                np.add.at(C, (3 * index + j, cols_used), (N * directions[:, j:j + 1])[used])
+            dofs = (3 * distinct[:, None] + np.arange(3)).ravel()
+            X = self.unit_load_solves(distinct) @ C - self.relief @ (self.R[dofs].T @ C)
+        else:
+            F = np.zeros((self.n_dof, a))
+            for j in range(3):
+                np.add.at(F, (3 * nodes + j, np.broadcast_to(cols[:, None], nodes.shape)), N * directions[:, j:j + 1])
+            F -= self.MR @ (self.R.T @ F)                            # inertia relief: no rigid-body load
+            X = self._projected(np.asarray(self.factor.solve(F)).reshape(self.n_dof, a))
         G = X.T @ (self.M @ X)
         d, Q = np.linalg.eigh(0.5 * (G + G.T))
         keep = d > _DEPENDENT * max(float(d.max()), 1e-300)
-        Psi = X @ (Q[:, keep] / np.sqrt(d[keep]))
-        Kpsi = Psi.T @ (self.K @ Psi)
+        T = Q[:, keep] / np.sqrt(d[keep])
+        Psi = X @ T
+        if reuse:
+            # X^T K X without K: (K + sigma M) X_raw = F_rel, X = X_raw minus its R and U parts,
+            # K R = 0, K U = M U diag(w^2) and X M-orthogonal to R and U give
+            # X^T K X = X^T F - sigma X^T M X, and X^T F is X at the loaded dofs times C.
+            S = X[dofs].T @ C
+            Kpsi = T.T @ (0.5 * (S + S.T) - self.sigma * G) @ T
+        else:
+            Kpsi = Psi.T @ (self.K @ Psi)
         return Psi, 0.5 * (Kpsi + Kpsi.T), Psi.T @ self.KU
 
 
