@@ -219,9 +219,25 @@ def test_stress_passive_and_dense_reference(bar, reference, case):
 
 
 def test_too_many_contacts_is_refused_with_the_limit(bar, reference):
+    """The attachment solve refuses more directions than the limit, with the limit's name; the
+    contact springs a grasp hands it are merged (nearby parallel springs) to fit it."""
+    from sensors.modal.spring_modes import contact_springs
+    from sensors.modal.static_correction import contact_flexibility
+
     contacts = _surface_contacts(reference, MAX_ATTACHMENT_VECTORS // 3 + 1, 1e7)
+    points = np.array([c.position_m for c in contacts])
+    dirs = np.array([c.normal for c in contacts])
+    many = np.repeat(points, 3, axis=0), np.repeat(dirs, 3, axis=0)
     with pytest.raises(ValueError, match="MAX_ATTACHMENT_VECTORS"):
-        contact_modal_model(bar, contacts)
+        contact_flexibility(bar).attachment_modes(*many)
+    springs = contact_springs(bar, contacts)
+    n_dirs = sum((kn > 0) + 2 * (kt > 0) for _, _, kn, kt in springs)
+    assert n_dirs <= MAX_ATTACHMENT_VECTORS
+    # the merged springs keep the total stiffness
+    total = sum(kn for _, _, kn, _ in springs)
+    assert total == pytest.approx(sum(kn for _, _, kn, _ in contact_springs(bar, contacts[:1])) * len(contacts),
+                                  rel=0.5)
+    contact_modal_model(bar, contacts)       # bounded: builds
 
 
 def test_switching_every_sample_is_passive_and_matches_reference(bar, reference):

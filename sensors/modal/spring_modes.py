@@ -31,7 +31,7 @@ from .contact_stiffness import contact_stiffnesses_n_per_m
 from . import static_correction
 from .static_correction import contact_flexibility, nodal_at
 
-__all__ = ["MIN_MODE_FREQUENCY_HZ", "SpringModes", "contact_springs", "flexible_base", "spring_modes",
+__all__ = ["MERGE_RADIUS_M", "merge_close_springs", "MIN_MODE_FREQUENCY_HZ", "SpringModes", "contact_springs", "flexible_base", "spring_modes",
            "modal_transfer"]
 
 log = logging.getLogger(__name__)
@@ -56,7 +56,46 @@ def contact_springs(model, contacts) -> list[tuple[np.ndarray, np.ndarray, float
         kn, kt = contact_stiffnesses_n_per_m(c, model.material)
         if kn > _NEGLIGIBLE_STIFFNESS_N_PER_M or kt > _NEGLIGIBLE_STIFFNESS_N_PER_M:
             out.append((c.position_m, c.normal, kn, kt))
-    return out
+    return merge_close_springs(out)
+
+
+#: Contact springs closer than this (and facing alike) act as one: MuJoCo gives a face contact
+#: several points a few mm apart, whose attachment vectors are nearly the same.
+MERGE_RADIUS_M = 2e-3
+
+
+def _n_directions(springs) -> int:
+    return sum((kn > _NEGLIGIBLE_STIFFNESS_N_PER_M) + 2 * (kt > _NEGLIGIBLE_STIFFNESS_N_PER_M)
+               for _, _, kn, kt in springs)
+
+
+def merge_close_springs(springs, radius_m: float = MERGE_RADIUS_M):
+    """Springs within ``radius_m`` of each other with normals within 25 degrees merged into one
+    (parallel springs: stiffnesses summed, at their stiffness-weighted centre); the radius is
+    doubled until the constrained directions fit :data:`static_correction.MAX_ATTACHMENT_VECTORS`,
+    so a cluttered contact set (a grasp on an edge: tens of points) stays bounded instead of
+    failing mid-episode."""
+    while True:
+        groups: list[list] = []
+        for p, n, kn, kt in springs:
+            for g in groups:
+                if np.linalg.norm(g[0][0] - p) <= radius_m and float(np.dot(g[0][1], n)) > 0.9:
+                    g.append((p, n, kn, kt))
+                    break
+            else:
+                groups.append([(p, n, kn, kt)])
+        merged = []
+        for g in groups:
+            if len(g) == 1:
+                merged.append(g[0])
+                continue
+            w = np.array([kn + kt for _, _, kn, kt in g])
+            p = np.average([q for q, _, _, _ in g], axis=0, weights=w)
+            n = np.sum([wi * m for wi, (_, m, _, _) in zip(w, g)], axis=0)
+            merged.append((p, n / np.linalg.norm(n), sum(x[2] for x in g), sum(x[3] for x in g)))
+        if _n_directions(merged) <= static_correction.MAX_ATTACHMENT_VECTORS or len(merged) <= 1:
+            return merged
+        springs, radius_m = merged, 2.0 * radius_m
 
 
 class SpringModes:

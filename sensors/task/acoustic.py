@@ -395,7 +395,7 @@ class AcousticConfig:
         """The acoustic entries of a ``sensors.AcousticObservation`` (one frame): after
         :meth:`corrupt` (with ``rng``), its features in :attr:`features` mode and, with
         ``waveform``, its samples zero-padded or cut to ``duration_s``. Without
-        :attr:`needs_waveform`, a features-only recording (``sensors.FeatureObservation``)."""
+        :attr:`needs_waveform`, a features-only recording (``sensors.synthesis.FeatureObservation``)."""
         if not self.enabled:
             return {}
         if not self.needs_waveform:
