@@ -172,13 +172,15 @@ def train(env_id: str, minutes: float, seed: int, out: Path, n_eval: int, eval_e
     model = PPO("MultiInputPolicy", venv, seed=seed, device="cpu", verbose=0, n_steps=64, batch_size=128,
                 learning_rate=5e-4, n_epochs=10, gamma=0.99, gae_lambda=0.95,
                 ent_coef=0.01 if recognition else 0.0, policy_kwargs=policy_kwargs)
+    load_at_start = os.getloadavg()
     callback = EvalAndBudget(env_id, minutes * 60.0, eval_every, n_eval)
     model.learn(total_timesteps=10**9, callback=callback, progress_bar=False)
     callback.run_eval()  # the final policy
     wall_s = time.perf_counter() - callback.t0
     log = {"env": env_id, "seed": seed, "minutes": minutes, "steps": int(model.num_timesteps), "wall_s": wall_s,
            "train_steps_per_s": model.num_timesteps / max(wall_s - callback.eval_s, 1e-9),
-           "load_average": os.getloadavg(), "acoustic": ACOUSTIC, "evaluations": callback.log}
+           "load_average": os.getloadavg(), "load_average_at_start": load_at_start, "acoustic": ACOUSTIC,
+           "evaluations": callback.log}
     if recognition:
         log["probe_positions_mm"] = (PROBE_POSITIONS * venv.envs[0].unwrapped.max_position_m * 1e3).tolist()
         log["excitations"] = [e.kind for e in venv.envs[0].unwrapped.excitations]
@@ -203,8 +205,10 @@ def plot(out: Path, figure: Path) -> None:
                              squeeze=False)
     for ax, (env_id, log) in zip(axes[0], logs.items()):
         steps = [e["steps"] for e in log["evaluations"]]
+        loads = [log[k][0] for k in ("load_average_at_start", "load_average") if k in log]
         title = (f"{env_id}: PPO, {log['steps']:,} steps in {log['wall_s'] / 60:.1f} min\n"
-                 f"({log['train_steps_per_s']:.0f} steps/s, load average {log['load_average'][0]:.1f} on 2 cores)")
+                 f"({log['train_steps_per_s']:.0f} steps/s, load average "
+                 f"{' to '.join(f'{x:.1f}' for x in loads)} on 2 cores)")
         if env_id == "ObjectRecognition-v0":
             ax.plot(steps, [100 * e["accuracy"] for e in log["evaluations"]], "o-", label="accuracy, held-out seeds")
             ax.axhline(90, color="C2", ls="--", lw=1, label="goal 90 %")
@@ -242,13 +246,15 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", default="outputs/ppo", help="folder of the logs and policies")
     parser.add_argument("--figure", default="../docs/images/ppo_curves.png")
-    parser.add_argument("--eval-episodes", type=int, default=70)
+    parser.add_argument("--eval-episodes", type=int, default=None,
+                        help="held-out episodes per evaluation (default: 10 per label, 5 per position)")
     parser.add_argument("--eval-every", type=int, default=3072, help="environment steps between evaluations")
     parser.add_argument("--plot-only", action="store_true")
     args = parser.parse_args()
-    out, figure = HERE / args.out, HERE / args.figure  # an absolute path stays as it is
+    out, figure = (HERE / args.out).resolve(), (HERE / args.figure).resolve()  # an absolute path stays as it is
     if not args.plot_only:
-        log = train(args.env, args.minutes, args.seed, out, args.eval_episodes, args.eval_every)
+        n_eval = args.eval_episodes or (70 if args.env == "ObjectRecognition-v0" else 65)
+        log = train(args.env, args.minutes, args.seed, out, n_eval, args.eval_every)
         final = {k: v for k, v in log["evaluations"][-1].items() if not isinstance(v, list)}
         print(f"{args.env}: {log['steps']:,} steps in {log['wall_s']:.0f} s "
               f"({log['train_steps_per_s']:.0f} steps/s), final {final}")
