@@ -89,8 +89,11 @@ def compute_shard(config_dict: dict[str, Any], shard_index: int) -> bytes:
 
     from aas_gym.experiments.simulate import run_task
 
+    from sensors._infra.lru import clear_all
+
     config = DatasetConfig.from_dict(config_dict)
     tasks = config.shards()[shard_index]
+    clear_all()      # the shard's bytes depend on its config only, not on the worker's history
     rows: list[dict[str, Any]] = []
     # One worker per core: BLAS threads inside a worker would only oversubscribe the cores.
     with threadpool_limits(1):

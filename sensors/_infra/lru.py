@@ -7,10 +7,12 @@ memory finds every bound here and can change them at run time before the caches 
 
 from __future__ import annotations
 
+import weakref
+
 from collections import OrderedDict
 from typing import Callable, Generic, Hashable, TypeVar
 
-__all__ = ["CACHE_SIZES", "LRU"]
+__all__ = ["CACHE_SIZES", "LRU", "clear_all"]
 
 V = TypeVar("V")
 
@@ -38,13 +40,24 @@ CACHE_SIZES: dict[str, int] = {
     "objects.solids": 64,            # surfaces and meshers of the catalog's surface objects
     "sim.models": 32,                # modal models shared by the scenes of one process
     "sim.material_views": 16,
-    "sim.touching_groups": 16,       # recent coupled groups per (grasped, touching objects) of a sensor        # randomized material views of those models
+    "sim.touching_groups": 16,       # recent coupled groups per (grasped, touching objects) of a sensor
     "sim.grasp_sets": 64,            # antipodal grasps of surface objects the hand can take
     "env.scenes": 8,                 # compiled MuJoCo scenes per env
     "env.physics_runs": 128,         # settled placements and grasps per scene (~0.5 MB each)
     "dataset.scenes": 16,            # compiled MuJoCo scenes of one dataset worker
     "signals.noise_folders": 4,      # folders of background-noise recordings (corruption)
 }
+
+
+_INSTANCES: "weakref.WeakSet[LRU]" = weakref.WeakSet()
+
+
+def clear_all() -> None:
+    """Empty every LRU of the process. Results that reuse what an earlier call left (kept
+    unit-load solves, coupled groups within a tolerance) then depend only on the calls since:
+    a dataset shard starts from here, so its bytes do not depend on what its worker ran before."""
+    for cache in list(_INSTANCES):
+        cache.clear()
 
 
 class LRU(Generic[V]):
@@ -58,6 +71,7 @@ class LRU(Generic[V]):
         if isinstance(max_size, bool) or not isinstance(max_size, int) or max_size < 1:
             raise ValueError(f"an LRU cache needs a whole max_size >= 1, got {max_size!r}")
         self.max_size = max_size
+        _INSTANCES.add(self)
         self.hits = 0
         self.misses = 0
         self._entries: OrderedDict[Hashable, V] = OrderedDict()
