@@ -116,7 +116,7 @@ class SpringModes:
         w = np.asarray(base.angular_frequencies_rad_s, float)
         r = w.size
         if flexible is not None:                       # ModalModel (or a view of one): [R, U, Psi]
-            self._flex = flexible.geometry()           # not the factorization (see its LRU)
+            self.geometry = flexible.geometry()           # not the factorization (see its LRU)
             dirs, pts = _directions(springs)
             self.psi, Kpsi, Kpsi_u = flexible.attachment_modes(pts, dirs)
             a = self.psi.shape[1]
@@ -128,7 +128,7 @@ class SpringModes:
             K[6:6 + r, 6 + r:] = K[6 + r:, 6:6 + r].T
             self.split = (6, r, a)
         else:                                          # no mesh: the elastic modes alone
-            self._flex, self.psi = None, None
+            self.geometry, self.psi = None, None
             K = np.diag(w ** 2)
             self.split = (0, r, 0)
         self.free_stiffness = K.copy()   # of the Ritz basis, before the springs
@@ -147,11 +147,11 @@ class SpringModes:
         """The Ritz basis [R, U, Psi] at points: (n, 3, 6 + r + a) (or U alone without a mesh);
         ``split`` holds the three column counts, ``free_stiffness`` its stiffness without springs."""
         U = np.asarray(self.base.mode_shapes_at(points_m), float)
-        if self._flex is None:
+        if self.geometry is None:
             return U
         s = self._shape_scale
-        R = self._flex.rigid_at(points_m) * s
-        P = nodal_at(self._flex.model, self.psi.reshape(-1, 3, self.psi.shape[1]), points_m) * s
+        R = self.geometry.rigid_at(points_m) * s
+        P = nodal_at(self.geometry.model, self.psi.reshape(-1, 3, self.psi.shape[1]), points_m) * s
         return np.concatenate([R, U, P], axis=2)
 
     def mode_shapes_at(self, points_m) -> np.ndarray:
@@ -240,7 +240,7 @@ def _ritz_parts(modes):
         n_rigid, r, a = modes.split
         free = np.zeros((6 + r, modes.V.shape[1]))
         free[6 - n_rigid:] = modes.V[:n_rigid + r]
-        return free, modes.psi, modes.V[n_rigid + r:], modes._flex
+        return free, modes.psi, modes.V[n_rigid + r:], modes.geometry
     r = len(modes.angular_frequencies_rad_s)
     return np.vstack([np.zeros((6, r)), np.eye(r)]), None, None, None
 

@@ -75,20 +75,20 @@ class FeatureObservation:
         return self.window_amplitudes.mean(axis=0) if average else self.window_amplitudes.copy()
 
 
-_BINS: dict = {}
+_BINS: LRU = LRU(CACHE_SIZES["synthesis.feature_bins"])
 
 
 def _feature_bins(excitation: Excitation) -> np.ndarray | None:
     """The feature frequencies as DFT bins of one excitation period, or None if they are not
     whole bins (the time-domain chain's chirp-z path then applies)."""
-    key = (excitation.sample_rate_hz, excitation.period_s)
-    if key not in _BINS:                      # one entry per (rate, period): a handful at most
+    def build():
         P = excitation.period_samples
         bins = feature_frequencies_hz() * P / excitation.sample_rate_hz
         whole = int(round(excitation.period_s * excitation.sample_rate_hz)) == P and \
             np.allclose(bins, np.round(bins), rtol=0, atol=1e-9)
-        _BINS[key] = np.round(bins).astype(int) if whole else None
-    return _BINS[key]
+        return (np.round(bins).astype(int) if whole else None,)
+
+    return _BINS.get_or_build((excitation.sample_rate_hz, excitation.period_s), build)[0]
 
 
 @dataclass(frozen=True)
