@@ -31,6 +31,15 @@ PAD_CLEARANCE_M = 0.009
 TCP_JOINTS = ("hand_x", "hand_y", "hand_z", "hand_yaw")
 
 
+def model_id(model: mujoco.MjModel, kind, name: str, what: str) -> int:
+    """The id of ``name`` (a ``mujoco.mjtObj`` ``kind``) in ``model``; ``HandError`` naming
+    ``what`` the model should have been if it has none."""
+    i = mujoco.mj_name2id(model, kind, name)
+    if i < 0:
+        raise HandError(f"model has no {kind.name[6:].lower()} {name!r}: not {what}")
+    return i
+
+
 class HandError(ValueError):
     """The model does not contain the aas_gym hand (or a part of it)."""
 
@@ -64,11 +73,7 @@ class Hand:
         self.model = model
 
         def ident(kind, name):
-            i = mujoco.mj_name2id(model, kind, name)
-            if i < 0:
-                raise HandError(f"model has no {kind.name[6:].lower()} {name!r}: not an aas_gym hand scene "
-                                "(build one with aas_gym.scene.build_scene)")
-            return i
+            return model_id(model, kind, name, "an aas_gym hand scene (build one with aas_gym.scene.build_scene)")
 
         j = mujoco.mjtObj.mjOBJ_JOINT
         self.tcp_joint_ids = np.array([ident(j, n) for n in TCP_JOINTS])

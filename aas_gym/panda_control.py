@@ -19,7 +19,7 @@ import math
 import mujoco
 import numpy as np
 
-from aas_gym.grasp import MAX_OPENING_M, Hand, HandError
+from aas_gym.grasp import MAX_OPENING_M, Hand, HandError, model_id
 from aas_gym.panda import PANDA_JOINTS
 
 __all__ = ["IK_POSITION_TOL_M", "IK_YAW_TOL_RAD", "PANDA_TCP_HIGH", "PANDA_TCP_LOW", "PANDA_REST_Q", "PandaArm",
@@ -60,11 +60,8 @@ class PandaArm(Hand):
         self.model = model
 
         def ident(kind, name):
-            i = mujoco.mj_name2id(model, kind, name)
-            if i < 0:
-                raise HandError(f"model has no {kind.name[6:].lower()} {name!r}: not an aas_gym Panda scene "
-                                "(build one with aas_gym.scene.build_scene(..., robot='panda'))")
-            return i
+            return model_id(model, kind, name, "an aas_gym Panda scene "
+                            "(build one with aas_gym.scene.build_scene(..., robot='panda'))")
 
         j, a = mujoco.mjtObj.mjOBJ_JOINT, mujoco.mjtObj.mjOBJ_ACTUATOR
         self.arm_joint_ids = np.array([ident(j, n) for n in PANDA_JOINTS])
