@@ -19,7 +19,7 @@ import math
 import mujoco
 import numpy as np
 
-from aas_gym.grasp import MAX_OPENING_M, Hand, HandError, model_id
+from aas_gym.grasp import MAX_OPENING_M, Hand, model_id
 from aas_gym.panda import PANDA_JOINTS
 
 __all__ = ["IK_POSITION_TOL_M", "IK_YAW_TOL_RAD", "PANDA_TCP_HIGH", "PANDA_TCP_LOW", "PANDA_REST_Q", "PandaArm",
