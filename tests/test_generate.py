@@ -1,6 +1,7 @@
 """Dataset generation: deterministic bytes, resumable after a kill, same output on Ray."""
 
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -72,6 +73,21 @@ def test_resume_after_kill_loses_and_duplicates_nothing(reference, tmp_path):
     assert len(done) == len(DatasetConfig(**SMALL).shards()) - n_before  # only the missing ones
     assert _bytes(out) == _bytes(reference)
     assert not list(out.glob(".*.tmp"))
+
+
+def test_a_shard_has_the_same_bytes_whatever_the_thread_count(reference):
+    """A fresh worker on a machine with many cores: PARDISO and BLAS would sum in another
+    order with more threads. The shard runs single-threaded whatever the environment says
+    (the libraries load before the limit), so the bytes match the reference's."""
+    code = ("import sys; from aas_gym.experiments.config import DatasetConfig;"
+            "from aas_gym.experiments.generate import compute_shard;"
+            f"sys.stdout.buffer.write(compute_shard(DatasetConfig(**{SMALL!r}).to_dict(), 0))")
+    for threads in ("1", "6"):
+        env = dict(os.environ, OMP_NUM_THREADS=threads, MKL_NUM_THREADS=threads, OPENBLAS_NUM_THREADS=threads,
+                   PYTHONPATH=os.pathsep.join(filter(None, [str(Path(__file__).parents[1]),
+                                                            os.environ.get("PYTHONPATH")])))
+        out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, check=True).stdout
+        assert out == _bytes(reference)["shard-00000.parquet"], f"{threads} threads"
 
 
 def test_another_config_in_the_same_folder_is_refused(reference, tmp_path):

@@ -22,7 +22,7 @@ from sensors.objects.catalog import ObjectSpec, get_object
 from sensors.signals.excitation import Excitation
 from sensors.signals.features import spectral_features
 
-FUZZ = settings(max_examples=40, deadline=2000, suppress_health_check=[HealthCheck.function_scoped_fixture])
+FUZZ = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 #: Anything a user might pass where a number belongs.
 WILD = st.one_of(
@@ -154,7 +154,7 @@ def test_get_object_names(name):
         assert isinstance(name, str) and isinstance(spec, ObjectSpec)
 
 
-@settings(max_examples=15, deadline=5000, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(scale=WILD, name=st.one_of(st.none(), st.text(max_size=8), st.sampled_from(["mug", "bar", "mesh"]), WILD))
 def test_from_mesh(tmp_path, monkeypatch, scale, name):
     monkeypatch.setenv("AAS_GYM_CACHE", str(tmp_path / "cache"))

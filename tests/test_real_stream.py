@@ -198,7 +198,8 @@ def stream_env(audio_loopback):
     from real.env import RealGraspEnv
 
     robot = MujocoRobot(randomization=False)
-    sensor = real.RealAcousticSensor(real.PyAudioRig(output_gain=GAIN, frames_per_buffer=FRAMES_PER_BUFFER))
+    sensor = real.RealAcousticSensor(real.PyAudioRig(output_gain=GAIN, frames_per_buffer=FRAMES_PER_BUFFER,
+                                                      stall_timeout_s=5.0))  # load, not a lost device
     env = RealGraspEnv(robot, sensor, acoustic={"excitation": "linear", "cadence": "stream"})
     yield env
     env.close()

@@ -332,7 +332,7 @@ def test_real_env_corrupts_as_the_simulation_over_the_loopback(audio_loopback):
 
     acoustic = {"duration_s": 0.5, "waveform": True, "features": "mel", "corruption": CORRUPTION}
     robot = MujocoRobot(randomization=False)
-    sensor = real.RealAcousticSensor(real.PyAudioRig(output_gain=0.5, frames_per_buffer=4096))
+    sensor = real.RealAcousticSensor(real.PyAudioRig(output_gain=0.5, frames_per_buffer=4096, stall_timeout_s=5.0))
     env = RealGraspEnv(robot, sensor, acoustic=acoustic)
     sim = gym.make("aas_gym/AcousticGrasp-v0", acoustic=acoustic).unwrapped
     try:

@@ -26,6 +26,7 @@ computed again; on load it is an error naming the shard.
 from __future__ import annotations
 
 import ctypes
+import contextlib
 import hashlib
 import io
 import json
@@ -83,10 +84,28 @@ def shard_path(out_dir: Path, index: int) -> Path:
     return out_dir / f"shard-{index:05d}.parquet"
 
 
-def compute_shard(config_dict: dict[str, Any], shard_index: int) -> bytes:
-    """Simulate one shard and return it as Parquet bytes (runs in a worker)."""
+@contextlib.contextmanager
+def single_threaded():
+    """Every numerical thread pool of the process at one thread, for the block.
+
+    One worker per core: threads inside a worker would only oversubscribe the cores. It is also
+    what makes a shard's bytes the same in every process: PARDISO's factorization and BLAS sum in
+    another order with another thread count, which moves float32 features by a rounding step.
+    ``threadpoolctl`` limits only the libraries loaded when the block starts, and a fresh worker
+    has not loaded MKL (PARDISO) or SciPy's BLAS yet, so they are loaded first.
+    """
+    import scipy.linalg  # noqa: F401 - loads SciPy's BLAS/LAPACK
     from threadpoolctl import threadpool_limits
 
+    from sensors.fem.pardiso import mkl_library
+
+    mkl_library()
+    with threadpool_limits(1):
+        yield
+
+
+def compute_shard(config_dict: dict[str, Any], shard_index: int) -> bytes:
+    """Simulate one shard and return it as Parquet bytes (runs in a worker)."""
     from aas_gym.experiments.simulate import run_task
 
     from sensors._infra.lru import clear_all
@@ -95,8 +114,7 @@ def compute_shard(config_dict: dict[str, Any], shard_index: int) -> bytes:
     tasks = config.shards()[shard_index]
     clear_all()      # the shard's bytes depend on its config only, not on the worker's history
     rows: list[dict[str, Any]] = []
-    # One worker per core: BLAS threads inside a worker would only oversubscribe the cores.
-    with threadpool_limits(1):
+    with single_threaded():
         for task in tasks:
             rows += run_task(task, config)
     return rows_to_parquet(rows, config)
