@@ -12,7 +12,7 @@ import weakref
 from collections import OrderedDict
 from typing import Callable, Generic, Hashable, TypeVar
 
-__all__ = ["CACHE_SIZES", "LRU", "clear_all"]
+__all__ = ["CACHE_SIZES", "IdentityKey", "LRU", "clear_all"]
 
 V = TypeVar("V")
 
@@ -34,10 +34,12 @@ CACHE_SIZES: dict[str, int] = {
                                      # seven paper objects ObjectRecognition-v0 cycles, 40-130 MB each)
     "modal.unit_loads": 256,         # per model: nodes' projected unit-load solves (24 n_dof bytes each: 0.26 MB
                                      # on a 10,935-dof bar; 256 hold every node random grasps of a bar touch)
+    "modal.attachment_bases": 16,    # per model: recent contact sets' attachment vectors (reused within a distance)
     "modal.spring_modes": 32,        # contact-coupled modes per (model, contact springs)
     "modal.coupled_grasps": 16,      # modes of a grasped object with the objects it touches, per contact set
     "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container
     "fluid.containers": 8,           # containers (dry model + static correction) per object
+    "mesh.point_locations": 64,      # per mesh: located point batches (containing tet, barycentrics; surface)
     "objects.solids": 64,            # surfaces and meshers of the catalog's surface objects
     "sim.models": 32,                # modal models shared by the scenes of one process
     "sim.material_views": 16,
@@ -59,6 +61,22 @@ def clear_all() -> None:
     a dataset shard starts from here, so its bytes do not depend on what its worker ran before."""
     for cache in list(_INSTANCES):
         cache.clear()
+
+
+class IdentityKey:
+    """Hashes an object by identity while holding it (so its id cannot be reused while the
+    key lives): models are keys by identity, not by their (large) contents."""
+
+    __slots__ = ("obj",)
+
+    def __init__(self, obj) -> None:
+        self.obj = obj
+
+    def __hash__(self) -> int:
+        return id(self.obj)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, IdentityKey) and other.obj is self.obj
 
 
 class LRU(Generic[V]):

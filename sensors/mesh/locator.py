@@ -4,6 +4,8 @@ surface point, face and outward (faceted) normal. Spatial indexes are built on f
 from __future__ import annotations
 
 import numpy as np
+
+from .._infra.lru import CACHE_SIZES, LRU
 from .tets import boundary_faces
 
 __all__ = ["TetLocator", "closest_points_on_triangles"]
@@ -56,6 +58,9 @@ class TetLocator:
         self._surface = None
         self._tet_tree = None
         self._tinv = None
+        # the same points are asked again and again (a contact set's points for its springs,
+        # damping, mode shapes and loads): answers kept by the points' bytes, exact
+        self._answers: LRU = LRU(CACHE_SIZES["mesh.point_locations"])
 
     def surface_data(self):
         if self._surface is None:
@@ -72,7 +77,22 @@ class TetLocator:
         return self._surface
 
     def closest_surface(self, points: np.ndarray):
-        """Closest surface point, face index and distance for each point."""
+        """Closest surface point, face index and distance for each point (read-only arrays,
+        kept for the same points)."""
+        return self._remembered("surface", points, self._closest_surface)
+
+    def _remembered(self, kind: str, points: np.ndarray, compute):
+        points = np.ascontiguousarray(points, dtype=float)
+        key = (kind, points.shape, points.tobytes())
+        hit = self._answers.get(key)
+        if hit is None:
+            hit = tuple(compute(points))
+            for a in hit:
+                a.flags.writeable = False
+            self._answers.put(key, hit)
+        return hit
+
+    def _closest_surface(self, points: np.ndarray):
         s = self.surface_data()
         n_faces = len(s["faces"])
         k = min(16, n_faces)
@@ -105,7 +125,11 @@ class TetLocator:
         return np.concatenate([1.0 - lam.sum(axis=-1, keepdims=True), lam], axis=-1)
 
     def locate(self, points: np.ndarray):
-        """Containing tet and barycentric coordinates; outside points go to the nearest surface point."""
+        """Containing tet and barycentric coordinates; outside points go to the nearest surface
+        point (read-only arrays, kept for the same points)."""
+        return self._remembered("locate", points, self._locate)
+
+    def _locate(self, points: np.ndarray):
         if self._tet_tree is None:
             from scipy.spatial import cKDTree  # ~0.05 s to import: only models that are queried pay
 

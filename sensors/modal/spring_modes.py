@@ -25,7 +25,7 @@ import logging
 
 import numpy as np
 
-from .._infra.lru import CACHE_SIZES, LRU
+from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from .contact import Contact
 from .contact_stiffness import contact_stiffnesses_n_per_m
 from . import static_correction
@@ -118,7 +118,8 @@ class SpringModes:
         if flexible is not None:                       # ModalModel (or a view of one): [R, U, Psi]
             self.geometry = flexible.geometry()           # not the factorization (see its LRU)
             dirs, pts = _directions(springs)
-            self.psi, Kpsi, Kpsi_u = flexible.attachment_modes(pts, dirs)
+            self.attachment = flexible.attachment_basis(pts, dirs)
+            self.psi, Kpsi, Kpsi_u = self.attachment.psi, self.attachment.stiffness, self.attachment.coupling
             a = self.psi.shape[1]
             n = 6 + r + a
             K = np.zeros((n, n))
@@ -128,7 +129,7 @@ class SpringModes:
             K[6:6 + r, 6 + r:] = K[6 + r:, 6:6 + r].T
             self.split = (6, r, a)
         else:                                          # no mesh: the elastic modes alone
-            self.geometry, self.psi = None, None
+            self.geometry, self.psi, self.attachment = None, None, None
             K = np.diag(w ** 2)
             self.split = (0, r, 0)
         self.free_stiffness = K.copy()   # of the Ritz basis, before the springs
@@ -141,6 +142,11 @@ class SpringModes:
         self.V = V[:, keep]
         self.angular_frequencies_rad_s = np.sqrt(lam[keep])
         self.frequencies_hz = self.angular_frequencies_rad_s / (2 * np.pi)
+
+    def mass_psi(self) -> np.ndarray | None:
+        """M Psi (n_dof, a), the attachment vectors times the mesh's mass matrix: what every
+        state transfer from these modes needs (:func:`modal_transfer`), made once."""
+        return None if self.attachment is None else self.attachment.mass_psi()
 
     # -- ModalBasis ----------------------------------------------------------------------
     def ritz_at(self, points_m) -> np.ndarray:
@@ -214,10 +220,10 @@ def spring_modes(model, contacts):
     if not springs:
         return model
     # the reference path (static_correction.REUSE_UNIT_LOADS False) is kept apart from the fast one
-    key = (id(model), tuple((*p.tolist(), *n.tolist(), kn, kt) for p, n, kn, kt in springs),
+    key = (IdentityKey(model), tuple((*p.tolist(), *n.tolist(), kn, kt) for p, n, kn, kt in springs),
            static_correction.REUSE_UNIT_LOADS)
     hit = _CACHE.get(key)
-    if hit is not None and hit.base is model:
+    if hit is not None:
         return hit
     flex = flexible_base(model)
     if flex is None:
@@ -235,12 +241,12 @@ def spring_modes(model, contacts):
 
 def _ritz_parts(modes):
     """``(free coefficients (6 + r, r_c), psi (n_dof, a) or None, psi coefficients (a, r_c),
-    flexibility)`` of a model's coordinates in the common Ritz basis [R, U]."""
+    M psi or None)`` of a model's coordinates in the common Ritz basis [R, U]."""
     if hasattr(modes, "split"):      # SpringModes, or a grasp coupled to other bodies (modal.touching)
         n_rigid, r, a = modes.split
         free = np.zeros((6 + r, modes.V.shape[1]))
         free[6 - n_rigid:] = modes.V[:n_rigid + r]
-        return free, modes.psi, modes.V[n_rigid + r:], modes.geometry
+        return free, modes.psi, modes.V[n_rigid + r:], modes.mass_psi
     r = len(modes.angular_frequencies_rad_s)
     return np.vstack([np.zeros((6, r)), np.eye(r)]), None, None, None
 
@@ -260,12 +266,11 @@ def modal_transfer(from_modes, to_modes) -> np.ndarray:
         return np.eye(len(to_modes.angular_frequencies_rad_s))
     if _root(from_modes) is not _root(to_modes):
         raise ValueError("modal_transfer: the two modal models are not of the same object")
-    fa, pa, ca, flex_a = _ritz_parts(from_modes)
-    fb, pb, cb, flex_b = _ritz_parts(to_modes)
+    fa, pa, ca, mass_pa = _ritz_parts(from_modes)
+    fb, pb, cb, _ = _ritz_parts(to_modes)
     T = fb.T @ fa
     if pa is not None and pb is not None and pa.shape[1] and pb.shape[1]:
-        flex = flex_a if flex_a is not None else flex_b
-        T += cb.T @ (pb.T @ (flex.M @ pa)) @ ca   # Psi M-norms are material-invariant (see SpringModes)
+        T += cb.T @ (pb.T @ mass_pa()) @ ca   # Psi M-norms are material-invariant (see SpringModes)
     # the bodies a grasped object touches, when both sides share them (modal.touching)
     partners = getattr(to_modes, "partner_transfer", None)
     if partners is not None:

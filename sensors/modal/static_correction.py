@@ -43,15 +43,16 @@ needs no solve at all: 36 -> 12 ms per contact set of GraspPosition-v0's wood ba
 from __future__ import annotations
 
 import numpy as np
+from scipy.sparse import csr_matrix
 
-from .._infra.lru import CACHE_SIZES, LRU
+from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from ..fem.assembly import shape_functions
 from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
 from .basis import check_points_m
 
-__all__ = ["MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "ContactFlexibility", "RitzGeometry", "contact_flexibility",
-           "nodal_at"]
+__all__ = ["MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "AttachmentBasis", "ContactFlexibility",
+           "RitzGeometry", "contact_flexibility", "nodal_at"]
 
 #: The most attachment vectors (constrained directions, up to 3 per contact) one contact set
 #: may add: 20 contacts with normal and tangential springs.  Each costs one solve with the
@@ -108,7 +109,9 @@ class ContactFlexibility:
         self.n_dof = 3 * n_nodes
         # P (K + sigma M)^-1 M R: what the inertia relief subtracts from every unit-load solve
         self.relief = self._projected(np.asarray(self.factor.solve(self.MR)).reshape(self.n_dof, -1))
-        self._unit_loads: LRU = LRU(CACHE_SIZES["modal.unit_loads"])
+        self.relief_ku = self.relief.T @ self.KU                   # its Y^T K U rows (6, r)
+        self._store = _UnitLoadStore(self)
+        self._bases: LRU = LRU(CACHE_SIZES["modal.attachment_bases"])
 
     def _projected(self, X: np.ndarray) -> np.ndarray:
         """``X`` made M-orthogonal to the rigid-body and kept elastic modes (in place)."""
@@ -116,22 +119,6 @@ class ContactFlexibility:
             X -= self.R @ (self.MR.T @ X)
             X -= self.U @ (self.MU.T @ X)
         return X
-
-    def unit_load_solves(self, nodes) -> np.ndarray:
-        """P (K + sigma M)^-1 [e_3n, e_3n+1, e_3n+2] for each node n of ``nodes`` (distinct),
-        side by side: (n_dof, 3 len(nodes)).  Solved once per node (the missing ones in one
-        call) and kept in this model's LRU."""
-        blocks = {int(n): self._unit_loads.get(int(n)) for n in nodes}
-        missing = [n for n, b in blocks.items() if b is None]
-        if missing:
-            B = np.zeros((self.n_dof, 3 * len(missing)), order="F")
-            rows = (3 * np.asarray(missing)[:, None] + np.arange(3)).ravel()
-            B[rows, np.arange(rows.size)] = 1.0
-            Y = self._projected(np.asarray(self.factor.solve(B)).reshape(self.n_dof, -1))
-            for i, n in enumerate(missing):
-                # a copy: a view would keep the whole batch alive after the LRU drops the block
-                blocks[n] = self._unit_loads.put(n, Y[:, 3 * i:3 * i + 3].copy(order="F"))
-        return np.concatenate([blocks[int(n)] for n in nodes], axis=1)
 
     def geometry(self) -> "RitzGeometry":
         """What the coupled modes keep of this (the mesh model, rigid-body modes and M): not
@@ -156,6 +143,10 @@ class ContactFlexibility:
         Psi^T K U (rounding level).  ValueError beyond :data:`MAX_ATTACHMENT_VECTORS`.
         ``reuse_unit_loads``: combine the kept unit-load solves (module docstring); False:
         solve the contact set's loads directly (the reference); None: :data:`REUSE_UNIT_LOADS`."""
+        return self._attachment(points_m, directions, reuse_unit_loads)[:3]
+
+    def _attachment(self, points_m, directions, reuse_unit_loads):
+        """:meth:`attachment_modes` and M Psi (None where it was not made on the way)."""
         a = len(points_m)
         if a > MAX_ATTACHMENT_VECTORS:
             raise ValueError(
@@ -164,7 +155,7 @@ class ContactFlexibility:
                 f"{MAX_ATTACHMENT_VECTORS} (20 contacts with normal and tangential springs): merge contact points "
                 "or raise sensors.modal.static_correction.MAX_ATTACHMENT_VECTORS")
         if a == 0:
-            return np.zeros((self.n_dof, 0)), np.zeros((0, 0)), np.zeros((0, self.U.shape[1]))
+            return np.zeros((self.n_dof, 0)), np.zeros((0, 0)), np.zeros((0, self.U.shape[1])), np.zeros((self.n_dof, 0))
         model = self.model
         p = check_points_m(points_m)
         tet, bary = model.locator.locate(p)
@@ -178,19 +169,30 @@ class ContactFlexibility:
             # seen from the element's other nodes (rounding of its barycentric coordinates).
             used = np.abs(N) > _NEGLIGIBLE_WEIGHT
             distinct, index = np.unique(nodes[used], return_inverse=True)
+            reuse = distinct.size <= self._store.capacity     # else: more nodes than kept, solve directly
+        if reuse:
             C = np.zeros((3 * distinct.size, a))
             cols_used = np.broadcast_to(cols[:, None], nodes.shape)[used]
             for j in range(3):
                 np.add.at(C, (3 * index + j, cols_used), (N * directions[:, j:j + 1])[used])
             dofs = (3 * distinct[:, None] + np.arange(3)).ravel()
-            X = self.unit_load_solves(distinct) @ C - self.relief @ (self.R[dofs].T @ C)
+            store = self._store
+            columns = store.columns(distinct)
+            # X = Y C - relief R^T C with C sparse (30 of its 3 n_nodes rows per column): one
+            # sparse product over the store's columns, no copy of them
+            i, c = np.nonzero(C)
+            Ct = csr_matrix((C[i, c], (c, columns[i])), shape=(a, store.Y.shape[1]))
+            B = self.R[dofs].T @ C                                   # (6, a): the relief's share
+            X = np.asarray(Ct @ store.Y.T).T - self.relief @ B
+            XKU = C.T @ store.KU[columns] - B.T @ self.relief_ku      # X^T K U without the n_dof sum
         else:
             F = np.zeros((self.n_dof, a))
             for j in range(3):
                 np.add.at(F, (3 * nodes + j, np.broadcast_to(cols[:, None], nodes.shape)), N * directions[:, j:j + 1])
             F -= self.MR @ (self.R.T @ F)                            # inertia relief: no rigid-body load
             X = self._projected(np.asarray(self.factor.solve(F)).reshape(self.n_dof, a))
-        G = X.T @ (self.M @ X)
+        MX = self.M @ X
+        G = X.T @ MX
         d, Q = np.linalg.eigh(0.5 * (G + G.T))
         keep = d > _DEPENDENT * max(float(d.max()), 1e-300)
         T = Q[:, keep] / np.sqrt(d[keep])
@@ -201,9 +203,92 @@ class ContactFlexibility:
             # X^T K X = X^T F - sigma X^T M X, and X^T F is X at the loaded dofs times C.
             S = X[dofs].T @ C
             Kpsi = T.T @ (0.5 * (S + S.T) - self.sigma * G) @ T
-        else:
-            Kpsi = Psi.T @ (self.K @ Psi)
-        return Psi, 0.5 * (Kpsi + Kpsi.T), Psi.T @ self.KU
+            return Psi, 0.5 * (Kpsi + Kpsi.T), T.T @ XKU, MX @ T
+        Kpsi = Psi.T @ (self.K @ Psi)
+        return Psi, 0.5 * (Kpsi + Kpsi.T), Psi.T @ self.KU, None
+
+    def attachment_basis(self, points_m: np.ndarray, directions: np.ndarray) -> "AttachmentBasis":
+        """The :class:`AttachmentBasis` of unit forces at ``points_m`` (a, 3) along
+        ``directions`` (a, 3) (:meth:`attachment_modes`; kept for the same points and
+        directions, as a coupled group's partner asks for its own again and again)."""
+        pts = np.ascontiguousarray(points_m, dtype=float).reshape(-1, 3)
+        dirs = np.ascontiguousarray(directions, dtype=float).reshape(-1, 3)
+        key = (pts.tobytes(), dirs.tobytes(), bool(REUSE_UNIT_LOADS))
+        return self._bases.get_or_build(key, lambda: AttachmentBasis(*self._attachment(pts, dirs, None), self.M))
+
+
+class AttachmentBasis:
+    """Attachment vectors of one contact set (:meth:`ContactFlexibility.attachment_modes`):
+    ``psi`` (n_dof, a), their stiffness ``stiffness`` (a, a) = Psi^T K Psi and ``coupling``
+    (a, r) = Psi^T K U, and :meth:`mass_psi` (M Psi: every state transfer needs it)."""
+
+    def __init__(self, psi, stiffness, coupling, mass_psi, M) -> None:
+        self.psi, self.stiffness, self.coupling = psi, stiffness, coupling
+        self._M, self._mass_psi = M, mass_psi
+
+    def mass_psi(self) -> np.ndarray:
+        """M Psi (n_dof, a)."""
+        if self._mass_psi is None:
+            self._mass_psi = self._M @ self.psi
+        return self._mass_psi
+
+
+class _UnitLoadStore:
+    """The kept unit-load solves of one model, side by side in one array so that a contact
+    set's loads combine them with one sparse product (no copy of the columns it uses).
+
+    ``Y`` (n_dof, 3 slots): each kept node's P (K + sigma M)^-1 [e_3n, e_3n+1, e_3n+2] in its
+    slot's three columns; ``KU`` (3 slots, r): their Y^T K U rows.  Which node holds which
+    slot is an ``LRU`` (``CACHE_SIZES["modal.unit_loads"]`` nodes, emptied by ``clear_all``)."""
+
+    def __init__(self, flex: "ContactFlexibility", capacity: int | None = None) -> None:
+        self.flex = flex
+        self.capacity = CACHE_SIZES["modal.unit_loads"] if capacity is None else int(capacity)
+        self.slots: LRU = LRU(self.capacity)               # node -> slot
+        self.Y = np.zeros((flex.n_dof, 0), order="F")
+        self.KU = np.zeros((0, flex.U.shape[1]))
+
+    def _grow(self, n_slots: int) -> None:
+        if 3 * n_slots <= self.Y.shape[1]:
+            return
+        n = min(self.capacity, max(n_slots, 2 * self.Y.shape[1] // 3, 16))
+        Y = np.zeros((self.flex.n_dof, 3 * n), order="F")
+        Y[:, :self.Y.shape[1]] = self.Y
+        KU = np.zeros((3 * n, self.KU.shape[1]))
+        KU[:self.KU.shape[0]] = self.KU
+        self.Y, self.KU = Y, KU
+
+    def columns(self, nodes: np.ndarray) -> np.ndarray:
+        """The store columns (3 per node, in order) of ``nodes`` (distinct, at most
+        ``capacity``), solving the missing ones in one call."""
+        slot = {}
+        for n in nodes.tolist():
+            k = self.slots.get(n)          # a hit makes it recent: not evicted below
+            if k is not None:
+                slot[n] = k
+        missing = [n for n in nodes.tolist() if n not in slot]
+        if missing:
+            flex = self.flex
+            B = np.zeros((flex.n_dof, 3 * len(missing)), order="F")
+            rows = (3 * np.asarray(missing)[:, None] + np.arange(3)).ravel()
+            B[rows, np.arange(rows.size)] = 1.0
+            Y = flex._projected(np.asarray(flex.factor.solve(B)).reshape(flex.n_dof, -1))
+            KU = Y.T @ flex.KU
+            for i, n in enumerate(missing):
+                used = set(self.slots.values())
+                if len(used) < self.capacity:
+                    k = min(set(range(len(used) + 1)) - used)
+                    self.slots.put(n, k)
+                else:                               # the least recently used node gives its slot
+                    self.slots.put(n, -1)
+                    k = (used - set(self.slots.values())).pop()
+                    self.slots.put(n, k)
+                self._grow(k + 1)
+                self.Y[:, 3 * k:3 * k + 3] = Y[:, 3 * i:3 * i + 3]
+                self.KU[3 * k:3 * k + 3] = KU[3 * i:3 * i + 3]
+                slot[n] = k
+        ks = np.array([slot[n] for n in nodes.tolist()])
+        return (3 * ks[:, None] + np.arange(3)).ravel()
 
 
 class RitzGeometry:
@@ -217,7 +302,4 @@ class RitzGeometry:
 
 def contact_flexibility(model) -> ContactFlexibility:
     """The :class:`ContactFlexibility` of ``model`` (a ``ModalModel``), built once and kept."""
-    hit = _CACHE.get(id(model))
-    if hit is None or hit.model is not model:
-        hit = _CACHE.put(id(model), ContactFlexibility(model))
-    return hit
+    return _CACHE.get_or_build(IdentityKey(model), lambda: ContactFlexibility(model))

@@ -186,6 +186,7 @@ class CoupledGraspModes:
         # the grasped object's coordinates, as a SpringModes holds them (modal_transfer)
         part0 = A.parts[0]
         self.split, self.psi, self.geometry = part0.split, part0.psi, part0.geometry
+        self.mass_psi = part0.mass_psi
         self.V = A.V[A.rows(0)]
 
     def partner_transfer(self, from_modes) -> np.ndarray:

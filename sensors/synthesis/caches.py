@@ -17,26 +17,10 @@ from typing import Callable, Hashable
 
 import numpy as np
 
-from .._infra.lru import CACHE_SIZES, LRU
+from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from .grasp_state import ContactTolerance, GraspState
 
 __all__ = ["IdentityKey", "SynthesisCache", "SystemCache"]
-
-
-class IdentityKey:
-    """Hashes an object by identity while holding it (so its id cannot be reused while the
-    key lives): models are keys by identity, not by their (large) contents."""
-
-    __slots__ = ("obj",)
-
-    def __init__(self, obj) -> None:
-        self.obj = obj
-
-    def __hash__(self) -> int:
-        return id(self.obj)
-
-    def __eq__(self, other) -> bool:
-        return isinstance(other, IdentityKey) and other.obj is self.obj
 
 
 @dataclass(frozen=True, eq=False)
