@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from .._infra.lru import CACHE_SIZES, LRU
+from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from .contact import Contact
 from .contact_stiffness import contact_stiffnesses_n_per_m
 from .coupled_bodies import BodyLink, CoupledBodies
@@ -226,8 +226,4 @@ def coupled_grasp_modes(group: TouchingObjects, contacts) -> CoupledGraspModes:
     """The coupled modes of ``group`` under the grasped object's ``contacts`` (cached per
     group and contact set)."""
     contacts = list(contacts)
-    key = (id(group), tuple(contacts))
-    hit = _CACHE.get(key)
-    if hit is not None and hit.group is group:
-        return hit
-    return _CACHE.put(key, CoupledGraspModes(group, contacts))
+    return _CACHE.get_or_build((IdentityKey(group), tuple(contacts)), lambda: CoupledGraspModes(group, contacts))
