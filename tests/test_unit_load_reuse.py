@@ -104,12 +104,12 @@ def test_kept_solves_are_reused(bar):
     rng = np.random.default_rng(2)
     pts, dirs = grasp_contacts(rng)
     first = flex.attachment_modes(pts, dirs)
-    kept = len(flex._store.slots)
+    kept = len(flex.unit_loads.slots)
     assert kept > 0
     moved = pts.copy()
     moved[:6, 0] += 1e-6                               # the pads 1 um along the bar: the same elements
     again = flex.attachment_modes(moved, dirs)
-    assert len(flex._store.slots) == kept and flex._store.slots.misses == kept
+    assert len(flex.unit_loads.slots) == kept and flex.unit_loads.slots.misses == kept
     direct = flex.attachment_modes(moved, dirs, reuse_unit_loads=False)
     assert np.max(np.abs(np.linalg.eigvalsh(again[1]) / np.linalg.eigvalsh(direct[1]) - 1)) < 1e-8
     assert first[0].shape == again[0].shape
@@ -137,10 +137,10 @@ def test_evicted_solves_are_solved_again_right(bar):
     """Room for 20 nodes: later contact sets (14-16 distinct nodes each, 36 in all) evict
     earlier nodes and take their slots; a set of more nodes than there is room for is solved
     directly."""
-    from sensors.modal.static_correction import _UnitLoadStore
+    from sensors.modal.static_correction import UnitLoadStore
 
     flex = ContactFlexibility(bar)
-    flex._store = _UnitLoadStore(flex, capacity=20)
+    flex.unit_loads = UnitLoadStore(flex, capacity=20)
     rng = np.random.default_rng(4)
     for _ in range(6):
         pts, dirs = grasp_contacts(rng)
@@ -148,8 +148,8 @@ def test_evicted_solves_are_solved_again_right(bar):
         direct = flex.attachment_modes(pts, dirs, reuse_unit_loads=False)
         assert span_residual(flex, direct[0], fast[0]) < 1e-9
         assert np.max(np.abs(np.linalg.eigvalsh(fast[1]) / np.linalg.eigvalsh(direct[1]) - 1)) < 1e-8
-    assert len(flex._store.slots) == 20 and flex._store.slots.misses > 20
-    flex._store = _UnitLoadStore(flex, capacity=8)
+    assert len(flex.unit_loads.slots) == 20 and flex.unit_loads.slots.misses > 20
+    flex.unit_loads = UnitLoadStore(flex, capacity=8)
     pts, dirs = grasp_contacts(rng)
     fast, direct = flex.attachment_modes(pts, dirs), flex.attachment_modes(pts, dirs, reuse_unit_loads=False)
-    assert len(flex._store.slots) == 0 and span_residual(flex, direct[0], fast[0]) < 1e-9
+    assert len(flex.unit_loads.slots) == 0 and span_residual(flex, direct[0], fast[0]) < 1e-9

@@ -29,9 +29,12 @@ storing the correction for every possible contact point would be the full flexib
 Unit loads reused (the default): the projected solve is linear in the load, and the load of a
 point is a combination of unit loads at the nodes of its element (the shape functions times
 the direction).  So each node's three projected unit-load solves P (K + sigma M)^-1 e_(3n+j)
-are solved once and kept (an LRU per model, ``CACHE_SIZES["modal.unit_loads"]`` nodes), and a
-contact set's attachment vectors are their combination minus the inertia relief's (also
-solved once), and Psi^T K Psi follows from the solves without K (see ``attachment_modes``).
+are solved once and kept (side by side in a :class:`UnitLoadStore` per model,
+``CACHE_SIZES["modal.unit_loads"]`` nodes, least recently used giving up its slot), and a
+contact set's attachment vectors are their combination (one sparse product: each vector uses
+the 30 columns of its element's nodes) minus the inertia relief's (also solved once);
+Psi^T K Psi follows from the solves without K and Psi^T K U from per-node rows kept with
+them (see ``attachment_modes``), and M Psi is kept with the vectors for state transfers.
 The same span as the direct solve, summed in another order: the reduced stiffness agrees to
 rounding (eigenvalues within 1e-8 relative, 1.5e-9 measured on the 200 mm wood bar; the span
 within 1e-9: ``tests/test_unit_load_reuse.py``); ``reuse_unit_loads=False`` (or
@@ -51,7 +54,7 @@ from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
 from .basis import check_points_m
 
-__all__ = ["MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "AttachmentBasis", "ContactFlexibility",
+__all__ = ["MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "AttachmentBasis", "ContactFlexibility", "UnitLoadStore",
            "RitzGeometry", "contact_flexibility", "nodal_at"]
 
 #: The most attachment vectors (constrained directions, up to 3 per contact) one contact set
@@ -110,7 +113,7 @@ class ContactFlexibility:
         # P (K + sigma M)^-1 M R: what the inertia relief subtracts from every unit-load solve
         self.relief = self._projected(np.asarray(self.factor.solve(self.MR)).reshape(self.n_dof, -1))
         self.relief_ku = self.relief.T @ self.KU                   # its Y^T K U rows (6, r)
-        self._store = _UnitLoadStore(self)
+        self.unit_loads = UnitLoadStore(self)
         self._bases: LRU = LRU(CACHE_SIZES["modal.attachment_bases"])
 
     def _projected(self, X: np.ndarray) -> np.ndarray:
@@ -169,14 +172,14 @@ class ContactFlexibility:
             # seen from the element's other nodes (rounding of its barycentric coordinates).
             used = np.abs(N) > _NEGLIGIBLE_WEIGHT
             distinct, index = np.unique(nodes[used], return_inverse=True)
-            reuse = distinct.size <= self._store.capacity     # else: more nodes than kept, solve directly
+            reuse = distinct.size <= self.unit_loads.capacity     # else: more nodes than kept, solve directly
         if reuse:
             C = np.zeros((3 * distinct.size, a))
             cols_used = np.broadcast_to(cols[:, None], nodes.shape)[used]
             for j in range(3):
                 np.add.at(C, (3 * index + j, cols_used), (N * directions[:, j:j + 1])[used])
             dofs = (3 * distinct[:, None] + np.arange(3)).ravel()
-            store = self._store
+            store = self.unit_loads
             columns = store.columns(distinct)
             # X = Y C - relief R^T C with C sparse (30 of its 3 n_nodes rows per column): one
             # sparse product over the store's columns, no copy of them
@@ -233,7 +236,7 @@ class AttachmentBasis:
         return self._mass_psi
 
 
-class _UnitLoadStore:
+class UnitLoadStore:
     """The kept unit-load solves of one model, side by side in one array so that a contact
     set's loads combine them with one sparse product (no copy of the columns it uses).
 
