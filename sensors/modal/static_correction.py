@@ -113,6 +113,7 @@ class ContactFlexibility:
         # P (K + sigma M)^-1 M R: what the inertia relief subtracts from every unit-load solve
         self.relief = self._projected(np.asarray(self.factor.solve(self.MR)).reshape(self.n_dof, -1))
         self.relief_ku = self.relief.T @ self.KU                   # its Y^T K U rows (6, r)
+        self.mass_relief = self.M @ self.relief
         self.unit_loads = UnitLoadStore(self)
         self._bases: LRU = LRU(CACHE_SIZES["modal.attachment_bases"])
 
@@ -187,6 +188,7 @@ class ContactFlexibility:
             Ct = csr_matrix((C[i, c], (c, columns[i])), shape=(a, store.Y.shape[1]))
             B = self.R[dofs].T @ C                                   # (6, a): the relief's share
             X = np.asarray(Ct @ store.Y.T).T - self.relief @ B
+            MX = np.asarray(Ct @ store.MY.T).T - self.mass_relief @ B
             XKU = C.T @ store.KU[columns] - B.T @ self.relief_ku      # X^T K U without the n_dof sum
         else:
             F = np.zeros((self.n_dof, a))
@@ -194,7 +196,7 @@ class ContactFlexibility:
                 np.add.at(F, (3 * nodes + j, np.broadcast_to(cols[:, None], nodes.shape)), N * directions[:, j:j + 1])
             F -= self.MR @ (self.R.T @ F)                            # inertia relief: no rigid-body load
             X = self._projected(np.asarray(self.factor.solve(F)).reshape(self.n_dof, a))
-        MX = self.M @ X
+            MX = self.M @ X
         G = X.T @ MX
         d, Q = np.linalg.eigh(0.5 * (G + G.T))
         keep = d > _DEPENDENT * max(float(d.max()), 1e-300)
@@ -241,25 +243,17 @@ class UnitLoadStore:
     set's loads combine them with one sparse product (no copy of the columns it uses).
 
     ``Y`` (n_dof, 3 slots): each kept node's P (K + sigma M)^-1 [e_3n, e_3n+1, e_3n+2] in its
-    slot's three columns; ``KU`` (3 slots, r): their Y^T K U rows.  Which node holds which
+    slot's three columns, ``MY`` the same times M; ``KU`` (3 slots, r): their Y^T K U rows.  Which node holds which
     slot is an ``LRU`` (``CACHE_SIZES["modal.unit_loads"]`` nodes, emptied by ``clear_all``)."""
 
     def __init__(self, flex: "ContactFlexibility", capacity: int | None = None) -> None:
         self.flex = flex
         self.capacity = CACHE_SIZES["modal.unit_loads"] if capacity is None else int(capacity)
         self.slots: LRU = LRU(self.capacity)               # node -> slot
-        self.Y = np.zeros((flex.n_dof, 0), order="F")
-        self.KU = np.zeros((0, flex.U.shape[1]))
-
-    def _grow(self, n_slots: int) -> None:
-        if 3 * n_slots <= self.Y.shape[1]:
-            return
-        n = min(self.capacity, max(n_slots, 2 * self.Y.shape[1] // 3, 16))
-        Y = np.zeros((self.flex.n_dof, 3 * n), order="F")
-        Y[:, :self.Y.shape[1]] = self.Y
-        KU = np.zeros((3 * n, self.KU.shape[1]))
-        KU[:self.KU.shape[0]] = self.KU
-        self.Y, self.KU = Y, KU
+        # zeros: the pages of slots never used are never touched (no memory until then)
+        self.Y = np.zeros((flex.n_dof, 3 * self.capacity), order="F")
+        self.MY = np.zeros((flex.n_dof, 3 * self.capacity), order="F")
+        self.KU = np.zeros((3 * self.capacity, flex.U.shape[1]))
 
     def columns(self, nodes: np.ndarray) -> np.ndarray:
         """The store columns (3 per node, in order) of ``nodes`` (distinct, at most
@@ -277,6 +271,7 @@ class UnitLoadStore:
             B[rows, np.arange(rows.size)] = 1.0
             Y = flex._projected(np.asarray(flex.factor.solve(B)).reshape(flex.n_dof, -1))
             KU = Y.T @ flex.KU
+            MY = flex.M @ Y
             for i, n in enumerate(missing):
                 used = set(self.slots.values())
                 if len(used) < self.capacity:
@@ -286,8 +281,8 @@ class UnitLoadStore:
                     self.slots.put(n, -1)
                     k = (used - set(self.slots.values())).pop()
                     self.slots.put(n, k)
-                self._grow(k + 1)
                 self.Y[:, 3 * k:3 * k + 3] = Y[:, 3 * i:3 * i + 3]
+                self.MY[:, 3 * k:3 * k + 3] = MY[:, 3 * i:3 * i + 3]
                 self.KU[3 * k:3 * k + 3] = KU[3 * i:3 * i + 3]
                 slot[n] = k
         ks = np.array([slot[n] for n in nodes.tolist()])
