@@ -32,9 +32,9 @@ CACHE_SIZES: dict[str, int] = {
     "passive.load_projections": 4,   # one contact read's loads on the modes of the latest contact sets
     "modal.flexibility": 8,          # K, M and factorization of K + sigma M per model (static correction; 8: the
                                      # seven paper objects ObjectRecognition-v0 cycles, 40-130 MB each)
-    "modal.unit_loads": 256,         # per model: nodes' projected unit-load solves (24 n_dof bytes each: 0.26 MB
-                                     # on a 10,935-dof bar; 256 hold every node random grasps of a bar touch)
-    "modal.attachment_bases": 16,    # per model: recent contact sets' attachment vectors (reused within a distance)
+    "modal.unit_loads": 256,         # per model: nodes' projected unit-load solves and M times them (48 n_dof bytes
+                                     # each: 0.52 MB on a 10,935-dof bar; 256 hold every node random grasps touch)
+    "modal.attachment_bases": 16,    # per model: attachment vectors of recent contact sets (the same points again)
     "modal.spring_modes": 32,        # contact-coupled modes per (model, contact springs)
     "modal.coupled_grasps": 16,      # modes of a grasped object with the objects it touches, per contact set
     "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container
