@@ -19,7 +19,7 @@ import numpy as np
 from aas_gym.contacts import ObjectContacts
 from sensors import Contact
 from sensors import ContactTolerance, GraspState
-from sensors._infra.lru import CACHE_SIZES, LRU
+from sensors._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from sensors.modal import TouchingObjects, TouchingPartner
 from sensors.modal.spring_modes import flexible_base
 
@@ -90,7 +90,7 @@ def touching_grasp(sensor, body: str, contacts: Mapping[str, ObjectContacts], va
     memo = getattr(sensor, "touching", None)
     build = lambda: TouchingObjects(model, partners)  # noqa: E731
     group = build() if memo is None else memo.get_or_build(
-        (body, tuple(names), id(model), tuple(id(m) for m in models)), tables, build)
+        (body, tuple(names), IdentityKey(model), tuple(IdentityKey(m) for m in models)), tables, build)
     return group, rest.to_sensor_contacts(sensor.min_force_n, materials)
 
 

@@ -578,11 +578,8 @@ class AcousticStream:
 
     def _steady_of(self, sysm: ModalSystem, drive: SteadyState) -> SteadyState:
         """The periodic steady state of ``sysm`` under the steady drive force (cached)."""
-        key = (id(sysm), id(drive.output))
-        hit = self._steadies.get(key)
-        if hit is None or hit.system is not sysm or hit.input is not drive.output:
-            hit = self._steadies.put(key, SteadyState(sysm, drive.output, self.bandlimited))
-        return hit
+        return self._steadies.get_or_build((IdentityKey(sysm), IdentityKey(drive.output)),
+                                           lambda: SteadyState(sysm, drive.output, self.bandlimited))
 
     def _feed_features(self, start: int, samples: np.ndarray, heard: np.ndarray) -> None:
         P = len(self._window)
