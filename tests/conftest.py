@@ -43,3 +43,22 @@ def no_build(monkeypatch, tmp_path):
 
     monkeypatch.setattr(EverydayObject, "modal_model", refuse)
     return tmp_path / "cache"
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _fresh_caches_per_file():
+    """Each test file starts with the process's in-memory caches empty and their memory given
+    back: a worker runs about 40 files, and what earlier files left (modal factorizations of
+    40-130 MB each, kept unit-load solves) would otherwise add up to the heaviest file's peak."""
+    import ctypes
+    import gc
+
+    from sensors._infra.lru import clear_all
+
+    clear_all()
+    gc.collect()
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):  # not glibc
+        pass
+    yield
