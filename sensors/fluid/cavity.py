@@ -203,6 +203,12 @@ class AxisymmetricCavity:
         s = self.axial_m[0] + float(np.clip(fill_height_m, 0.0, self.depth_m))
         return float(np.pi * np.interp(s, self._s, self._cum_r2))
 
+    def height_below_m(self, volume_m3: float) -> float:
+        """Upright height above the bottom [m] that holds ``volume_m3`` (the inverse of
+        :meth:`volume_below_m3`)."""
+        s = float(np.interp(volume_m3 / math.pi, self._cum_r2, self._s))
+        return s - float(self.axial_m[0])
+
     def _surface_axial(self, y, z, up, d):
         """Axial position where the column through unit-disc point (y, z) meets up . p = d."""
         alpha = float(up @ self.axis)
