@@ -38,6 +38,7 @@ CACHE_SIZES: dict[str, int] = {
     "modal.coupled_grasps": 16,      # modes of a grasped object with the objects it touches, per contact set
     "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container
     "fluid.containers": 8,           # containers (dry model + static correction) per object
+    "fluid.layer_nodes": 4,          # P2 nodes per layer of the liquid's disc, by elements around
     "fluid.fill_tables": 8,          # fill tables of one container, per liquid (a few MB each)
     "objects.solids": 64,            # surfaces and meshers of the catalog's surface objects
     "sim.models": 32,                # modal models shared by the scenes of one process
