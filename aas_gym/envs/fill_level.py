@@ -41,7 +41,8 @@ class FillLevelEnv(AasEnv):
     right liquid) and ``reward_terms`` (``error`` for task ``"fill"``, ``answer`` for
     ``"liquid"``).
 
-    ``acoustic``: every episode records once, through its grasp, whatever the cadence.
+    ``acoustic``: every episode records once, through its grasp, whatever the cadence (and not
+    at all with ``enabled=False``: ``recording_grasped`` then says whether a grasp would be heard).
 
     ## Arguments
 
@@ -120,11 +121,17 @@ class FillLevelEnv(AasEnv):
 
     def _reset_episode(self, options: dict):
         grasp = self._grasp(self._grasp_position(), self._episode_grip_force())
-        acoustic, rec, truth = self._sense_and_truth()
+        if self.acoustic.enabled:
+            acoustic, rec, truth = self._sense_and_truth()
+            heard_grasped = bool(rec.metadata.get("grasped", False))
+        else:  # nothing observed: no recording (as AcousticGrasp-v0 with sensing off); a grasp would be heard
+            contacts = self._scene.stream.read(self.data)
+            acoustic, truth = {}, self._ground_truth(contacts=contacts)
+            heard_grasped = self.sensor.grasped_body(contacts) is not None
         obs = self._proprio()
         obs.update(acoustic)
         info = truth
-        info.update(grasp, **self._truth, recording_grasped=bool(rec.metadata.get("grasped", False)))
+        info.update(grasp, **self._truth, recording_grasped=heard_grasped)
         return obs, info
 
     def _grasp_position(self) -> float:

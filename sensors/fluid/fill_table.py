@@ -192,14 +192,17 @@ class FillTable:
         k = max(2, math.ceil(height_m / self.element_height_m - 1e-9))
         return self.segments[min(k - 2, len(self.segments) - 1)]
 
-    def filled(self, container, volume_m3: float, *, compressible: bool = True) -> FilledModalModel:
-        """The wet model of ``volume_m3`` of the table's liquid in ``container`` (the one the table
-        was made for), standing upright."""
+    def filled(self, container, liquid, volume_m3: float, *, compressible: bool = True) -> FilledModalModel:
+        """The wet model of ``volume_m3`` of ``liquid`` (of the table's density and speed of sound;
+        its viscosity is its own) in ``container`` (the one the table was made for), upright."""
+        if (liquid.density_kg_m3, liquid.speed_of_sound_m_per_s) != (self.liquid.density_kg_m3,
+                                                                      self.liquid.speed_of_sound_m_per_s):
+            raise ValueError(f"{liquid.name} is not the liquid of this table ({self.liquid.name})")
         height = container.cavity.height_below_m(volume_m3)
         if not self.covers(height):
             raise ValueError(f"a fill {height * 1e3:.4g} mm high is outside the table's "
                              f"{self.min_height_m * 1e3:.4g} mm .. {self.depth_m * 1e3:.4g} mm")
-        wet = wet_model(container, self.liquid, self._segment(height).at(height), volume_m3, height, compressible)
+        wet = wet_model(container, liquid, self._segment(height).at(height), volume_m3, height, compressible)
         wet.metadata["wet_solve"] = "interpolated"  # the exact path's models carry no such entry
         return wet
 
@@ -216,7 +219,7 @@ def wet_model(container, liquid, m: dict, volume_m3: float, height_m: float, com
     """The :class:`FilledModalModel` of interpolated (or exact) matrices ``m`` (as :meth:`_Segment.at`)."""
     rho = liquid.density_kg_m3
     cav = container.cavity
-    up = cav.axis
+    up = container.up_axis
     mass = rho * volume_m3
     offset = float(up @ cav.origin_m) + float(cav.axial_m[0]) + height_m
     body = LiquidBody(liquid, volume_m3, mass, np.asarray(m["centre_m"], float), mass * m["inertia_per_kg"], up.copy(),
@@ -299,7 +302,7 @@ def _build(container, liquid, max_solves: int, progress=None) -> FillTable:
                     solves[h] = _solve(container, float(h), k2_sample)
             seg = _Segment.of([solves[h] for h in heights])
             err = 0.0
-            for h in 0.5 * (heights[1:] + heights[:-1]):
+            for h in _grid(lo, hi, 2 * n)[1::2]:  # the midpoints, as the next grid spells them
                 s = solves[h] = solves.get(h) or _solve(container, float(h), k2_sample)
                 m = seg.at(float(h))
                 for comp in (False, True):

@@ -169,7 +169,7 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
         table = fill_table(c, liquid)
         if table.covers(c.cavity.height_below_m(volume)):
             return c.fills.get_or_build(key + ("interpolated",),
-                                        lambda: table.filled(c, volume, compressible=compressible))
+                                        lambda: table.filled(c, liquid, volume, compressible=compressible))
     return c.fills.get_or_build(key, wet)
 
 
