@@ -10,10 +10,10 @@ an upright fill in milliseconds (``filled(..., interpolated=True)``).
 
 from .cavity import LiquidSpillError
 from .container import Container
-from .fill_table import FillTable, FillTableCostError, fill_table
+from .fill_table import FillTable, FillTableCostError  # (the module's fill_table() keeps the module name free)
 from .filled_model import FilledModalModel
 from .filling import container, filled
 from .liquid_body import LiquidBody
 
 __all__ = ["LiquidSpillError", "Container", "FilledModalModel", "FillTable", "FillTableCostError", "LiquidBody",
-           "container", "fill_table", "filled"]
+           "container", "filled"]
