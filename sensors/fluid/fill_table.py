@@ -15,7 +15,8 @@ acoustic modes and then the coupled one, exactly as the exact path does with its
 The grid is chosen by measured error: a segment starts with 3 intervals; the wet frequencies
 interpolated at the midpoints between the grid heights (both liquid models) are compared with
 exact solves there, and the intervals are halved until every one is within :data:`GRID_RTOL`;
-a segment that does not get there within :data:`MAX_INTERVALS` keeps the exact solve
+a segment that does not get there within :data:`MAX_INTERVALS`, or whose error does not halve
+when its intervals do (not an interpolation error then), keeps the exact solve
 (:attr:`FillTable.exact_ranges_m`).
 The cost is bounded before anything is solved (:data:`MAX_TABLE_SOLVES`,
 :class:`FillTableCostError`). Tables are cached on disk with the container's static
@@ -308,7 +309,7 @@ def _build(container, liquid, max_solves: int, progress=None) -> FillTable:
         hi = min(k * h_el, depth)
         if k == n_segments + 1:
             hi = depth
-        n = 3
+        n, prev_err = 3, math.inf
         solves = {}
         while True:
             heights = _grid(lo, hi, n)
@@ -327,14 +328,16 @@ def _build(container, liquid, max_solves: int, progress=None) -> FillTable:
                 progress(f"fill table {container.name}: {k} layers, {n} intervals, error {err:.2e}")
             if err <= GRID_RTOL:
                 break
-            if 2 * n > MAX_INTERVALS:
+            # A cubic's error falls ~16x per halving; one that does not halve is not the grid's
+            # (the wall load's kinks where the surface crosses small dry elements, a bottle's neck).
+            if 2 * n > MAX_INTERVALS or err > 0.5 * prev_err:
                 # Not smooth enough here (a liquid mode crossing the cut, a kink of the profile):
                 # these heights keep the exact solve rather than a table outside its tolerance.
                 seg = _Segment.empty(lo, hi, seg)
                 if progress:
                     progress(f"fill table {container.name}: {k} layers left to the exact solve")
                 break
-            n *= 2
+            n, prev_err = 2 * n, err
         if len(seg.heights_m) > 2:
             worst_err = max(worst_err, err)
         segments.append(seg)
