@@ -41,7 +41,8 @@ class FillLevelEnv(AasEnv):
     right liquid) and ``reward_terms`` (``error`` for task ``"fill"``, ``answer`` for
     ``"liquid"``).
 
-    ``acoustic``: every episode records once, through its grasp, whatever the cadence.
+    ``acoustic``: every episode records once, through its grasp, whatever the cadence (and not
+    at all with ``enabled=False``: ``recording_grasped`` then says whether a grasp would be heard).
 
     ## Arguments
 
@@ -53,6 +54,7 @@ class FillLevelEnv(AasEnv):
     | `fill_range` | (float, float) | (0.0, 0.9) | task `"fill"`: the fill fraction is drawn uniformly in it |
     | `fill_fraction` | float | 0.6 | task `"liquid"`: the fill fraction of every episode |
     | `compressible` | bool | True | the liquid compresses (its acoustic modes couple to the wall); False: incompressible added mass |
+    | `interpolated_fill` | bool | True | wet modes from the container's fill table (milliseconds, within 0.1 % of the exact solve; `sensors.fluid.fill_table`); False: the exact solve of each fill |
     """
 
     _step_is_probe = True
@@ -62,9 +64,10 @@ class FillLevelEnv(AasEnv):
 
     def __init__(self, objects=("mug",), *, task: str = "fill", liquids=("water",),
                  fill_range: tuple[float, float] = (0.0, 0.9), fill_fraction: float = 0.6, compressible: bool = True,
-                 **kwargs) -> None:
-        if not isinstance(compressible, (bool, np.bool_)):
-            raise TypeError(f"compressible must be True or False, got {compressible!r}")
+                 interpolated_fill: bool = True, **kwargs) -> None:
+        for flag, value in (("compressible", compressible), ("interpolated_fill", interpolated_fill)):
+            if not isinstance(value, (bool, np.bool_)):
+                raise TypeError(f"{flag} must be True or False, got {value!r}")
         check_choice("task", task, TASKS)
         if isinstance(fill_range, (str, bytes)) or not hasattr(fill_range, "__len__") or len(fill_range) != 2:
             raise TypeError(f"fill_range must be a pair (low, high), got {fill_range!r}")
@@ -92,6 +95,7 @@ class FillLevelEnv(AasEnv):
         self.task, self.fill_range, self.fill_fraction = task, (lo, hi), float(fill_fraction)
         self.reward_term_names = ("error",) if task == "fill" else ("answer",)
         self.compressible = bool(compressible)
+        self.interpolated_fill = bool(interpolated_fill)
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
         self.observation_space = spaces.Dict({**self._proprio_spaces(), **self._acoustic_spaces()})
         self._truth = {}
@@ -117,11 +121,17 @@ class FillLevelEnv(AasEnv):
 
     def _reset_episode(self, options: dict):
         grasp = self._grasp(self._grasp_position(), self._episode_grip_force())
-        acoustic, rec, truth = self._sense_and_truth()
+        if self.acoustic.enabled:
+            acoustic, rec, truth = self._sense_and_truth()
+            heard_grasped = bool(rec.metadata.get("grasped", False))
+        else:  # nothing observed: no recording (as AcousticGrasp-v0 with sensing off); a grasp would be heard
+            contacts = self._scene.stream.read(self.data)
+            acoustic, truth = {}, self._ground_truth(contacts=contacts)
+            heard_grasped = self.sensor.grasped_body(contacts) is not None
         obs = self._proprio()
         obs.update(acoustic)
         info = truth
-        info.update(grasp, **self._truth, recording_grasped=bool(rec.metadata.get("grasped", False)))
+        info.update(grasp, **self._truth, recording_grasped=heard_grasped)
         return obs, info
 
     def _grasp_position(self) -> float:
@@ -136,7 +146,8 @@ class FillLevelEnv(AasEnv):
 
         sc = self._scene
         target, body = sc.objects[0], sc.bodies[0]
-        wet = filled(target.solid(), fill_fraction, liquid=liquid, compressible=self.compressible)
+        wet = filled(target.solid(), fill_fraction, liquid=liquid, compressible=self.compressible,
+                     interpolated=self.interpolated_fill)
         sc.sensor.set_modal_model(body, wet)
         self._set_liquid_mass(sc.body_ids[0], wet.liquid)
         return wet

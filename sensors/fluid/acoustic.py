@@ -44,13 +44,16 @@ def liquid_mass_matrix(nodes_m: np.ndarray, tets10: np.ndarray) -> scipy.sparse.
     return ((Q + Q.T) * 0.5).tocsr()
 
 
-def liquid_modes(laplace_free, mass_free, speed_of_sound_m_per_s: float, max_frequency_hz: float, lu=None):
+def liquid_modes(laplace_free, mass_free, speed_of_sound_m_per_s: float, max_frequency_hz: float, lu=None,
+                 v0=None):
     """The liquid's acoustic modes up to ``max_frequency_hz`` (rigid walls, p = 0 on the free surface).
 
     Args:
         laplace_free, mass_free: H and Q0 on the nodes off the free surface.
         speed_of_sound_m_per_s: c (``math.inf``: no modes).
         lu: A factorization of ``laplace_free`` (``solve``), reused as the shift-invert operator.
+        v0: ARPACK's start vector (default: ARPACK's own, which depends on its earlier calls in
+            the process; a fixed one makes the result's bytes reproducible).
 
     Returns:
         (w^2 (m,) [rad^2/s^2] ascending, psi (n_free, m)) with psi^T (Q0 / c^2) psi = I, so that
@@ -73,7 +76,7 @@ def liquid_modes(laplace_free, mass_free, speed_of_sound_m_per_s: float, max_fre
             lam, vec = scipy.linalg.eigh(laplace_free.toarray(), mass_free.toarray())
             break
         lam, vec = scipy.sparse.linalg.eigsh(laplace_free, k=k, M=mass_free, sigma=0.0, which="LM", OPinv=op,
-                                             tol=1e-10)
+                                             tol=1e-10, v0=v0)
         order = np.argsort(lam)
         lam, vec = lam[order], vec[:, order]
         if lam[-1] > k2_max:

@@ -22,6 +22,7 @@ import math
 import numpy as np
 import scipy.optimize
 
+from .._infra.lru import CACHE_SIZES, LRU
 from ..fem.assembly import QUADRATURE, shape_functions, shape_gradients_ref
 from ..mesh.layered import disk_template
 from ..mesh.prisms import extrude_to_tets
@@ -36,6 +37,8 @@ __all__ = ["LiquidMesh", "AxisymmetricCavity", "SurfaceCavity", "LiquidSpillErro
 #: ``filled``/``Container`` changes it): the added-mass solve holds a few kB per node (a mug
 #: meshed at 10 um, 3.7 million nodes, peaked at 14.4 GB), so this bounds it near 1 GB.
 MAX_LIQUID_NODES = 200_000
+#: P2 nodes per layer of the liquid's disc, by elements around (the size check before meshing).
+_LAYER_NODES = LRU(CACHE_SIZES["fluid.layer_nodes"])
 
 
 class LiquidSpillError(ValueError):
@@ -203,6 +206,12 @@ class AxisymmetricCavity:
         s = self.axial_m[0] + float(np.clip(fill_height_m, 0.0, self.depth_m))
         return float(np.pi * np.interp(s, self._s, self._cum_r2))
 
+    def height_below_m(self, volume_m3: float) -> float:
+        """Upright height above the bottom [m] that holds ``volume_m3`` (the inverse of
+        :meth:`volume_below_m3`)."""
+        s = float(np.interp(volume_m3 / math.pi, self._cum_r2, self._s))
+        return s - float(self.axial_m[0])
+
     def _surface_axial(self, y, z, up, d):
         """Axial position where the column through unit-disc point (y, z) meets up . p = d."""
         alpha = float(up @ self.axis)
@@ -252,6 +261,16 @@ class AxisymmetricCavity:
                          f"{covered / self.volume_m3:.3g}): give "
                          "more liquid or a smaller tilt (a revolved cavity's structured mesh needs a wet floor)")
 
+    def check_fill(self, volume_m3: float, up, n_theta: int = 16) -> None:
+        """Raise what :meth:`liquid_mesh` would for this fill (:class:`LiquidSpillError`, ``MeshError``
+        for a dry floor) without meshing; an upright fill is checked without the surface's solve."""
+        up = unit(up)
+        if float(up @ self.axis) >= 1.0 - 1e-12:  # level surface: only a film too thin to mesh fails
+            if self.height_below_m(volume_m3) <= 1e-9 * self.depth_m:
+                raise self._dry_floor_error(volume_m3, up)
+            return
+        self.free_surface(volume_m3, up, n_theta)
+
     def free_surface(self, volume_m3: float, up, n_theta: int = 16):
         """The free surface's offset d and its axial heights at 4 ``n_theta`` points on the rim
         circle; raises :class:`LiquidSpillError` if it spills, ``MeshError`` if the floor is partly dry."""
@@ -270,9 +289,7 @@ class AxisymmetricCavity:
     def liquid_mesh_nodes(self, n_theta: int = 16, element_size_m: float | None = None) -> int:
         """The most P2 nodes :meth:`liquid_mesh` makes (liquid up to the rim) with these settings."""
         h = element_size_m or 2 * math.pi * float(self.radius_m.max()) / n_theta
-        template = disk_template(n_theta, 0)
-        per_layer = 2 * len(template.points) + len(template.triangles) - 1  # vertices and edges (Euler)
-        return per_layer * (2 * max(2, math.ceil(self.depth_m / h)) + 1)
+        return _p2_nodes_per_layer(n_theta) * (2 * max(2, math.ceil(self.depth_m / h)) + 1)
 
     def check_liquid_mesh_size(self, n_theta: int = 16, element_size_m: float | None = None,
                                max_nodes: int | None = MAX_LIQUID_NODES) -> None:
@@ -317,6 +334,14 @@ class AxisymmetricCavity:
         tets = _orient_p2(phys, tets)
         free = np.abs(xi - 1.0) < 1e-12
         return LiquidMesh(phys, tets, free, float(volume_m3), up, float(d))
+
+
+def _p2_nodes_per_layer(n_theta: int) -> int:
+    """P2 nodes of one layer of the liquid's O-grid disc: its vertices and edges (Euler)."""
+    def count():
+        template = disk_template(n_theta, 0)
+        return 2 * len(template.points) + len(template.triangles) - 1
+    return _LAYER_NODES.get_or_build(n_theta, count)
 
 
 def _orient_p2(nodes_m, tets10):

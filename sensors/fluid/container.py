@@ -7,6 +7,7 @@ wet model itself is :func:`sensors.fluid.filled`.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -135,6 +136,8 @@ class Container:
         self.liquid_max_nodes = checked["liquid_max_nodes"]
         self._mass_kg, self._centre_m, self._rot = _rigid_body_data(dry)
         self.correction_degree = checked["correction_degree"]
+        #: The disk cache of the static correction and the fill tables (``cache=False``: none).
+        self.cache, self.cache_dir = bool(cache), cache_dir
         if self.correction_degree > 0:
             lam_c, shapes_c = self._correction(cache, cache_dir)
         else:
@@ -145,6 +148,8 @@ class Container:
         self._nodal = np.ascontiguousarray(np.concatenate([dry.mode_shapes[:, :, : self.n_dry], shapes_c], axis=2))
         #: The wet models of this container by (liquid, volume, free-surface normal) (:func:`sensors.fluid.filled`).
         self.fills = LRU(CACHE_SIZES["fluid.fills"])
+        #: Its fill tables by liquid (density, speed of sound) (:func:`sensors.fluid.fill_table.fill_table`).
+        self.fill_tables = LRU(CACHE_SIZES["fluid.fill_tables"])
 
     # ---------------------------------------------------------------- construction helpers
 
@@ -179,16 +184,25 @@ class Container:
 
         return select
 
-    def _correction(self, cache, cache_dir):
+    def _key_parts(self) -> list:
+        """What the container's basis depends on (dry model, cavity, correction degree)."""
         dry = self.dry
         ident = dry.metadata.get("cache_key") or cache_mod.content_key(dry.nodes_m, dry.elements, dry.frequencies_hz)
         cav = self.cavity
         cav_id = ([cav.axial_m, cav.radius_m, cav.origin_m, cav.axis] if isinstance(cav, AxisymmetricCavity)
                   else [np.asarray(cav.mesh.vertices), np.asarray(cav.mesh.faces)])
-        key = cache_mod.content_key("fluid static correction", ident, dry.material.to_dict(), self.n_dry,
-                                    type(cav).__name__, cav_id, self.correction_degree,
-                                    cache_mod.source_version("sensors.fluid.added_mass", "sensors.fluid.cavity",
-                                                             "sensors.fem.assembly", "sensors.fem.eigen"))
+        return [ident, dry.material.to_dict(), self.n_dry, type(cav).__name__, cav_id, self.correction_degree,
+                cache_mod.source_version("sensors.fluid.added_mass", "sensors.fluid.cavity",
+                                         "sensors.fem.assembly", "sensors.fem.eigen")]
+
+    @functools.cached_property
+    def cache_key(self) -> str:
+        """Content key of the container's basis (what a fill's work is keyed by on disk)."""
+        return cache_mod.content_key("fluid container", *self._key_parts())
+
+    def _correction(self, cache, cache_dir):
+        dry = self.dry
+        key = cache_mod.content_key("fluid static correction", *self._key_parts())
 
         def build():
             dry_n = dry if self.n_dry == dry.n_modes else _truncated(dry, self.n_dry)

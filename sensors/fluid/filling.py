@@ -23,6 +23,7 @@ from .acoustic import LIQUID_MODES_BAND_FACTOR, acoustic_loading
 from .added_mass import liquid_loading
 from .cavity import AxisymmetricCavity, cavity_of, unit
 from .container import CONTAINER_OPTIONS, Container, check_container_options, liquid_volume_in, solid_of
+from .fill_table import fill_table
 from .filled_model import FilledModalModel
 from .liquid_body import LiquidBody
 from ..materials.liquids import get_liquid
@@ -50,6 +51,13 @@ def container(obj, *, cavity=None, **options) -> Container:
         if options or cavity is not None:
             raise TypeError("a Container is already built: options and cavity do not apply")
         return obj
+    key, make, keep = _container_key(obj, cavity, options)
+    # ``keep`` holds the objects whose id() is in the key alive as long as the entry.
+    return CONTAINERS.get_or_build(key, lambda: (make(), keep))[0]
+
+
+def _container_key(obj, cavity, options):
+    """(memo key, build, objects to keep alive) of the container of ``obj`` (not a Container)."""
     if hasattr(obj, "mode_shapes_at") and not hasattr(obj, "tet_mesher"):  # a modal model
         if cavity is None:
             raise TypeError("a bare modal model does not know its cavity: pass cavity= (or the EverydayObject)")
@@ -64,13 +72,25 @@ def container(obj, *, cavity=None, **options) -> Container:
                json.dumps(options, sort_keys=True, default=repr))
         make = lambda: Container.of(obj, **dict(options))  # noqa: E731
         keep = (obj,)
-    # ``keep`` holds the objects whose id() is in the key alive as long as the entry.
-    return CONTAINERS.get_or_build(key, lambda: (make(), keep))[0]
+    return key, make, keep
+
+
+def _built_container(obj, cavity, options) -> Container | None:
+    """The container of ``obj`` if this process has built it (None otherwise, or for bad arguments:
+    :func:`container` raises for those)."""
+    if isinstance(obj, Container):
+        return None
+    try:
+        key = _container_key(obj, cavity, options)[0]
+    except (TypeError, ValueError):
+        return None
+    hit = CONTAINERS.get(key)
+    return None if hit is None else hit[0]
 
 
 def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_normal=None,
            fill_height_m: float | None = None, volume_m3: float | None = None, cavity=None,
-           compressible: bool = True, **options) -> FilledModalModel:
+           compressible: bool = True, interpolated: bool = False, **options) -> FilledModalModel:
     """A container holding a liquid, as a :class:`~sensors.ModalBasis`.
 
     Args:
@@ -92,6 +112,12 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
         compressible: True (default): the liquid compresses with its speed of sound, and its
             own acoustic modes (up to twice the band limit) couple to the wall; False: the
             incompressible potential-flow added mass alone (the model before 2026-11-26).
+        interpolated: True: an upright fill of an axisymmetric container comes from the
+            container's fill table (:mod:`sensors.fluid.fill_table`: milliseconds, within
+            ``GRID_RTOL`` of the exact wet frequencies as measured between its grid heights; the
+            first fill of a container and liquid builds the table, about 25 s, or loads it from
+            the disk cache). Tilted fills, surface cavities and films thinner than the table's
+            first height take the exact solve. False (default): the exact solve of this fill.
         options: :class:`Container` and dry-model build options (:func:`container`).
 
     Returns:
@@ -109,13 +135,17 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
             container is built.
     """
     liquid = get_liquid(liquid)
-    if not isinstance(compressible, (bool, np.bool_)):
-        raise TypeError(f"compressible must be True or False, got {compressible!r}")
+    for flag, value in (("compressible", compressible), ("interpolated", interpolated)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise TypeError(f"{flag} must be True or False, got {value!r}")
     compressible = bool(compressible)
-    # Every input checked before the container is built (minutes with an empty cache).
-    volume = _checked_fill(obj, cavity, options, fill_fraction=fill_fraction, fill_height_m=fill_height_m,
-                           volume_m3=volume_m3, surface_normal=surface_normal)
-    c = container(obj, cavity=cavity, **options)
+    # Every input checked before the container is built (minutes with an empty cache); against
+    # its cavity when it is built already (a new fill of a known container).
+    built = _built_container(obj, cavity, options)
+    volume = _checked_fill(obj if built is None else built, cavity if built is None else None,
+                           options if built is None else {}, fill_fraction=fill_fraction,
+                           fill_height_m=fill_height_m, volume_m3=volume_m3, surface_normal=surface_normal)
+    c = container(obj, cavity=cavity, **options) if built is None else built
     up = c.surface_normal(surface_normal)
 
     def wet() -> FilledModalModel:
@@ -134,6 +164,12 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
         return FilledModalModel(c, body, Ma, S, liquid_coupling=B, liquid_eigenvalues=wl2, compressible=True)
 
     key = (liquid, round(volume, 15), tuple(np.round(up, 12)), compressible)
+    if interpolated and volume > 0.0 and isinstance(c.cavity, AxisymmetricCavity) \
+            and float(up @ c.cavity.axis) >= 1.0 - 1e-12:
+        table = fill_table(c, liquid)
+        if table.covers(c.cavity.height_below_m(volume)):
+            return c.fills.get_or_build(key + ("interpolated",),
+                                        lambda: table.filled(c, liquid, volume, compressible=compressible))
     return c.fills.get_or_build(key, wet)
 
 
@@ -160,8 +196,8 @@ def _checked_fill(obj, cavity, options, *, surface_normal, **amount):
     if volume > 0.0:
         cav.check_liquid_mesh_size(mine["liquid_n_theta"], mine["liquid_element_size_m"], mine["liquid_max_nodes"])
         if isinstance(cav, AxisymmetricCavity):
-            # The liquid mesh's own checks (spill, dry floor), run now: a quadrature, no build.
-            cav.free_surface(volume, up, mine["liquid_n_theta"])
+            # The liquid mesh's own checks (spill, dry floor), run now: no build.
+            cav.check_fill(volume, up, mine["liquid_n_theta"])
     return volume
 
 

@@ -108,12 +108,16 @@ class TetLocator:
         face, dist, closest = cand[rows, best], d[rows, best], q[rows, best]
         # Exact: a face not among the k nearest centroids is farther than dc_k - radius.
         unsure = np.flatnonzero((k < n_faces) & (dc[:, -1] - s["radius"] < dist))
-        for i in unsure:  # rare (very uneven triangles): check every face
-            allq = closest_points_on_triangles(np.repeat(points[i:i + 1], n_faces, axis=0),
-                                               s["tri"][:, 0], s["tri"][:, 1], s["tri"][:, 2])
+        for i in unsure:  # a point off the surface or uneven triangles: every face that can be closer
+            # A face with a point within dist has its centroid within dist + radius (the margin
+            # covers the tree's round-off); ascending order keeps argmin's choice among ties.
+            near = np.sort(np.asarray(s["tree"].query_ball_point(points[i], (dist[i] + s["radius"]) * (1 + 1e-9)),
+                                      dtype=np.intp))
+            allq = closest_points_on_triangles(np.repeat(points[i:i + 1], len(near), axis=0),
+                                               s["tri"][near, 0], s["tri"][near, 1], s["tri"][near, 2])
             dd = np.linalg.norm(allq - points[i], axis=1)
             j = int(np.argmin(dd))
-            face[i], dist[i], closest[i] = j, dd[j], allq[j]
+            face[i], dist[i], closest[i] = near[j], dd[j], allq[j]
         return closest, face, dist
 
     def _barycentric(self, tet_idx: np.ndarray, points: np.ndarray) -> np.ndarray:
