@@ -111,7 +111,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     try:
         result = calibrate(model, setups, base, fit_youngs_modulus=not args.fixed_e, fit_gamma=fit_gamma,
                            factor_range=(args.e_range[0], args.e_range[1]), name=args.name,
-                           leak=args.leak or None, **kwargs)
+                           leak=args.leak or None, contact_model=args.contact_model, **kwargs)
     except ValueError as exc:  # too few modes found or matched: say so, no traceback
         print(f"aas calibrate: {exc}", file=sys.stderr)
         return 1
@@ -129,6 +129,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     print(f"  alpha  {_fmt(m.alpha, std[0])} 1/s   (table {base.alpha:g})")
     print(f"  beta   {_fmt(m.beta, std[1])} s     (table {base.beta:g})")
     print(f"  gamma  {_fmt(m.gamma, std[2])} s/m   (table {base.gamma:g}{'' if d.gamma_fitted else '; held, not fitted'})")
+    print(f"  contact model: {result.contact_model}")
     print(f"  damping fit: {d.n_modes} modes, {d.n_rejected} rejected, reduced chi2 {d.chi2_reduced:.2f}")
     bands = [b for e in result.estimates for b in e.bands]
     bad = [b for b in bands if not b.fit_ok]
@@ -167,6 +168,9 @@ def add_subcommands(sub) -> None:
                    help="idle leak recording(s) of the rig (sensors.signals.leak format), one per excitation: removed first")
     p.add_argument("--fit-gamma", choices=("auto", "yes", "no"), default="auto",
                    help="fit gamma (auto: when grip forces / contact sets differ between recordings)")
+    p.add_argument("--contact-model", choices=("spring_damper", "damping"),
+                   help="contact model of the simulation being calibrated (default: the recordings' metadata, "
+                        "else spring_damper: the fingertip pads are springs)")
     p.add_argument("--fixed-e", action="store_true", help="keep the base Young's modulus")
     p.add_argument("--e-range", type=float, nargs=2, default=(1 / 3, 3.0), metavar=("LO", "HI"),
                    help="search range of E / E_base (default 0.333 3)")

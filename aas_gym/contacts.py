@@ -121,7 +121,8 @@ class ObjectContacts:
         slides when its friction force reaches ``SLIDING_CONE_RATIO`` of mu times its normal
         force (MuJoCo's contact force frame: the tangential rows of the solver); it is an
         impact when its partner body is not in ``pressing_before`` (the bodies that pressed at
-        the previous read; ``None``: no impacts)."""
+        the previous read; ``None``: no impacts). Each load names the body exerting it (a
+        touching partner's loads act on it too)."""
         from sensors.synthesis.passive import SLIDING_CONE_RATIO, ContactLoads
 
         keep = self.normal_forces_n > min_force_n
@@ -130,7 +131,7 @@ class ObjectContacts:
         sliding = (self.friction[keep] > 0) & (tangential >= SLIDING_CONE_RATIO * self.friction[keep] * fn)
         impact = (np.zeros(int(keep.sum()), bool) if pressing_before is None
                   else ~np.isin(self.other_bodies[keep], list(pressing_before)))
-        return ContactLoads(self.positions_m[keep], n, f, sliding, impact)
+        return ContactLoads(self.positions_m[keep], n, f, sliding, impact, bodies=self.other_bodies[keep])
 
     def pressing_bodies(self, min_force_n: float = 0.0) -> set:
         """Names of the bodies pressing on the object with more than ``min_force_n``."""

@@ -77,7 +77,7 @@ def touching_grasp(sensor, body: str, contacts: Mapping[str, ObjectContacts], va
             continue
         grounded = contacts[pb].select("environment").to_sensor_contacts(sensor.min_force_n)
         R, t = _pose_in(sensor.model, sensor.data, body, pb)
-        partners.append(TouchingPartner(pmodel, R, t, tuple(links), tuple(grounded)))
+        partners.append(TouchingPartner(pmodel, R, t, tuple(links), tuple(grounded), name=pb))
         names.append(pb)
         models.append(pmodel)
         # the contact tables, with the partner's origin as one more point (its pose)

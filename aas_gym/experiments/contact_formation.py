@@ -17,7 +17,7 @@ import numpy as np
 
 from aas_gym.envs.contact_formation import FORMATIONS
 
-__all__ = ["FormationData", "collect", "evaluate", "format_table", "step_band_levels"]
+__all__ = ["CLASSIFIERS", "FormationData", "collect", "evaluate", "format_table", "step_band_levels"]
 
 #: Bands of the per-step audio level [Hz].
 BAND_EDGES_HZ = np.geomspace(50.0, 20000.0, 25)
@@ -72,13 +72,27 @@ def collect(n_episodes: int, *, seed: int = 0, steps: int = 200, progress: bool 
                          np.array(episodes))
 
 
-def evaluate(data: FormationData, *, test_fraction: float = 0.3, seed: int = 0) -> dict:
+#: The classifiers :func:`evaluate` offers: random forests of 200 trees, or scikit-learn's
+#: histogram gradient boosting (its defaults).
+CLASSIFIERS = ("forest", "boosting")
+
+
+def _classifier(name: str, seed: int):
+    from sklearn.ensemble import HistGradientBoostingClassifier, RandomForestClassifier
+
+    if name == "forest":
+        return RandomForestClassifier(n_estimators=200, random_state=seed, n_jobs=1)
+    if name == "boosting":
+        return HistGradientBoostingClassifier(random_state=seed)
+    raise ValueError(f"classifier must be one of {CLASSIFIERS}, got {name!r}")
+
+
+def evaluate(data: FormationData, *, test_fraction: float = 0.3, seed: int = 0, classifier: str = "forest") -> dict:
     """Train each baseline on some episodes and test it on the others.
 
     Returns ``{baseline: {"accuracy", "balanced_accuracy", "recall": {formation: r},
     "n_test": {formation: n}}}`` for ``sound`` (streamed features), ``proprioception`` and
-    ``sound + proprioception``; random forests of 200 trees (``seed``)."""
-    from sklearn.ensemble import RandomForestClassifier
+    ``sound + proprioception``; ``classifier`` one of :data:`CLASSIFIERS` (``seed``)."""
     from sklearn.metrics import balanced_accuracy_score, recall_score
     from sklearn.model_selection import GroupShuffleSplit
 
@@ -89,7 +103,7 @@ def evaluate(data: FormationData, *, test_fraction: float = 0.3, seed: int = 0) 
     labels = list(range(len(FORMATIONS)))
     out = {}
     for name, x in inputs.items():
-        clf = RandomForestClassifier(n_estimators=200, random_state=seed, n_jobs=1)
+        clf = _classifier(classifier, seed)
         clf.fit(x[train], data.label[train])
         pred = clf.predict(x[test])
         truth = data.label[test]

@@ -19,6 +19,14 @@ What is fitted, and from what:
   error; uncertainties from the covariance (scaled by the reduced chi-square when the
   scatter exceeds the error bars) and from a bootstrap over modes.
 
+- **Contact springs** (``contact_model``, as the synthesis'): with ``"spring_damper"`` (the
+  default, and what recordings without metadata get) each recording's modes are the object's
+  coupled modes under its contact springs (the fingertip pads' springs, Hertz/Mindlin for the
+  others; :mod:`sensors.calibration.grasp_modes`). They do not scale with sqrt(E) alone, so
+  E is the fixed point of "couple at E, match, fit the scale", and the damping rows use the
+  coupled modes' frequencies and contact damping. ``"damping"`` is the paper's model (free
+  modes); a simulated recording's metadata says which model made it.
+
 The calibrated :class:`sensors.Material` is written as JSON by :func:`save_material` and read
 back by :func:`load_material`.
 """
@@ -26,6 +34,7 @@ back by :func:`load_material`.
 from __future__ import annotations
 
 from .calibrate import CalibrationResult, calibrate, log_spectral_distance_db
+from .grasp_modes import recording_contact_model, recording_contacts, recording_modes
 from .damping_fit import DampingFit, exact_decay_rates, fit_damping, refine_damping_exact
 from .material_files import MATERIAL_FILE_FORMAT, load_material, save_material
 from .recordings import RecordingSetup, mode_clusters, observability
@@ -49,5 +58,8 @@ __all__ = [
     "exact_decay_rates",
     "refine_damping_exact",
     "calibrate",
+    "recording_contact_model",
+    "recording_contacts",
+    "recording_modes",
     "log_spectral_distance_db",
 ]

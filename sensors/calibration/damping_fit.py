@@ -172,11 +172,15 @@ def exact_decay_rates(w: np.ndarray, C: np.ndarray) -> np.ndarray:
     return sigma
 
 
-def refine_damping_exact(fit: DampingFit, w_model: np.ndarray, G_list: list[np.ndarray], row_rec: np.ndarray,
+def refine_damping_exact(fit: DampingFit, w_model: np.ndarray | list[np.ndarray], G_list: list[np.ndarray],
+                         row_rec: np.ndarray,
                          row_members: list[np.ndarray], sigma: np.ndarray, sd: np.ndarray, gamma_held: float | None,
                          freqs_hz: np.ndarray, outlier_sigma: float = 4.0) -> DampingFit:
     """Refit alpha, beta (and gamma) to the exact eigenvalues of the damped modal system of
     each recording, starting from the first-order (diagonal) fit.
+
+    ``w_model`` [rad/s]: the undamped modes of every recording, or a list with one array per
+    recording (under contact springs each recording has its own coupled modes).
 
     All rows take part again (the diagonal fit may have rejected the contact-coupled ones
     that only the exact model explains): a Cauchy-loss fit first, then the rows it leaves
@@ -191,8 +195,9 @@ def refine_damping_exact(fit: DampingFit, w_model: np.ndarray, G_list: list[np.n
         gamma = x[2] if gamma_held is None else gamma_held
         out = np.full(rows.size, np.nan)
         for r in np.unique(row_rec[rows]):
-            C = np.diag(alpha + beta * w_model**2) + gamma * G_list[r]
-            s_modes = exact_decay_rates(w_model, C)
+            w = w_model[r] if isinstance(w_model, list) else w_model
+            C = np.diag(alpha + beta * w**2) + gamma * G_list[r]
+            s_modes = exact_decay_rates(w, C)
             for k in np.flatnonzero(row_rec[rows] == r):
                 out[k] = np.nanmean(s_modes[row_members[rows[k]]])
         return out

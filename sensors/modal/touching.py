@@ -60,7 +60,9 @@ class TouchingPartner:
     ``rotation`` (3, 3) and ``translation_m`` (3,): its frame -> the grasped object's frame;
     ``contacts``: the contacts between the two (``sensors.Contact`` in the GRASPED object's
     frame, its outward normal, ``counter_material`` the partner's material); ``grounded``: the
-    partner's contacts with the ground or table (its own frame, outward normal).
+    partner's contacts with the ground or table (its own frame, outward normal); ``name``: the
+    partner's body name, as ``sensors.synthesis.passive.ContactLoads.bodies`` names the body
+    exerting a load (a load from it acts on both bodies, :mod:`sensors.synthesis.partner_loads`).
     """
 
     model: Any
@@ -68,6 +70,7 @@ class TouchingPartner:
     translation_m: np.ndarray
     contacts: tuple = ()
     grounded: tuple = ()
+    name: str | None = None
 
     def __post_init__(self) -> None:
         R = np.array(self.rotation, float).reshape(3, 3)

@@ -69,6 +69,7 @@ from .._infra.lru import CACHE_SIZES, LRU
 from .caches import IdentityKey
 from .lti import one_blas_thread, scipy_linalg
 from .modal_system import modal_state_matrix
+from .partner_loads import load_shapes
 
 __all__ = ["ContactLoads", "LoadRead", "LoadSolver", "PassiveSound", "SLIDING_CONE_RATIO", "modal_load",
            "ramp_particular"]
@@ -90,6 +91,9 @@ class ContactLoads:
     sliding : (n,) bool, the contact slides (friction at the cone); default none.
     impact : (n,) bool, the contact just touched down (its partner did not press before);
         default none.
+    bodies : (n,) names of the bodies exerting the forces (default: none named).  A load
+        from a body the object is coupled to (``sensors.modal.TouchingPartner.name``) acts on
+        that body too, equal and opposite (:mod:`sensors.synthesis.partner_loads`).
     """
 
     positions_m: np.ndarray
@@ -97,6 +101,7 @@ class ContactLoads:
     forces_n: np.ndarray
     sliding: np.ndarray | None = None
     impact: np.ndarray | None = None
+    bodies: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         p = np.array(self.positions_m, dtype=float).reshape(-1, 3)
@@ -113,6 +118,11 @@ class ContactLoads:
             if v.shape != (len(p),):
                 raise ValueError(f"ContactLoads: {len(p)} points but {v.size} {name} flags")
             flags[name] = v
+        names = np.full(len(p), "", dtype=object) if self.bodies is None else np.array(self.bodies, dtype=object)
+        names = names.reshape(-1)
+        if names.shape != (len(p),):
+            raise ValueError(f"ContactLoads: {len(p)} points but {names.size} body names")
+        flags["bodies"] = np.array([str(b) for b in names], dtype=object)
         for name, v in (("positions_m", p), ("normals", n), ("forces_n", f), *flags.items()):
             v.setflags(write=False)
             object.__setattr__(self, name, v)
@@ -178,7 +188,8 @@ class LoadRead:
         """(total, impacts, fluctuation), each (r,), on ``modes`` (any ``ModalBasis``: the
         free model or its coupled modes with contact springs; mass-normalised shapes, so
         [N / sqrt(kg)]): sum_c U(x_c)^T (F_c + slip_c), the part of the impact contacts and
-        the part of the roughness."""
+        the part of the roughness.  On the coupled modes of a grasp touching other objects,
+        a load from a partner acts on it too, equal and opposite (:func:`load_shapes`)."""
         return self._projections.get_or_build(IdentityKey(modes), lambda: self._project(modes))
 
     def _project(self, modes):
@@ -188,7 +199,7 @@ class LoadRead:
             return np.zeros(r), np.zeros(r), np.zeros(r)
         F = np.array(loads.forces_n, dtype=float)
         slip = np.zeros_like(F) if self.slip_n is None else self.slip_n
-        U = np.asarray(modes.mode_shapes_at(loads.positions_m), dtype=float)    # (n, 3, r)
+        U = load_shapes(modes, loads)                                          # (n, 3, r)
         impacts = np.einsum("nd,ndr->r", np.where(loads.impact[:, None], F, 0.0), U)
         fluctuation = np.einsum("nd,ndr->r", slip, U)
         return np.einsum("nd,ndr->r", F, U) + fluctuation, impacts, fluctuation
