@@ -10,6 +10,7 @@ placement lands on the same bytes), settles that through the scene's ``PhysicsMe
 run per object and layout of the others, replayed after), and moves the end state back.
 
 Always the canonical run, hit or miss: a reset's state does not depend on what ran before.
+A placement at the origin, unturned (``randomization=False``), settles as drawn, as before.
 It equals the settle simulated where the objects were placed to the rounding of the rigid
 motion (object poses within 1e-9 m and rad, ``tests/test_canonical_settle.py``), not bit for
 bit; :data:`CANONICAL_SETTLE` ``= False`` is that reference (the direct settle, cached only
@@ -44,11 +45,11 @@ def settle_placed(memo: PhysicsMemo, model: mujoco.MjModel, data: mujoco.MjData,
     """Let the placed scene in ``data`` settle for ``settle_s`` (as ``aas_gym.scenario.settle``),
     through ``memo``; the objects' free joints ``(qpos address, qvel address)``, the target's
     planar pose from ``layout``.  The module docstring says how and how exactly."""
-    if not CANONICAL_SETTLE:
-        memo.run(data, ("settle", settle_s), lambda: settle(model, data, settle_s))
-        return
     x, y = layout.target_xy_m
     yaw = float(layout.target_yaw_rad)
+    if not CANONICAL_SETTLE or x == y == yaw == 0.0:     # the reference, or already canonical
+        memo.run(data, ("settle", settle_s), lambda: settle(model, data, settle_s))
+        return
     _move_free_bodies(data, free_joints, -yaw, (x, y), inverse=True)
     for a, v in free_joints:            # the canonical placement: the same bytes for every draw
         data.qpos[a:a + 7] = np.round(data.qpos[a:a + 7], CANONICAL_DECIMALS) + 0.0
