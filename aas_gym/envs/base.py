@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from aas_gym import has_display
-from aas_gym.canonical_settle import settle_placed
+from aas_gym.canonical_settle import canonical_quat, settle_placed
 from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
 from aas_gym.robots import DEFAULT_ROBOT, check_robot, robot_controller
@@ -80,6 +80,7 @@ class _Scene:
         self.carriage = type(self.hand) is Hand
         # settled placements and grasps by start state (a reset redoes only what differs)
         self.memo = PhysicsMemo(self.model)
+        self.canonical_quat = canonical_quat(objects[0])   # the target's at yaw 0 (canonical_settle)
         self.sensor = SimAcousticSensor(self.model, self.data, on_no_grasp="silence")
         self.bodies = self.sensor.bodies
         self.stream: ContactStream = self.sensor.stream
@@ -424,7 +425,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         self._layout = place_objects(m, d, sc.objects, sc.free_joints, self.np_random, self.randomization,
                                      far_end_only=self._far_end_only)
         if self._settle_canonical:
-            settle_placed(sc.memo, m, d, sc.free_joints, self._layout, settle_s)
+            settle_placed(sc.memo, m, d, sc.free_joints, self._layout, settle_s, sc.canonical_quat)
         else:
             sc.memo.run(d, ("settle", settle_s), lambda: settle(m, d, settle_s))
 
