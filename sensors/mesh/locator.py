@@ -162,12 +162,13 @@ def _per_point(memo: LRU, points: np.ndarray, compute):
     keys = [p.tobytes() for p in points]
     rows = [memo.get(k) for k in keys]
     missing = [i for i, r in enumerate(rows) if r is None]
-    if not missing:
-        return tuple(np.stack([r[m] for r in rows]) for m in range(len(rows[0])))
-    out = compute(points if len(missing) == len(points) else points[missing])
-    kept = [np.array(a) for a in out]          # the memo's own copy (the caller may edit ``out``)
-    for j, i in enumerate(missing):
-        rows[i] = memo.put(keys[i], tuple(a[j] for a in kept))
     if len(missing) == len(points):
+        out = compute(points)
+        for i, k in enumerate(keys):
+            memo.put(k, tuple(np.array(a[i]) for a in out))
         return out
+    if missing:
+        out = compute(points[missing])
+        for j, i in enumerate(missing):
+            rows[i] = memo.put(keys[i], tuple(np.array(a[j]) for a in out))
     return tuple(np.stack([r[m] for r in rows]) for m in range(len(rows[0])))
