@@ -40,7 +40,6 @@ CACHE_SIZES: dict[str, int] = {
     "modal.coupled_grasps": 16,      # modes of a grasped object with the objects it touches, per contact set
     "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container
     "fluid.containers": 8,           # containers (dry model + static correction) per object
-    "mesh.located_points": 512,      # per mesh: recently queried points' tet, barycentric coordinates / closest face
     "objects.solids": 64,            # surfaces and meshers of the catalog's surface objects
     "sim.models": 32,                # modal models shared by the scenes of one process
     "sim.material_views": 16,

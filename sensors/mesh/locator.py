@@ -4,8 +4,6 @@ surface point, face and outward (faceted) normal. Spatial indexes are built on f
 from __future__ import annotations
 
 import numpy as np
-
-from .._infra.lru import CACHE_SIZES, LRU
 from .tets import boundary_faces
 
 __all__ = ["TetLocator", "closest_points_on_triangles"]
@@ -58,22 +56,6 @@ class TetLocator:
         self._surface = None
         self._tet_tree = None
         self._tinv = None
-        # per point (its float64 bytes): the same contact points are queried several times
-        # per grasp (springs, attachment loads, damping, surface checks), each row computed
-        # alone (the same numbers as in any batch)
-        self._new_memos()
-
-    def _new_memos(self) -> None:
-        self._located = LRU(CACHE_SIZES["mesh.located_points"])
-        self._closest = LRU(CACHE_SIZES["mesh.located_points"])
-
-    def __getstate__(self) -> dict:
-        # a copy starts with empty memos of its own, registered with sensors._infra.lru.clear_all
-        return {k: v for k, v in self.__dict__.items() if k not in ("_located", "_closest")}
-
-    def __setstate__(self, state: dict) -> None:
-        self.__dict__.update(state)
-        self._new_memos()
 
     def surface_data(self):
         if self._surface is None:
@@ -91,10 +73,6 @@ class TetLocator:
 
     def closest_surface(self, points: np.ndarray):
         """Closest surface point, face index and distance for each point."""
-        closest, face, dist = _per_point(self._closest, points, self._closest_surface)
-        return closest, face.astype(np.intp, copy=False), dist
-
-    def _closest_surface(self, points: np.ndarray):
         s = self.surface_data()
         n_faces = len(s["faces"])
         k = min(16, n_faces)
@@ -128,10 +106,6 @@ class TetLocator:
 
     def locate(self, points: np.ndarray):
         """Containing tet and barycentric coordinates; outside points go to the nearest surface point."""
-        tet, bary = _per_point(self._located, points, self._locate)
-        return tet.astype(np.intp, copy=False), bary
-
-    def _locate(self, points: np.ndarray):
         if self._tet_tree is None:
             from scipy.spatial import cKDTree  # ~0.05 s to import: only models that are queried pay
 
@@ -153,22 +127,3 @@ class TetLocator:
             tet[outside] = t
             bary[outside] = b / b.sum(axis=1, keepdims=True)
         return tet, bary
-
-
-def _per_point(memo: LRU, points: np.ndarray, compute):
-    """``compute(points)`` (a tuple of arrays with one row per point) with each point's rows
-    kept in ``memo``: only the points not seen lately are computed, in one batch."""
-    points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
-    keys = [p.tobytes() for p in points]
-    rows = [memo.get(k) for k in keys]
-    missing = [i for i, r in enumerate(rows) if r is None]
-    if len(missing) == len(points):
-        out = compute(points)
-        for i, k in enumerate(keys):
-            memo.put(k, tuple(np.array(a[i]) for a in out))
-        return out
-    if missing:
-        out = compute(points[missing])
-        for j, i in enumerate(missing):
-            rows[i] = memo.put(keys[i], tuple(np.array(a[j]) for a in out))
-    return tuple(np.stack([r[m] for r in rows]) for m in range(len(rows[0])))
