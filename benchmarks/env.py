@@ -242,14 +242,17 @@ def _grasp_once(env):
 
 def _reference_error(env_id: str, kwargs: dict) -> float:
     """Closed-form features of the same grasp in two fresh envs: contact modes from kept
-    unit-load solves (the default) and from the direct solve of each contact set
-    (``sensors.modal.static_correction.REUSE_UNIT_LOADS = False``, the reference): largest
-    difference per feature / that feature."""
+    unit-load solves and canonical settles (the defaults) and from the direct solve of each
+    contact set and the settle where placed (``sensors.modal.static_correction.REUSE_UNIT_LOADS``,
+    ``aas_gym.canonical_settle.CANONICAL_SETTLE`` False, the references): largest difference per
+    feature / that feature."""
+    from aas_gym import canonical_settle
     from sensors.modal import static_correction
 
     features = []
     for reuse in (True, False):
         static_correction.REUSE_UNIT_LOADS = reuse
+        canonical_settle.CANONICAL_SETTLE = reuse      # GraspPosition-v0's settle where placed (reference)
         try:
             env = gym.make(env_id, disable_env_checker=True, **kwargs)
             u = _grasp_once(env)
@@ -258,6 +261,7 @@ def _reference_error(env_id: str, kwargs: dict) -> float:
             env.close()
         finally:
             static_correction.REUSE_UNIT_LOADS = True
+            canonical_settle.CANONICAL_SETTLE = True
     fast, reference = features
     return float(np.max(np.abs(fast - reference) / np.abs(reference)))
 
@@ -340,8 +344,10 @@ def env_lines(rows: list[dict], budget_s: float) -> list[str]:
         "each sample, is the whole difference: against the float64 chain it is below 1e-6 per feature, "
         "`tests/test_closed_form_features.py`). *Modes error*: the same grasp's closed-form features with the "
         "contact modes' attachment vectors combined from kept unit-load solves (the default) against the direct "
-        "solve of each contact set (`sensors.modal.static_correction.REUSE_UNIT_LOADS = False`, the reference), "
-        "largest difference per feature / that feature (`tests/test_unit_load_reuse.py`).",
+        "solve of each contact set (`sensors.modal.static_correction.REUSE_UNIT_LOADS = False`, the reference) "
+        "and, in GraspPosition-v0, the placement settled where it was drawn "
+        "(`aas_gym.canonical_settle.CANONICAL_SETTLE = False`), largest difference per feature / that feature "
+        "(`tests/test_unit_load_reuse.py`, `tests/test_canonical_settle.py`).",
         "",
         "| env | on [steps/s] | episodes/s | off [steps/s] | bare [steps/s] | error / feature | error / max | "
         "modes error | goal |",

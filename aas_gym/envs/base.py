@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from aas_gym import has_display
+from aas_gym.canonical_settle import canonical_quat, settle_placed
 from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
 from aas_gym.robots import DEFAULT_ROBOT, check_robot, robot_controller
@@ -79,6 +80,7 @@ class _Scene:
         self.carriage = type(self.hand) is Hand
         # settled placements and grasps by start state (a reset redoes only what differs)
         self.memo = PhysicsMemo(self.model)
+        self.canonical_quat = canonical_quat(objects[0])   # the target's at yaw 0 (canonical_settle)
         self.sensor = SimAcousticSensor(self.model, self.data, on_no_grasp="silence")
         self.bodies = self.sensor.bodies
         self.stream: ContactStream = self.sensor.stream
@@ -218,6 +220,10 @@ class AasEnv(AcousticEnvMixin, gym.Env):
 
     #: A step is one scripted grasp and recording (a probe), not one control period.
     _step_is_probe = False
+
+    #: Settle each placement as the same run moved (``aas_gym.canonical_settle``): once per
+    #: target and layout of the others instead of every reset.
+    _settle_canonical = False
 
     #: The camera ``render`` uses unless ``camera_name`` says otherwise (``CAMERA_NAMES``).
     _default_camera = "closeup"
@@ -418,7 +424,10 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         sc.hand.teleport(d, HOME_TCP, MAX_OPENING_M)
         self._layout = place_objects(m, d, sc.objects, sc.free_joints, self.np_random, self.randomization,
                                      far_end_only=self._far_end_only)
-        sc.memo.run(d, ("settle", settle_s), lambda: settle(m, d, settle_s))
+        if self._settle_canonical:
+            settle_placed(sc.memo, m, d, sc.free_joints, self._layout, settle_s, sc.canonical_quat)
+        else:
+            sc.memo.run(d, ("settle", settle_s), lambda: settle(m, d, settle_s))
 
     def _episode_grip_force(self) -> float:
         r = self.randomization.grip_force_rel

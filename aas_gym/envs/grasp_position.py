@@ -52,6 +52,7 @@ class GraspPositionEnv(AasEnv):
 
     _far_end_only = True
     _step_is_probe = True
+    _settle_canonical = True
     reset_options = ("object", "position_index")
     reward_term_names = ("error",)
 

@@ -24,10 +24,12 @@ CACHE_SIZES: dict[str, int] = {
     "synthesis.drive_spectra": 8,    # fingertip drive steady period + transient (closed-form features)
     "synthesis.window_spectra": 8,   # models whose grasps' feature-window spectra are kept (closed form)
     "synthesis.grasp_spectra": 64,   # ... and per model, its grasps' spectra (4.5 kB each)
+    "synthesis.exciter_periods": 8,  # exciter force period and its spectrum per excitation (closed form): 0.5 MB each
     "synthesis.feature_bins": 8,     # feature frequencies as DFT bins per (rate, excitation period)
     "synthesis.prefilter_taps": 4,   # one-shot band-limited prefilters (passes, length): a few floats each
     "stream.systems": 16,            # streamed contact systems (SystemCache)
     "stream.drive_systems": 4,       # fingertip drive systems per fingertip model
+    "stream.drive_periods": 8,       # the drive's (prefiltered) exciter period per excitation: 176 kB each
     "stream.steady_states": 8,       # periodic steady states per (system, drive)
     "passive.load_projections": 4,   # one contact read's loads on the modes of the latest contact sets
     "modal.flexibility": 8,          # K, M and factorization of K + sigma M per model (static correction; 8: the

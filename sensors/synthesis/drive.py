@@ -40,7 +40,7 @@ from ..signals.excitation import Excitation
 from .fingertip import DriveSystems, FingertipModel
 from .lti import SETTLE_E_FOLDS, SteadyState, bandlimited_samples
 
-__all__ = ["FingertipDrive", "grasp_fingertip"]
+__all__ = ["FingertipDrive", "drive_period", "grasp_fingertip"]
 
 
 def grasp_fingertip(fingertip: FingertipModel | None, model, grip_force_n: float) -> FingertipModel:
@@ -54,6 +54,24 @@ def grasp_fingertip(fingertip: FingertipModel | None, model, grip_force_n: float
             kw["object_mass_kg"] = float(mass)
         fingertip = FingertipModel(**kw)
     return replace(fingertip, grip_force_n=float(grip_force_n))
+
+
+#: One period of the drive's exciter samples per (excitation, band-limited): every recording and
+#: stream of the same excitation starts from the same samples (a prefilter costs two FFTs, about
+#: as much as the rest of a new grasp's drive); the same function of the same input, bit for bit.
+_PERIODS: LRU = LRU(CACHE_SIZES["stream.drive_periods"])
+
+
+def drive_period(excitation: Excitation, bandlimited: bool = True) -> np.ndarray:
+    """One loop period of the samples the fingertip drive works on (read-only): the
+    excitation's, prefiltered by 1 / sinc^4 when ``bandlimited`` (see the module docstring)."""
+    def build():
+        e = excitation.signal
+        out = bandlimited_samples(e, passes=2) if bandlimited else np.array(e, dtype=float)
+        out.setflags(write=False)
+        return out
+
+    return _PERIODS.get_or_build((excitation, bool(bandlimited)), build)
 
 
 class _TipSystems:
@@ -115,10 +133,9 @@ class FingertipDrive:
 
     @cached_property
     def period(self) -> np.ndarray:
-        """One loop period of the excitation samples the drive works on (computed on first
-        use): band-limited, prefiltered for the two first-order holds of the chain."""
-        e = self.excitation.signal
-        return bandlimited_samples(e, passes=2) if self.bandlimited else e
+        """One loop period of the excitation samples the drive works on: band-limited,
+        prefiltered for the two first-order holds of the chain (:func:`drive_period`)."""
+        return drive_period(self.excitation, self.bandlimited)
 
     def reset(self) -> None:
         """The actuator fingertip left the object: the next grasp starts from rest."""

@@ -101,6 +101,25 @@ class _DriveSpectrum:
     lowest_dynamic_n: float          # min over the recording of both contacts' dynamic force (bound)
 
 
+#: The exciter force period the drive runs under and its ``np.fft.rfft``, per (excitation,
+#: band-limited, actuator force): a new object mass (a randomized density) changes the drive's
+#: systems, never its input, so every new drive spectrum shares these (the same numbers).
+_EXCITER_PERIODS: LRU = LRU(CACHE_SIZES["synthesis.exciter_periods"])
+
+
+def _exciter_period(stream: AcousticStream, actuator_force_n: float, period: np.ndarray):
+    """``(force period [N], its rfft)`` of the exciter (read-only), kept per excitation."""
+    def build():
+        fe = actuator_force_n * period
+        spectrum = np.fft.rfft(fe)
+        fe.setflags(write=False)
+        spectrum.setflags(write=False)
+        return fe, spectrum
+
+    key = (stream.excitation, stream.drive.bandlimited, float(actuator_force_n))
+    return _EXCITER_PERIODS.get_or_build(key, build)
+
+
 def _drive_spectrum(stream: AcousticStream, tip: FingertipModel, from_rest: bool) -> _DriveSpectrum | None:
     """The drive's contact force as the time-domain chain computes it: settled, its periodic
     steady state (``FingertipDrive.settle``; per harmonic with the band-limited drive); from
@@ -113,8 +132,9 @@ def _drive_spectrum(stream: AcousticStream, tip: FingertipModel, from_rest: bool
         return _DriveSpectrum(act.output, Exponentials.none(), float(min(act.output.min(), mic.output.min())))
     if not (closed_form_supported(sy.drive.act) and closed_form_supported(sy.drive.mic)):
         return None
-    fe = tip.actuator_force_n * sy.period        # the exciter force the linear run is driven by
-    act, mic = SteadyState(sy.drive.act, fe), SteadyState(sy.drive.mic, fe)   # sampled (FOH) steady states
+    fe, fe_spectrum = _exciter_period(stream, tip.actuator_force_n, sy.period)
+    act = SteadyState(sy.drive.act, fe, input_spectrum=fe_spectrum)       # sampled (FOH) steady states
+    mic = SteadyState(sy.drive.mic, fe, input_spectrum=fe_spectrum)
     x0 = sy.drive.act.periodic_state(fe)
     transient = periodic_transient(sy.drive.act, x0)
     mic_tr = periodic_transient(sy.drive.mic, x0)

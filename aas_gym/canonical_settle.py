@@ -1,0 +1,96 @@
+"""Settling a placed scene once per object, not once per placement.
+
+The table top is the plane z = 0 under vertical gravity, and the hand waits at its home pose
+far above: the objects' settle is the same motion wherever on the table and however turned
+about z the placement put them (a rigid motion of the plane maps one run onto the other).  So
+:func:`settle_placed` moves the placed objects by the inverse of the target's planar pose
+(``Layout.target_xy_m``, ``target_yaw_rad``) to the canonical placement (target at the
+origin, yaw 0), settles that through the scene's ``PhysicsMemo`` (one run per object and
+layout of the others, replayed after), and moves the end state back.  The target's canonical
+position comes out exact; its orientation, within rounding (1e-16) of the placement's own
+at yaw 0 (:func:`canonical_quat`), is set to that, so every draw lands on the same bytes.
+Nothing is rounded coarser: a rest pose off by more would put the table contacts a hair off
+the bottom face, and their static correction would load nodes off that face (new unit-load
+solves, ``sensors.modal.static_correction``).
+
+Always the canonical run, hit or miss: a reset's state does not depend on what ran before.
+A placement at the origin, unturned (``randomization=False``), settles as drawn, as before.
+
+Used by ``GraspPosition-v0`` (``AasEnv._settle_canonical``).  ``ObjectRecognition-v0`` settles
+as drawn: there the grasps from moved settles put contact points off mesh faces by about 1e-13 m
+(rounding, as the direct settle's do elsewhere), above the unit-load reuse's negligible shape
+weight (``static_correction``), and its probes touched twice as many new nodes (186 against
+83 unit-load misses in 800 warm steps), costing more than the settles saved.
+The result equals the settle simulated where the objects were placed to the rounding of the
+rigid motion (object poses within 1e-9 m and rad, features within 1e-6 after the grasp,
+``tests/test_canonical_settle.py``), not bit for bit; :data:`CANONICAL_SETTLE` ``= False`` is
+that reference (the direct settle, cached only for a repeated placement).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+
+from aas_gym.object_bodies import euler_to_quat, yaw_rest_quat
+from aas_gym.physics_memo import PhysicsMemo
+from aas_gym.scenario import Layout, settle
+from sensors.objects.catalog import ObjectSpec
+
+__all__ = ["CANONICAL_SETTLE", "canonical_quat", "settle_placed"]
+
+#: Whether :func:`settle_placed` settles the canonical placement and moves it (True, fast) or
+#: settles the objects where they were placed (False: the reference).  Read at each call.
+CANONICAL_SETTLE = True
+# A turned-back orientation this close to the canonical one is it, up to rounding.
+_SAME_QUAT = 1e-12
+
+
+def canonical_quat(target: ObjectSpec) -> np.ndarray:
+    """The orientation (w, x, y, z) ``aas_gym.scenario.place_objects`` gives ``target`` at yaw 0:
+    a prism lies along x, a surface object rests upright (``yaw_rest_quat``)."""
+    return euler_to_quat(0.0) if target.is_prism else yaw_rest_quat(target.solid(), 0.0)
+
+
+def settle_placed(memo: PhysicsMemo, model: mujoco.MjModel, data: mujoco.MjData,
+                  free_joints: Sequence[tuple[int, int]], layout: Layout, settle_s: float,
+                  target_quat: np.ndarray) -> None:
+    """Let the placed scene in ``data`` settle for ``settle_s`` (as ``aas_gym.scenario.settle``),
+    through ``memo``; the objects' free joints ``(qpos address, qvel address)``, target first,
+    its planar pose from ``layout`` and its :func:`canonical_quat` ``target_quat``.  The module
+    docstring says how and how exactly."""
+    x, y = layout.target_xy_m
+    yaw = float(layout.target_yaw_rad)
+    if not CANONICAL_SETTLE or x == y == yaw == 0.0:     # the reference, or already canonical
+        memo.run(data, ("settle", settle_s), lambda: settle(model, data, settle_s))
+        return
+    _move_free_bodies(data, free_joints, -yaw, (x, y), inverse=True)
+    a = free_joints[0][0]
+    quat = data.qpos[a + 3:a + 7]
+    if min(np.abs(quat - target_quat).max(), np.abs(quat + target_quat).max()) < _SAME_QUAT:
+        quat[:] = target_quat                           # (q and -q: one rotation); else a run of its own
+    memo.run(data, ("settle", settle_s), lambda: settle(model, data, settle_s))
+    _move_free_bodies(data, free_joints, yaw, (x, y), inverse=False)
+    mujoco.mj_forward(model, data)      # poses, contacts and forces of the moved state
+
+
+def _move_free_bodies(data: mujoco.MjData, free_joints, yaw_rad: float, shift_xy, inverse: bool) -> None:
+    """Turn every free body by ``yaw_rad`` about world z and shift it by ``shift_xy``: after the
+    turn (``inverse=False``), or ``-shift_xy`` before it (``inverse=True``).  A free joint's
+    linear velocity (and warm-start acceleration) is in the world frame and turns; its angular
+    part is in the body frame and stays."""
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    turn = np.array([math.cos(yaw_rad / 2), 0.0, 0.0, math.sin(yaw_rad / 2)])
+    shift = np.array([shift_xy[0], shift_xy[1], 0.0])
+    quat = np.empty(4)
+    for a, v in free_joints:
+        p = data.qpos[a:a + 3]
+        data.qpos[a:a + 3] = (rot @ (p - shift) if inverse else rot @ p + shift) + 0.0   # no -0.0
+        mujoco.mju_mulQuat(quat, turn, data.qpos[a + 3:a + 7].copy())
+        data.qpos[a + 3:a + 7] = quat
+        data.qvel[v:v + 3] = rot @ data.qvel[v:v + 3]
+        data.qacc_warmstart[v:v + 3] = rot @ data.qacc_warmstart[v:v + 3]
