@@ -29,6 +29,7 @@ rim (lower fills, tilts and surface cavities take the exact path in :func:`senso
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 
 import numpy as np
@@ -41,6 +42,8 @@ from .added_mass import potential_flow, wall_coupling
 from .cavity import AxisymmetricCavity, p2_mass_properties
 from .filled_model import FilledModalModel
 from .liquid_body import LiquidBody
+
+log = logging.getLogger(__name__)
 
 __all__ = ["FillTable", "FillTableCostError", "fill_table", "GRID_RTOL", "MAX_TABLE_SOLVES", "MAX_INTERVALS"]
 
@@ -301,6 +304,10 @@ def _build(container, liquid, max_solves: int, progress=None) -> FillTable:
             f"counts x up to {2 * MAX_INTERVALS + 1}, liquid element height {h_el * 1e3:.3g} mm), above the limit "
             f"of {max_solves}: raise max_solves= of sensors.fluid.fill_table.fill_table (default "
             f"MAX_TABLE_SOLVES), give a larger liquid_element_size_m, or fill with interpolated=False")
+    # Once per container and liquid (then from disk): say why the first fill waits.
+    log.info("building the fill table of %s (once, cached on disk): up to %d exact fill solves; "
+             "interpolated=False (FillLevel-v0: interpolated_fill=False) solves each fill instead",
+             container.name, worst)
     k2_cut = _k2_cut(container, liquid)
     k2_sample = k2_cut * MODE_MARGIN**2
     segments, worst_err = [], 0.0
