@@ -17,6 +17,7 @@ from sensors.synthesis.passive import ContactLoads, LoadRead
 
 from test_contact_stiffness import bar, reference, vertex  # noqa: F401  (fixtures)
 from test_touching_objects import H, K_LINK, K_PAD, K_TABLE
+from test_touching_objects import two_bars as touching_two_bars
 
 DOWN = np.array([0.0, 0.0, -1.0])
 
@@ -26,21 +27,9 @@ FREQS_HZ = np.linspace(100.0, 5000.0, 150)
 
 
 def two_bars(reference, partner_model, name="plinth"):
-    """The grasped bar A resting on bar B (B 25 mm below, frames aligned) at x = 40 mm, A held by
-    two pads on its sides at x = -50 mm, B on the table at two points of its bottom face.
-    Returns the pads, the partner B and the springs' vertices for the full FEM."""
-    V = reference[2]
-    va, pa = vertex(reference, 0.04, 2, -1)                              # bottom of A
-    vb = int(np.argmin(np.linalg.norm(V - (pa + [0, 0, H]), axis=1)))   # top of B (B frame)
-    assert np.allclose(V[vb] - [0, 0, H], pa)
-    pads = [vertex(reference, -0.05, 1, s) for s in (1, -1)]
-    table = [vertex(reference, x, 2, -1) for x in (-0.07, 0.09)]
-    pad_contacts = [Contact(p, [0.0, s, 0.0], 5.0, 0.5, *K_PAD) for (_, p), s in zip(pads, (1, -1))]
-    link = Contact(pa, DOWN, 5.0, 0.5, *K_LINK, counter_material="aluminium")
-    ground = [Contact(p, DOWN, 5.0, 0.5, *K_TABLE) for _, p in table]
-    partner = TouchingPartner(partner_model, np.eye(3), [0.0, 0.0, -H], (link,), tuple(ground), name=name)
-    springs = {"pads": [(v, 1, *K_PAD) for v, _ in pads], "link": (va, vb), "table": [v for v, _ in table]}
-    return pad_contacts, partner, springs
+    """The two bars of test_touching_objects, A resting on B at x = 40 mm and held at x = -50 mm,
+    B named (its loads are a partner's)."""
+    return touching_two_bars(reference, partner_model, 0.04, -0.05, (-0.07, 0.09), name=name)
 
 
 def _full_response(reference, springs, mic_vertex, mic_normal, on_partner: bool) -> np.ndarray:

@@ -28,26 +28,27 @@ K_TABLE = (2e6, 1e6)       # the lower bar on the table
 K_PAD = (2e6, 0.0)         # a fingertip pad on the grasped bar
 
 
-def _scene(reference, partner_model):
-    """The grasped bar A resting on bar B (B 25 mm below, frames aligned), A held by two pads
-    on its sides, B on the table at two points of its bottom face."""
+def two_bars(reference, partner_model, contact_x_m=0.05, pad_x_m=-0.03, table_x_m=(-0.08, 0.08), name=None):
+    """The grasped bar A resting on bar B (B 25 mm below, frames aligned) at ``contact_x_m``, A
+    held by two pads on its sides at ``pad_x_m``, B on the table at two points of its bottom
+    face. Returns the pads, the partner B and the springs' vertices for the full FEM."""
     V = reference[2]
-    va, pa = vertex(reference, 0.05, 2, -1)                              # bottom of A
+    va, pa = vertex(reference, contact_x_m, 2, -1)                       # bottom of A
     vb = int(np.argmin(np.linalg.norm(V - (pa + [0, 0, H]), axis=1)))   # top of B (B frame)
     assert np.allclose(V[vb] - [0, 0, H], pa)
-    pads = [vertex(reference, -0.03, 1, s) for s in (1, -1)]
-    table = [vertex(reference, x, 2, -1) for x in (-0.08, 0.08)]
+    pads = [vertex(reference, pad_x_m, 1, s) for s in (1, -1)]
+    table = [vertex(reference, x, 2, -1) for x in table_x_m]
     pad_contacts = [Contact(p, [0.0, s, 0.0], 5.0, 0.5, *K_PAD) for (_, p), s in zip(pads, (1, -1))]
     link = Contact(pa, DOWN, 5.0, 0.5, *K_LINK, counter_material="aluminium")
     ground = [Contact(p, DOWN, 5.0, 0.5, *K_TABLE) for _, p in table]
-    partner = TouchingPartner(partner_model, np.eye(3), [0.0, 0.0, -H], (link,), tuple(ground))
+    partner = TouchingPartner(partner_model, np.eye(3), [0.0, 0.0, -H], (link,), tuple(ground), name=name)
     springs = {"pads": [(v, 1, *K_PAD) for v, _ in pads], "link": (va, vb), "table": [v for v, _ in table]}
     return pad_contacts, partner, springs
 
 
 def test_coupled_grasp_matches_full_fem_of_both_bars(bar, reference):
     K, M, _, dofs = reference
-    pads, partner, springs = _scene(reference, bar)
+    pads, partner, springs = two_bars(reference, bar)
     n = K.shape[0]
     K2 = sp.block_diag([K, K]).tolil()
     for v, axis, kn, kt in springs["pads"]:                                 # A's pads, grounded
@@ -75,7 +76,7 @@ def test_coupled_grasp_matches_full_fem_of_both_bars(bar, reference):
 
 
 def test_the_coupled_size_is_bounded_with_a_clear_error(bar, reference):
-    pads, partner, _ = _scene(reference, bar)
+    pads, partner, _ = two_bars(reference, bar)
     with pytest.raises(CoupledSizeError, match=r"about \d+ coordinates.*MAX_COUPLED_COORDINATES.*max_frequency_hz"):
         contact_modal_model(TouchingObjects(bar, [partner], max_coordinates=30), pads)
 
@@ -85,7 +86,7 @@ def test_very_different_bodies_passive_dense_reference_and_grounded_limit(bar, r
     modes approach those with the contact as a grounded spring; the coupled grasp's system
     is passive and equals the dense continuous-time reference."""
     heavy = with_material(bar, scaled_material(bar.material, modulus_scale=1e4, density_scale=1e4))
-    pads, partner, _ = _scene(reference, heavy)
+    pads, partner, _ = two_bars(reference, heavy)
     group = TouchingObjects(bar, [partner])
     modes = contact_modal_model(group, pads)
     grounded = contact_modal_model(bar, pads + list(partner.contacts))
@@ -119,7 +120,7 @@ def test_state_transfer_keeps_the_partners_energy_and_never_adds(bar, reference)
     from sensors.modal.touching import CoupledGraspModes
     from sensors.synthesis.modal_system import transfer_state
 
-    pads, partner, _ = _scene(reference, bar)
+    pads, partner, _ = two_bars(reference, bar)
     group = TouchingObjects(bar, [partner])
     a = CoupledGraspModes(group, pads)
     a_again = CoupledGraspModes(group, pads)
