@@ -41,6 +41,14 @@ within 1e-9: ``tests/test_unit_load_reuse.py``); ``reuse_unit_loads=False`` (or
 :data:`REUSE_UNIT_LOADS`) is the direct solve, the reference.  Random grasps of the same
 object touch the same few elements over and over, so after a few contact sets a new one
 needs no solve at all: 36 -> 12 ms per contact set of GraspPosition-v0's wood bar.
+
+Node-pair products (the default, :data:`GRAM_PRODUCTS`): the store also keeps Y_i^T M Y_j
+between its nodes (and Y_i^T M relief), made once when a node comes in.  A contact set's
+X = Y C - relief B then has X^T M X, X^T K X, X^T K U, its values at points and its products
+with another set's vectors (a state transfer) as small dense algebra on C, B and those blocks:
+nothing n_dof-sized per contact set, Psi (n_dof x a) formed only when someone asks for it
+(:class:`AttachmentBasis`).  ``GRAM_PRODUCTS = False`` forms Psi explicitly (the reference;
+``tests/test_gram_products.py``: 1e-9 relative).
 """
 
 from __future__ import annotations
@@ -80,6 +88,8 @@ _DEPENDENT = 1e-10
 # Shape-function weights below this are rounding (a point on a vertex, edge or face has exact
 # zeros there): the reused path leaves those nodes out (a load change below 1e-13 relative).
 _NEGLIGIBLE_WEIGHT = 1e-13
+# Slots per block of the unit-load store's node-pair products (UnitLoadStore._products).
+_PRODUCT_BLOCK = 16
 
 _CACHE: LRU = LRU(CACHE_SIZES["modal.flexibility"])
 
@@ -398,18 +408,27 @@ class UnitLoadStore:
         return (3 * ks[:, None] + np.arange(3)).ravel()
 
     def _products(self, new_slots) -> None:
-        """``gram`` and ``relief_gram`` of newly filled slots against every slot.  One slot at a
-        time against all of them: the same matrix shapes every time, so BLAS sums each
-        product in the same order whatever else the store holds."""
-        for k in new_slots:
-            new = slice(3 * k, 3 * k + 3)
-            lower_first = self.Y.T @ self.MY[:, new]        # Y_m^T M Y_n: canonical where node m <= node n
-            higher_first = self.MY.T @ self.Y[:, new]       # (Y_n^T M Y_m)^T: canonical where node m > node n
-            lower = np.repeat(self.slot_node <= self.slot_node[k], 3)
-            block = np.where(lower[:, None], lower_first, higher_first)
-            self.gram[:, new] = block
-            self.gram[new, :] = block.T
-            self.relief_gram[new] = self.Y[:, new].T @ self.flex.mass_relief
+        """``gram`` and ``relief_gram`` of newly filled slots against the slots in use.  In
+        blocks of :data:`_PRODUCT_BLOCK` slots at places fixed by the capacity, the new ones
+        padded to a full block: every product is made with the same matrix shapes, so BLAS
+        sums it in the same order whatever else the store holds or came in with it."""
+        n = _PRODUCT_BLOCK
+        hi = int(np.nonzero(self.slot_node >= 0)[0].max()) + 1            # slots in use are below
+        for g in range(0, len(new_slots), n):
+            group = np.asarray(new_slots[g:g + n])
+            cols = (3 * group[:, None] + np.arange(3)).ravel()
+            Yn = np.zeros((self.Y.shape[0], 3 * n), order="F")
+            MYn = np.zeros_like(Yn)
+            Yn[:, :cols.size], MYn[:, :cols.size] = self.Y[:, cols], self.MY[:, cols]
+            col_node = np.repeat(self.slot_node[group], 3)
+            for start in range(0, hi, n):
+                blk = slice(3 * start, 3 * min(start + n, self.capacity))
+                lower_first = (self.Y[:, blk].T @ MYn)[:, :cols.size]     # Y_m^T M Y_n: canonical for m <= n
+                higher_first = (self.MY[:, blk].T @ Yn)[:, :cols.size]    # (Y_n^T M Y_m)^T: for m > n
+                row_node = np.repeat(self.slot_node[start:start + n], 3)
+                self.gram[blk, cols] = np.where(row_node[:, None] <= col_node[None, :], lower_first, higher_first)
+            self.gram[cols, :3 * hi] = self.gram[:3 * hi, cols].T
+            self.relief_gram[cols] = (Yn.T @ self.flex.mass_relief)[:cols.size]
 
 
 class RitzGeometry:
