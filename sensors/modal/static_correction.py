@@ -88,7 +88,7 @@ _DEPENDENT = 1e-10
 # Shape-function weights below this are rounding (a point on a vertex, edge or face has exact
 # zeros there): the reused path leaves those nodes out (a load change below 1e-13 relative).
 _NEGLIGIBLE_WEIGHT = 1e-13
-# Slots per block of the unit-load store's node-pair products (UnitLoadStore._products).
+# Lower nodes per block of the unit-load store's node-pair products (UnitLoadStore.products).
 _PRODUCT_BLOCK = 16
 
 _CACHE: LRU = LRU(CACHE_SIZES["modal.flexibility"])
@@ -248,7 +248,7 @@ class ContactFlexibility:
         store = self.unit_loads
         cols = store.columns(distinct)
         CHB = C.T @ store.relief_gram[cols] @ B
-        G = C.T @ store.gram[np.ix_(cols, cols)] @ C - CHB - CHB.T + B.T @ self.relief_gram @ B   # X^T M X
+        G = C.T @ store.products(cols, cols) @ C - CHB - CHB.T + B.T @ self.relief_gram @ B   # X^T M X
         Xd = store.Y[np.ix_(dofs, cols)] @ C - self.relief[dofs] @ B                         # X at the loaded dofs
         XKU = C.T @ store.KU[cols] - B.T @ self.relief_ku
         d, Q = np.linalg.eigh(0.5 * (G + G.T))
@@ -342,7 +342,7 @@ class AttachmentBasis:
                 cb = store.columns(nb)                  # evicts none of na (just used, fit together)
                 ca = store.columns(na)
                 H = store.relief_gram
-                XMX = (Ca.T @ store.gram[np.ix_(ca, cb)] @ Cb - (Ca.T @ H[ca]) @ Bb - Ba.T @ (H[cb].T @ Cb)
+                XMX = (Ca.T @ store.products(ca, cb) @ Cb - (Ca.T @ H[ca]) @ Bb - Ba.T @ (H[cb].T @ Cb)
                        + Ba.T @ flex.relief_gram @ Bb)
                 return Ta.T @ XMX @ Tb
         return self.psi.T @ other.mass_psi()
@@ -354,8 +354,9 @@ class UnitLoadStore:
 
     ``Y`` (n_dof, 3 slots): each kept node's P (K + sigma M)^-1 [e_3n, e_3n+1, e_3n+2] in its
     slot's three columns, ``MY`` the same times M; ``KU`` (3 slots, r): their Y^T K U rows;
-    ``gram`` (3 slots, 3 slots): Y_i^T M Y_j between kept nodes and ``relief_gram`` (3 slots,
-    6): Y_i^T M relief, so that a contact set of kept nodes needs nothing n_dof-sized.  Which
+    ``gram`` (3 slots, 3 slots): Y_i^T M Y_j between kept nodes (the pairs asked for, made
+    once: :meth:`products`) and ``relief_gram`` (3 slots, 6): Y_i^T M relief, so that a
+    contact set of kept nodes whose pairs are known needs nothing n_dof-sized.  Which
     node holds which slot is an ``LRU`` (``CACHE_SIZES["modal.unit_loads"]`` nodes, emptied by
     ``clear_all``).  Each product is made the same way whatever the order nodes came in (the
     lower node's Y times the higher node's M Y), so results do not depend on history."""
@@ -369,6 +370,7 @@ class UnitLoadStore:
         self.MY = np.zeros((flex.n_dof, 3 * self.capacity), order="F")
         self.KU = np.zeros((3 * self.capacity, flex.U.shape[1]))
         self.gram = np.zeros((3 * self.capacity, 3 * self.capacity))
+        self.known = np.zeros((self.capacity, self.capacity), bool)    # slot pairs whose gram is made
         self.relief_gram = np.zeros((3 * self.capacity, 6))
         self.slot_node = np.full(self.capacity, -1)      # the node each slot holds (-1: none)
 
@@ -402,33 +404,40 @@ class UnitLoadStore:
                 self.MY[:, 3 * k:3 * k + 3] = MY[:, 3 * i:3 * i + 3]
                 self.KU[3 * k:3 * k + 3] = KU[3 * i:3 * i + 3]
                 self.slot_node[k] = n
+                self.known[k, :] = self.known[:, k] = False
+                self.relief_gram[3 * k:3 * k + 3] = self.Y[:, 3 * k:3 * k + 3].T @ flex.mass_relief
                 slot[n] = k
-            self._products([slot[n] for n in missing])
         ks = np.array([slot[n] for n in nodes.tolist()])
         return (3 * ks[:, None] + np.arange(3)).ravel()
 
-    def _products(self, new_slots) -> None:
-        """``gram`` and ``relief_gram`` of newly filled slots against the slots in use.  In
-        blocks of :data:`_PRODUCT_BLOCK` slots at places fixed by the capacity, the new ones
-        padded to a full block: every product is made with the same matrix shapes, so BLAS
-        sums it in the same order whatever else the store holds or came in with it."""
-        n = _PRODUCT_BLOCK
-        hi = int(np.nonzero(self.slot_node >= 0)[0].max()) + 1            # slots in use are below
-        for g in range(0, len(new_slots), n):
-            group = np.asarray(new_slots[g:g + n])
-            cols = (3 * group[:, None] + np.arange(3)).ravel()
-            Yn = np.zeros((self.Y.shape[0], 3 * n), order="F")
-            MYn = np.zeros_like(Yn)
-            Yn[:, :cols.size], MYn[:, :cols.size] = self.Y[:, cols], self.MY[:, cols]
-            col_node = np.repeat(self.slot_node[group], 3)
-            for start in range(0, hi, n):
-                blk = slice(3 * start, 3 * min(start + n, self.capacity))
-                lower_first = (self.Y[:, blk].T @ MYn)[:, :cols.size]     # Y_m^T M Y_n: canonical for m <= n
-                higher_first = (self.MY[:, blk].T @ Yn)[:, :cols.size]    # (Y_n^T M Y_m)^T: for m > n
-                row_node = np.repeat(self.slot_node[start:start + n], 3)
-                self.gram[blk, cols] = np.where(row_node[:, None] <= col_node[None, :], lower_first, higher_first)
-            self.gram[cols, :3 * hi] = self.gram[:3 * hi, cols].T
-            self.relief_gram[cols] = (Yn.T @ self.flex.mass_relief)[:cols.size]
+    def products(self, columns_a: np.ndarray, columns_b: np.ndarray) -> np.ndarray:
+        """``gram[columns_a, columns_b]`` (Y^T M Y between kept columns, from :meth:`columns`),
+        making the node pairs not made yet.  Each pair is made one way (the lower node's Y
+        times the higher node's M Y) in a product of fixed shape (up to :data:`_PRODUCT_BLOCK`
+        lower nodes, zero-padded, against one higher node): BLAS sums it in the same order
+        whatever else the store holds, so results do not depend on history."""
+        sa, sb = np.unique(columns_a // 3), np.unique(columns_b // 3)
+        need = ~self.known[np.ix_(sa, sb)]
+        if need.any():
+            node = self.slot_node
+            by_higher: dict = {}
+            for i, j in zip(*np.nonzero(need)):
+                lo, hi = (sa[i], sb[j]) if node[sa[i]] <= node[sb[j]] else (sb[j], sa[i])
+                by_higher.setdefault(int(hi), set()).add(int(lo))
+            n = _PRODUCT_BLOCK
+            for hi, lows in by_higher.items():
+                lows = sorted(lows)
+                hcols = slice(3 * hi, 3 * hi + 3)
+                for g in range(0, len(lows), n):
+                    group = np.asarray(lows[g:g + n])
+                    cols = (3 * group[:, None] + np.arange(3)).ravel()
+                    Ylow = np.zeros((self.Y.shape[0], 3 * n), order="F")
+                    Ylow[:, :cols.size] = self.Y[:, cols]
+                    P = (Ylow.T @ self.MY[:, hcols])[:cols.size]         # Y_lo^T M Y_hi
+                    self.gram[cols, hcols] = P
+                    self.gram[hcols, cols] = P.T
+                    self.known[group, hi] = self.known[hi, group] = True
+        return self.gram[np.ix_(columns_a, columns_b)]
 
 
 class RitzGeometry:
