@@ -89,7 +89,7 @@ _DEPENDENT = 1e-10
 # zeros there): the reused path leaves those nodes out (a load change below 1e-13 relative).
 _NEGLIGIBLE_WEIGHT = 1e-13
 # Lower nodes per block of the unit-load store's node-pair products (UnitLoadStore.products).
-_PRODUCT_BLOCK = 16
+_PRODUCT_BLOCK = 4
 
 _CACHE: LRU = LRU(CACHE_SIZES["modal.flexibility"])
 
@@ -373,6 +373,7 @@ class UnitLoadStore:
         self.known = np.zeros((self.capacity, self.capacity), bool)    # slot pairs whose gram is made
         self.relief_gram = np.zeros((3 * self.capacity, 6))
         self.slot_node = np.full(self.capacity, -1)      # the node each slot holds (-1: none)
+        self._pad = np.zeros((flex.n_dof, 3 * _PRODUCT_BLOCK), order="F")
 
     def columns(self, nodes: np.ndarray) -> np.ndarray:
         """The store columns (3 per node, in order) of ``nodes`` (distinct, at most
@@ -431,8 +432,9 @@ class UnitLoadStore:
                 for g in range(0, len(lows), n):
                     group = np.asarray(lows[g:g + n])
                     cols = (3 * group[:, None] + np.arange(3)).ravel()
-                    Ylow = np.zeros((self.Y.shape[0], 3 * n), order="F")
+                    Ylow = self._pad                                      # (n_dof, 3 n), zero past the group
                     Ylow[:, :cols.size] = self.Y[:, cols]
+                    Ylow[:, cols.size:] = 0.0
                     P = (Ylow.T @ self.MY[:, hcols])[:cols.size]         # Y_lo^T M Y_hi
                     self.gram[cols, hcols] = P
                     self.gram[hcols, cols] = P.T
