@@ -73,7 +73,7 @@ def test_gram_path_equals_the_explicit_psi_path(bar, capacity):
             prev_psi = previous.attachment.psi
             gram = fast.attachment.mass_product(previous.attachment)
             assert rel(gram, psi.T @ (M @ prev_psi)) < 1e-9
-            # the whole state transfer, both ways round, against the explicit projection
+            # the whole state transfer against the explicit projection
             n_rigid, r, _ = fast.split
             T = modal_transfer(previous, fast)
             free = fast.V[:n_rigid + r].T @ previous.V[:n_rigid + r]
