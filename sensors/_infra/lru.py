@@ -35,7 +35,8 @@ CACHE_SIZES: dict[str, int] = {
     "modal.flexibility": 8,          # K, M and factorization of K + sigma M per model (static correction; 8: the
                                      # seven paper objects ObjectRecognition-v0 cycles, 40-130 MB each)
     "modal.unit_loads": 256,         # per model: nodes' projected unit-load solves and M times them (48 n_dof bytes
-                                     # each: 0.52 MB on a 10,935-dof bar; 256 hold every node random grasps touch)
+                                     # each: 0.52 MB on a 10,935-dof bar; 256 hold every node random grasps touch;
+                                     # plus their pairwise M-products, 4.7 MB at 256)
     "modal.attachment_bases": 16,    # per model: attachment vectors of recent contact sets (the same points again)
     "modal.spring_modes": 32,        # contact-coupled modes per (model, contact springs)
     "modal.coupled_grasps": 16,      # modes of a grasped object with the objects it touches, per contact set

@@ -29,7 +29,9 @@ from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from .contact import Contact
 from .contact_stiffness import contact_stiffnesses_n_per_m
 from . import static_correction
-from .static_correction import contact_flexibility, nodal_at
+from ..fem.assembly import shape_functions
+from .basis import check_points_m
+from .static_correction import contact_flexibility
 
 __all__ = ["MERGE_RADIUS_M", "merge_close_springs", "MIN_MODE_FREQUENCY_HZ", "SpringModes", "contact_springs", "flexible_base", "spring_modes",
            "modal_transfer"]
@@ -119,8 +121,8 @@ class SpringModes:
             self.geometry = flexible.geometry()           # not the factorization (see its LRU)
             dirs, pts = _directions(springs)
             self.attachment = flexible.attachment_basis(pts, dirs)
-            self.psi, Kpsi, Kpsi_u = self.attachment.psi, self.attachment.stiffness, self.attachment.coupling
-            a = self.psi.shape[1]
+            Kpsi, Kpsi_u = self.attachment.stiffness, self.attachment.coupling
+            a = self.attachment.size
             n = 6 + r + a
             K = np.zeros((n, n))
             K[6:6 + r, 6:6 + r] = np.diag(w ** 2)
@@ -129,7 +131,7 @@ class SpringModes:
             K[6:6 + r, 6 + r:] = K[6 + r:, 6:6 + r].T
             self.split = (6, r, a)
         else:                                          # no mesh: the elastic modes alone
-            self.geometry, self.psi, self.attachment = None, None, None
+            self.geometry, self.attachment = None, None
             K = np.diag(w ** 2)
             self.split = (0, r, 0)
         self.free_stiffness = K.copy()   # of the Ritz basis, before the springs
@@ -142,6 +144,11 @@ class SpringModes:
         self.V = V[:, keep]
         self.angular_frequencies_rad_s = np.sqrt(lam[keep])
         self.frequencies_hz = self.angular_frequencies_rad_s / (2 * np.pi)
+
+    @property
+    def psi(self) -> np.ndarray | None:
+        """The attachment vectors Psi (n_dof, a) (formed on first use: nothing here needs them)."""
+        return None if self.attachment is None else self.attachment.psi
 
     def mass_psi(self) -> np.ndarray | None:
         """M Psi (n_dof, a), the attachment vectors times the mesh's mass matrix: what every
@@ -157,7 +164,7 @@ class SpringModes:
             return U
         s = self._shape_scale
         R = self.geometry.rigid_at(points_m) * s
-        P = nodal_at(self.geometry.model, self.psi.reshape(-1, 3, self.psi.shape[1]), points_m) * s
+        P = attachment_at(self.geometry.model, self.attachment, points_m) * s
         return np.concatenate([R, U, P], axis=2)
 
     def mode_shapes_at(self, points_m) -> np.ndarray:
@@ -221,7 +228,7 @@ def spring_modes(model, contacts):
         return model
     # the reference path (static_correction.REUSE_UNIT_LOADS False) is kept apart from the fast one
     key = (IdentityKey(model), tuple((*p.tolist(), *n.tolist(), kn, kt) for p, n, kn, kt in springs),
-           static_correction.REUSE_UNIT_LOADS)
+           static_correction.REUSE_UNIT_LOADS, static_correction.GRAM_PRODUCTS)
     hit = _CACHE.get(key)
     if hit is not None:
         return hit
@@ -239,16 +246,26 @@ def spring_modes(model, contacts):
     return _CACHE.put(key, out)
 
 
+def attachment_at(model, attachment, points_m) -> np.ndarray:
+    """An :class:`~sensors.modal.static_correction.AttachmentBasis` of ``model``'s mesh at
+    points (n, 3): (n, 3, a), interpolated as :func:`~sensors.modal.static_correction.nodal_at` (only the rows it needs)."""
+    p = check_points_m(points_m)
+    tet, bary = model.locator.locate(p)
+    N = shape_functions(bary, model.element)
+    nodes = model.elements[tet]
+    return np.einsum("pa,paxr->pxr", N, attachment.nodal(nodes.ravel()).reshape(*nodes.shape, 3, -1))
+
+
 def _ritz_parts(modes):
-    """``(free coefficients (6 + r, r_c), psi (n_dof, a) or None, psi coefficients (a, r_c),
-    M psi or None)`` of a model's coordinates in the common Ritz basis [R, U]."""
+    """``(free coefficients (6 + r, r_c), attachment basis or None, its coefficients (a, r_c))``
+    of a model's coordinates in the common Ritz basis [R, U]."""
     if hasattr(modes, "split"):      # SpringModes, or a grasp coupled to other bodies (modal.touching)
         n_rigid, r, a = modes.split
         free = np.zeros((6 + r, modes.V.shape[1]))
         free[6 - n_rigid:] = modes.V[:n_rigid + r]
-        return free, modes.psi, modes.V[n_rigid + r:], modes.mass_psi
+        return free, modes.attachment, modes.V[n_rigid + r:]
     r = len(modes.angular_frequencies_rad_s)
-    return np.vstack([np.zeros((6, r)), np.eye(r)]), None, None, None
+    return np.vstack([np.zeros((6, r)), np.eye(r)]), None, None
 
 
 def _root(model):
@@ -266,11 +283,11 @@ def modal_transfer(from_modes, to_modes) -> np.ndarray:
         return np.eye(len(to_modes.angular_frequencies_rad_s))
     if _root(from_modes) is not _root(to_modes):
         raise ValueError("modal_transfer: the two modal models are not of the same object")
-    fa, pa, ca, mass_pa = _ritz_parts(from_modes)
-    fb, pb, cb, _ = _ritz_parts(to_modes)
+    fa, pa, ca = _ritz_parts(from_modes)
+    fb, pb, cb = _ritz_parts(to_modes)
     T = fb.T @ fa
-    if pa is not None and pb is not None and pa.shape[1] and pb.shape[1]:
-        T += cb.T @ (pb.T @ mass_pa()) @ ca   # Psi M-norms are material-invariant (see SpringModes)
+    if pa is not None and pb is not None and pa.size and pb.size:
+        T += cb.T @ pb.mass_product(pa) @ ca   # Psi M-norms are material-invariant (see SpringModes)
     # the bodies a grasped object touches, when both sides share them (modal.touching)
     partners = getattr(to_modes, "partner_transfer", None)
     if partners is not None:

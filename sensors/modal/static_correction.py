@@ -41,6 +41,14 @@ within 1e-9: ``tests/test_unit_load_reuse.py``); ``reuse_unit_loads=False`` (or
 :data:`REUSE_UNIT_LOADS`) is the direct solve, the reference.  Random grasps of the same
 object touch the same few elements over and over, so after a few contact sets a new one
 needs no solve at all: 36 -> 12 ms per contact set of GraspPosition-v0's wood bar.
+
+Node-pair products (the default, :data:`GRAM_PRODUCTS`): the store also keeps Y_i^T M Y_j
+between its nodes (and Y_i^T M relief), made once when a node comes in.  A contact set's
+X = Y C - relief B then has X^T M X, X^T K X, X^T K U, its values at points and its products
+with another set's vectors (a state transfer) as small dense algebra on C, B and those blocks:
+nothing n_dof-sized per contact set, Psi (n_dof x a) formed only when someone asks for it
+(:class:`AttachmentBasis`).  ``GRAM_PRODUCTS = False`` forms Psi explicitly (the reference;
+``tests/test_gram_products.py``: 1e-9 relative).
 """
 
 from __future__ import annotations
@@ -54,7 +62,7 @@ from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
 from .basis import check_points_m
 
-__all__ = ["MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "AttachmentBasis", "ContactFlexibility", "UnitLoadStore",
+__all__ = ["GRAM_PRODUCTS", "MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "AttachmentBasis", "ContactFlexibility", "UnitLoadStore",
            "RitzGeometry", "contact_flexibility", "nodal_at"]
 
 #: The most attachment vectors (constrained directions, up to 3 per contact) one contact set
@@ -67,6 +75,11 @@ MAX_ATTACHMENT_VECTORS = 60
 #: set's loads directly (False: the reference path, e.g. for a benchmark's error column).
 #: Read at each call; ``sensors.modal.spring_modes`` keys its cache on it.
 REUSE_UNIT_LOADS = True
+#: Whether an attachment basis from kept unit-load solves stays implicit (True, fast): its
+#: reduced matrices and state transfers come from the store's node-pair products Y_i^T M Y_j
+#: and Psi is formed (n_dof x a) only when asked for; False: Psi formed explicitly (the
+#: reference).  Read at each call; the attachment-basis and spring-mode caches key on it.
+GRAM_PRODUCTS = True
 # The regularising shift of K, relative to the first elastic eigenvalue (see the docstring).
 _SHIFT = 1e-3
 # Attachment vectors whose M-norm after orthogonalisation is below this fraction of the
@@ -75,6 +88,8 @@ _DEPENDENT = 1e-10
 # Shape-function weights below this are rounding (a point on a vertex, edge or face has exact
 # zeros there): the reused path leaves those nodes out (a load change below 1e-13 relative).
 _NEGLIGIBLE_WEIGHT = 1e-13
+# Lower nodes per block of the unit-load store's node-pair products (UnitLoadStore.products).
+_PRODUCT_BLOCK = 4
 
 _CACHE: LRU = LRU(CACHE_SIZES["modal.flexibility"])
 
@@ -114,6 +129,7 @@ class ContactFlexibility:
         self.relief = self._projected(np.asarray(self.factor.solve(self.MR)).reshape(self.n_dof, -1))
         self.relief_ku = self.relief.T @ self.KU                   # its Y^T K U rows (6, r)
         self.mass_relief = self.M @ self.relief
+        self.relief_gram = self.relief.T @ self.mass_relief        # relief^T M relief (6, 6)
         self.unit_loads = UnitLoadStore(self)
         self._bases: LRU = LRU(CACHE_SIZES["modal.attachment_bases"])
 
@@ -167,29 +183,12 @@ class ContactFlexibility:
         nodes = model.elements[tet]                                  # (a, n_el)
         cols = np.arange(a)
         reuse = REUSE_UNIT_LOADS if reuse_unit_loads is None else reuse_unit_loads
+        comb = self._combination(N, nodes, directions) if reuse else None
+        reuse = comb is not None
         if reuse:
-            # The loads on the distinct nodes: C[3i + j, c] = sum of N * d_j over node i's
-            # entries.  Shape functions below _NEGLIGIBLE_WEIGHT are a point on a vertex or face
-            # seen from the element's other nodes (rounding of its barycentric coordinates).
-            used = np.abs(N) > _NEGLIGIBLE_WEIGHT
-            distinct, index = np.unique(nodes[used], return_inverse=True)
-            reuse = distinct.size <= self.unit_loads.capacity     # else: more nodes than kept, solve directly
-        if reuse:
-            C = np.zeros((3 * distinct.size, a))
-            cols_used = np.broadcast_to(cols[:, None], nodes.shape)[used]
-            for j in range(3):
-                np.add.at(C, (3 * index + j, cols_used), (N * directions[:, j:j + 1])[used])
-            dofs = (3 * distinct[:, None] + np.arange(3)).ravel()
-            store = self.unit_loads
-            columns = store.columns(distinct)
-            # X = Y C - relief R^T C with C sparse (30 of its 3 n_nodes rows per column): one
-            # sparse product over the store's columns, no copy of them
-            i, c = np.nonzero(C)
-            Ct = csr_matrix((C[i, c], (c, columns[i])), shape=(a, store.Y.shape[1]))
-            B = self.R[dofs].T @ C                                   # (6, a): the relief's share
-            X = np.asarray(Ct @ store.Y.T).T - self.relief @ B
-            MX = np.asarray(Ct @ store.MY.T).T - self.mass_relief @ B
-            XKU = C.T @ store.KU[columns] - B.T @ self.relief_ku      # X^T K U without the n_dof sum
+            distinct, C, B, dofs = comb
+            X, MX = self.combined(distinct, C, B)
+            XKU = C.T @ self.unit_loads.KU[self.unit_loads.columns(distinct)] - B.T @ self.relief_ku
         else:
             F = np.zeros((self.n_dof, a))
             for j in range(3):
@@ -212,24 +211,102 @@ class ContactFlexibility:
         Kpsi = Psi.T @ (self.K @ Psi)
         return Psi, 0.5 * (Kpsi + Kpsi.T), Psi.T @ self.KU, None
 
+    def _combination(self, N, nodes, directions):
+        """``(distinct nodes, C (3 s, a), B (6, a), dofs (3 s,))``: the loads of a contact set
+        as unit loads at its distinct nodes (C) and the relief's share R^T C (B); None when
+        the set has more nodes than the store keeps (then solve directly)."""
+        # Shape functions below _NEGLIGIBLE_WEIGHT are a point on a vertex or face seen from
+        # the element's other nodes (rounding of its barycentric coordinates).
+        used = np.abs(N) > _NEGLIGIBLE_WEIGHT
+        distinct, index = np.unique(nodes[used], return_inverse=True)
+        if distinct.size > self.unit_loads.capacity:
+            return None
+        a = len(nodes)
+        C = np.zeros((3 * distinct.size, a))
+        cols_used = np.broadcast_to(np.arange(a)[:, None], nodes.shape)[used]
+        for j in range(3):
+            np.add.at(C, (3 * index + j, cols_used), (N * directions[:, j:j + 1])[used])
+        dofs = (3 * distinct[:, None] + np.arange(3)).ravel()
+        return distinct, C, self.R[dofs].T @ C, dofs
+
+    def combined(self, nodes, C, B):
+        """``(X, M X)`` (n_dof, a): the attachment vectors Y C - relief B of kept unit-load
+        solves at ``nodes`` (solved now where not kept), formed explicitly."""
+        store = self.unit_loads
+        columns = store.columns(nodes)
+        # one sparse product over the store's columns (30 of its rows per vector), no copy
+        i, c = np.nonzero(C)
+        Ct = csr_matrix((C[i, c], (c, columns[i])), shape=(C.shape[1], store.Y.shape[1]))
+        X = np.asarray(Ct @ store.Y.T).T - self.relief @ B
+        MX = np.asarray(Ct @ store.MY.T).T - self.mass_relief @ B
+        return X, MX
+
+    def _implicit_basis(self, comb) -> "AttachmentBasis":
+        """The :class:`AttachmentBasis` of a contact set from the store's node-pair products:
+        nothing n_dof-sized is formed (:data:`GRAM_PRODUCTS`)."""
+        distinct, C, B, dofs = comb
+        store = self.unit_loads
+        cols = store.columns(distinct)
+        CHB = C.T @ store.relief_gram[cols] @ B
+        G = C.T @ store.products(cols, cols) @ C - CHB - CHB.T + B.T @ self.relief_gram @ B   # X^T M X
+        Xd = store.Y[np.ix_(dofs, cols)] @ C - self.relief[dofs] @ B                         # X at the loaded dofs
+        XKU = C.T @ store.KU[cols] - B.T @ self.relief_ku
+        d, Q = np.linalg.eigh(0.5 * (G + G.T))
+        keep = d > _DEPENDENT * max(float(d.max()), 1e-300)
+        T = Q[:, keep] / np.sqrt(d[keep])
+        S = Xd.T @ C                                      # X^T F (see _attachment)
+        Kpsi = T.T @ (0.5 * (S + S.T) - self.sigma * G) @ T
+        return AttachmentBasis(None, 0.5 * (Kpsi + Kpsi.T), T.T @ XKU, None, self.M,
+                               implicit=(self, distinct, C, B, T))
+
     def attachment_basis(self, points_m: np.ndarray, directions: np.ndarray) -> "AttachmentBasis":
         """The :class:`AttachmentBasis` of unit forces at ``points_m`` (a, 3) along
         ``directions`` (a, 3) (:meth:`attachment_modes`; kept for the same points and
         directions, as a coupled group's partner asks for its own again and again)."""
         pts = np.ascontiguousarray(points_m, dtype=float).reshape(-1, 3)
         dirs = np.ascontiguousarray(directions, dtype=float).reshape(-1, 3)
-        key = (pts.tobytes(), dirs.tobytes(), bool(REUSE_UNIT_LOADS))
-        return self._bases.get_or_build(key, lambda: AttachmentBasis(*self._attachment(pts, dirs, None), self.M))
+        key = (pts.tobytes(), dirs.tobytes(), bool(REUSE_UNIT_LOADS), bool(GRAM_PRODUCTS))
+        return self._bases.get_or_build(key, lambda: self._basis(pts, dirs))
+
+    def _basis(self, pts, dirs) -> "AttachmentBasis":
+        if REUSE_UNIT_LOADS and GRAM_PRODUCTS and 0 < len(pts) <= MAX_ATTACHMENT_VECTORS:
+            p = check_points_m(pts)
+            tet, bary = self.model.locator.locate(p)
+            comb = self._combination(shape_functions(bary, self.model.element), self.model.elements[tet], dirs)
+            if comb is not None:
+                return self._implicit_basis(comb)
+        return AttachmentBasis(*self._attachment(pts, dirs, None), self.M)
 
 
 class AttachmentBasis:
     """Attachment vectors of one contact set (:meth:`ContactFlexibility.attachment_modes`):
     ``psi`` (n_dof, a), their stiffness ``stiffness`` (a, a) = Psi^T K Psi and ``coupling``
-    (a, r) = Psi^T K U, and :meth:`mass_psi` (M Psi: every state transfer needs it)."""
+    (a, r) = Psi^T K U, :meth:`mass_psi` (M Psi), :meth:`nodal` (Psi at mesh nodes) and
+    :meth:`mass_product` (Psi^T M Psi_other: a state transfer).
 
-    def __init__(self, psi, stiffness, coupling, mass_psi, M) -> None:
-        self.psi, self.stiffness, self.coupling = psi, stiffness, coupling
+    Built from kept unit-load solves (:data:`GRAM_PRODUCTS`) it is implicit: Psi = (Y C -
+    relief B) T is kept as its nodes, C, B and T, its rows and products come from the store
+    (solving again what it evicted since), and ``psi`` is formed only when asked for."""
+
+    def __init__(self, psi, stiffness, coupling, mass_psi, M, implicit=None) -> None:
+        self._psi, self.stiffness, self.coupling = psi, stiffness, coupling
         self._M, self._mass_psi = M, mass_psi
+        self._implicit = implicit            # (flex, nodes, C, B, T) or None
+        self._rows: dict = {}                # node -> Psi rows (3, a), of an implicit basis
+
+    @property
+    def psi(self) -> np.ndarray:
+        """Psi (n_dof, a), formed on first use for an implicit basis."""
+        if self._psi is None:
+            flex, nodes, C, B, T = self._implicit
+            X, MX = flex.combined(nodes, C, B)
+            self._psi, self._mass_psi = X @ T, MX @ T
+        return self._psi
+
+    @property
+    def size(self) -> int:
+        """The number of attachment vectors a."""
+        return int(self.stiffness.shape[0])
 
     def mass_psi(self) -> np.ndarray:
         """M Psi (n_dof, a)."""
@@ -237,14 +314,52 @@ class AttachmentBasis:
             self._mass_psi = self._M @ self.psi
         return self._mass_psi
 
+    def nodal(self, nodes: np.ndarray) -> np.ndarray:
+        """Psi at mesh ``nodes`` (k,): (k, 3, a)."""
+        nodes = np.asarray(nodes)
+        if self._implicit is None or self._psi is not None:
+            return self.psi.reshape(-1, 3, self.size)[nodes]
+        flex, own, C, B, T = self._implicit
+        missing = np.unique(nodes[[n not in self._rows for n in nodes.tolist()]])
+        if missing.size:
+            store = flex.unit_loads
+            cols = store.columns(own)
+            dofs = (3 * missing[:, None] + np.arange(3)).ravel()
+            rows = (store.Y[np.ix_(dofs, cols)] @ C - flex.relief[dofs] @ B) @ T
+            for i, n in enumerate(missing.tolist()):
+                self._rows[n] = rows[3 * i:3 * i + 3]
+        return np.stack([self._rows[n] for n in nodes.tolist()]) if nodes.size else np.zeros((0, 3, self.size))
+
+    def mass_product(self, other: "AttachmentBasis") -> np.ndarray:
+        """Psi^T M Psi_other (a, a_other), from the store's node-pair products when both are
+        implicit bases of the same model and their nodes fit the store together."""
+        if self._implicit is not None and other._implicit is not None and self._implicit[0] is other._implicit[0]:
+            flex, na, Ca, Ba, Ta = self._implicit
+            _, nb, Cb, Bb, Tb = other._implicit
+            store = flex.unit_loads
+            if np.union1d(na, nb).size <= store.capacity:
+                ca = store.columns(na)
+                cb = store.columns(nb)                  # evicts none of na (just used, fit together)
+                ca = store.columns(na)
+                H = store.relief_gram
+                XMX = (Ca.T @ store.products(ca, cb) @ Cb - (Ca.T @ H[ca]) @ Bb - Ba.T @ (H[cb].T @ Cb)
+                       + Ba.T @ flex.relief_gram @ Bb)
+                return Ta.T @ XMX @ Tb
+        return self.psi.T @ other.mass_psi()
+
 
 class UnitLoadStore:
     """The kept unit-load solves of one model, side by side in one array so that a contact
     set's loads combine them with one sparse product (no copy of the columns it uses).
 
     ``Y`` (n_dof, 3 slots): each kept node's P (K + sigma M)^-1 [e_3n, e_3n+1, e_3n+2] in its
-    slot's three columns, ``MY`` the same times M; ``KU`` (3 slots, r): their Y^T K U rows.  Which node holds which
-    slot is an ``LRU`` (``CACHE_SIZES["modal.unit_loads"]`` nodes, emptied by ``clear_all``)."""
+    slot's three columns, ``MY`` the same times M; ``KU`` (3 slots, r): their Y^T K U rows;
+    ``gram`` (3 slots, 3 slots): Y_i^T M Y_j between kept nodes (the pairs asked for, made
+    once: :meth:`products`) and ``relief_gram`` (3 slots, 6): Y_i^T M relief, so that a
+    contact set of kept nodes whose pairs are known needs nothing n_dof-sized.  Which
+    node holds which slot is an ``LRU`` (``CACHE_SIZES["modal.unit_loads"]`` nodes, emptied by
+    ``clear_all``).  Each product is made the same way whatever the order nodes came in (the
+    lower node's Y times the higher node's M Y), so results do not depend on history."""
 
     def __init__(self, flex: "ContactFlexibility", capacity: int | None = None) -> None:
         self.flex = flex
@@ -254,6 +369,11 @@ class UnitLoadStore:
         self.Y = np.zeros((flex.n_dof, 3 * self.capacity), order="F")
         self.MY = np.zeros((flex.n_dof, 3 * self.capacity), order="F")
         self.KU = np.zeros((3 * self.capacity, flex.U.shape[1]))
+        self.gram = np.zeros((3 * self.capacity, 3 * self.capacity))
+        self.known = np.zeros((self.capacity, self.capacity), bool)    # slot pairs whose gram is made
+        self.relief_gram = np.zeros((3 * self.capacity, 6))
+        self.slot_node = np.full(self.capacity, -1)      # the node each slot holds (-1: none)
+        self._pad = np.zeros((flex.n_dof, 3 * _PRODUCT_BLOCK), order="F")
 
     def columns(self, nodes: np.ndarray) -> np.ndarray:
         """The store columns (3 per node, in order) of ``nodes`` (distinct, at most
@@ -284,9 +404,42 @@ class UnitLoadStore:
                 self.Y[:, 3 * k:3 * k + 3] = Y[:, 3 * i:3 * i + 3]
                 self.MY[:, 3 * k:3 * k + 3] = MY[:, 3 * i:3 * i + 3]
                 self.KU[3 * k:3 * k + 3] = KU[3 * i:3 * i + 3]
+                self.slot_node[k] = n
+                self.known[k, :] = self.known[:, k] = False
+                self.relief_gram[3 * k:3 * k + 3] = self.Y[:, 3 * k:3 * k + 3].T @ flex.mass_relief
                 slot[n] = k
         ks = np.array([slot[n] for n in nodes.tolist()])
         return (3 * ks[:, None] + np.arange(3)).ravel()
+
+    def products(self, columns_a: np.ndarray, columns_b: np.ndarray) -> np.ndarray:
+        """``gram[columns_a, columns_b]`` (Y^T M Y between kept columns, from :meth:`columns`),
+        making the node pairs not made yet.  Each pair is made one way (the lower node's Y
+        times the higher node's M Y) in a product of fixed shape (up to :data:`_PRODUCT_BLOCK`
+        lower nodes, zero-padded, against one higher node): BLAS sums it in the same order
+        whatever else the store holds, so results do not depend on history."""
+        sa, sb = np.unique(columns_a // 3), np.unique(columns_b // 3)
+        need = ~self.known[np.ix_(sa, sb)]
+        if need.any():
+            node = self.slot_node
+            by_higher: dict = {}
+            for i, j in zip(*np.nonzero(need)):
+                lo, hi = (sa[i], sb[j]) if node[sa[i]] <= node[sb[j]] else (sb[j], sa[i])
+                by_higher.setdefault(int(hi), set()).add(int(lo))
+            n = _PRODUCT_BLOCK
+            for hi, lows in by_higher.items():
+                lows = sorted(lows)
+                hcols = slice(3 * hi, 3 * hi + 3)
+                for g in range(0, len(lows), n):
+                    group = np.asarray(lows[g:g + n])
+                    cols = (3 * group[:, None] + np.arange(3)).ravel()
+                    Ylow = self._pad                                      # (n_dof, 3 n), zero past the group
+                    Ylow[:, :cols.size] = self.Y[:, cols]
+                    Ylow[:, cols.size:] = 0.0
+                    P = (Ylow.T @ self.MY[:, hcols])[:cols.size]         # Y_lo^T M Y_hi
+                    self.gram[cols, hcols] = P
+                    self.gram[hcols, cols] = P.T
+                    self.known[group, hi] = self.known[hi, group] = True
+        return self.gram[np.ix_(columns_a, columns_b)]
 
 
 class RitzGeometry:

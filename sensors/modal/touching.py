@@ -188,8 +188,7 @@ class CoupledGraspModes:
         self.coupling_damping_factor = np.vstack(rows) if rows else np.zeros((0, A.V.shape[1]))
         # the grasped object's coordinates, as a SpringModes holds them (modal_transfer)
         part0 = A.parts[0]
-        self.split, self.psi, self.geometry = part0.split, part0.psi, part0.geometry
-        self.mass_psi = part0.mass_psi
+        self.split, self.attachment, self.geometry = part0.split, part0.attachment, part0.geometry
         self.V = A.V[A.rows(0)]
 
     def partner_transfer(self, from_modes) -> np.ndarray:
