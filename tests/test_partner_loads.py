@@ -13,7 +13,7 @@ import scipy.sparse.linalg
 from sensors import Contact
 from sensors.modal import TouchingObjects, TouchingPartner
 from sensors.synthesis.modal_system import contact_modal_model
-from sensors.synthesis.passive import ContactLoads, LoadRead
+from sensors.synthesis.passive import ContactLoads, LoadRead, project_reads
 
 from test_contact_stiffness import bar, reference, vertex  # noqa: F401  (fixtures)
 from test_touching_objects import H, K_LINK, K_PAD, K_TABLE
@@ -112,3 +112,28 @@ def test_nothing_changes_without_a_partner(bar, reference):
         np.testing.assert_array_equal(got, np.einsum("nd,ndr->r", F, U))
     with pytest.raises(ValueError, match="body names"):
         ContactLoads(pts, nrm, F, bodies=["plinth"])
+
+
+def test_reads_projected_together_equal_each_projected_alone(bar, reference):
+    """project_reads (the points of several reads through one load_shapes call, as a stream
+    does at a new contact set) equals projecting each read by itself, to 1e-12 relative, on the
+    coupled modes with partner, impact and sliding loads."""
+    pads, partner, _ = two_bars(reference, bar)
+    modes = contact_modal_model(TouchingObjects(bar, [partner]), pads)
+    rng = np.random.default_rng(5)
+    pts = np.array([c.position_m for c in partner.contacts] + [p.position_m for p in pads])
+    nrm = np.array([c.normal for c in partner.contacts] + [p.normal for p in pads])
+    reads = []
+    for k, bodies in enumerate((["plinth", "finger", "finger"], ["table", "finger", "finger"], ["plinth"] * 3)):
+        F = rng.standard_normal(pts.shape) + 2.0 * nrm
+        loads = ContactLoads(pts[k % 2:], nrm[k % 2:], F[k % 2:], sliding=[True] * (3 - k % 2),
+                             impact=[k == 1] * (3 - k % 2), bodies=bodies[k % 2:])
+        reads.append(LoadRead(loads, np.random.default_rng(k), roughness=0.1))
+    alone = [LoadRead(r.loads) for r in reads]
+    for a, r in zip(alone, reads):
+        a.slip_n = r.slip_n                                    # the same roughness draw
+    project_reads(reads + [None, LoadRead(None)], modes)
+    for a, r in zip(alone, reads):
+        for got, ref in zip(r.modal(modes), a.modal(modes)):
+            assert np.any(ref) or np.array_equal(got, ref)
+            assert np.max(np.abs(got - ref)) <= 1e-12 * np.max(np.abs(ref)) + 0.0

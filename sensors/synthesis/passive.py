@@ -72,7 +72,7 @@ from .modal_system import modal_state_matrix
 from .partner_loads import load_shapes
 
 __all__ = ["ContactLoads", "LoadRead", "LoadSolver", "PassiveSound", "SLIDING_CONE_RATIO", "modal_load",
-           "ramp_particular"]
+           "project_reads", "ramp_particular"]
 
 #: A contact slides when its friction force is at least this fraction of mu times its normal
 #: force (MuJoCo's soft contacts reach the cone only approximately while sliding).
@@ -197,12 +197,41 @@ class LoadRead:
         loads = self.loads
         if loads is None or len(loads) == 0:
             return np.zeros(r), np.zeros(r), np.zeros(r)
+        return self.combine(load_shapes(modes, loads))
+
+    def combine(self, U: np.ndarray):
+        """(total, impacts, fluctuation) of :meth:`modal` from the read's load shapes U
+        (n, 3, r) (:func:`load_shapes`)."""
+        loads = self.loads
         F = np.array(loads.forces_n, dtype=float)
         slip = np.zeros_like(F) if self.slip_n is None else self.slip_n
-        U = load_shapes(modes, loads)                                          # (n, 3, r)
         impacts = np.einsum("nd,ndr->r", np.where(loads.impact[:, None], F, 0.0), U)
         fluctuation = np.einsum("nd,ndr->r", slip, U)
         return np.einsum("nd,ndr->r", F, U) + fluctuation, impacts, fluctuation
+
+
+def project_reads(reads, modes) -> None:
+    """Projects every read of ``reads`` not yet projected onto ``modes`` (``None`` and
+    empty reads skipped), the points of all through one :func:`load_shapes` call: at a new
+    contact set a stream needs its base, previous and new read on the new modes, and one
+    evaluation of the shapes at all their points costs about what one read's does (the
+    shapes of a point do not depend on the others evaluated with it: equal to projecting
+    each read alone to rounding, tests/test_passive_sound.py)."""
+    key = IdentityKey(modes)
+    todo = [r for r in dict.fromkeys(reads)
+            if r is not None and r.loads is not None and len(r.loads) and key not in r._projections]
+    if len(todo) < 2:
+        return
+    merged = ContactLoads(np.concatenate([r.loads.positions_m for r in todo]),
+                          np.concatenate([r.loads.normals for r in todo]),
+                          np.concatenate([r.loads.forces_n for r in todo]),
+                          bodies=np.concatenate([r.loads.bodies for r in todo]))
+    U = load_shapes(modes, merged)
+    at = 0
+    for r in todo:
+        n = len(r.loads)
+        r._projections.put(key, r.combine(U[at:at + n]))
+        at += n
 
 
 def modal_load(model, loads: ContactLoads | None, rng: np.random.Generator | None = None,

@@ -55,7 +55,7 @@ from .grasp_state import ContactTolerance, GraspState
 from .lti import SETTLE_E_FOLDS, SteadyState
 from .microphone import Microphone
 from .modal_system import CONTACT_MODELS, ModalSystem, transfer_state
-from .passive import LoadRead, LoadSolver, PassiveSound
+from .passive import LoadRead, LoadSolver, PassiveSound, project_reads
 
 __all__ = ["AcousticStream"]
 
@@ -549,6 +549,7 @@ class AcousticStream:
         read; ``None`` when there is none."""
         if st.base is None or st.read is None:
             return None
+        project_reads((st.base, st.read), modes)
         return st.read.modal(modes)[0] - st.base.modal(modes)[0]
 
     def _modal_change(self, st: _ObjectState, change, modes):
@@ -557,6 +558,7 @@ class AcousticStream:
         if change is None:
             return None
         previous, read = change
+        project_reads((st.base, previous, read), modes)
         base = st.base.modal(modes)[0]
         total, impacts, fluctuation = read.modal(modes)
         before, _, fluctuation_before = previous.modal(modes)
