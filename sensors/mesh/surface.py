@@ -109,8 +109,8 @@ def check_surface(mesh, scale: float = 1.0, hand_max_extent_m: float = HAND_MAX_
     if not isinstance(mesh, trimesh.Trimesh):
         raise MeshError(f"expected a trimesh.Trimesh or a mesh file, got {type(mesh).__name__}")
     if isinstance(scale, bool) or not (isinstance(scale, (int, float, np.integer, np.floating))
-                                       and math.isfinite(scale) and scale > 0):
-        raise MeshScaleError(f"scale must be a positive number, got {scale!r}")
+                                       and math.isfinite(scale) and scale >= np.finfo(float).tiny):
+        raise MeshScaleError(f"scale must be a positive number (a normal float), got {scale!r}")
     max_faces = MAX_SURFACE_FACES if max_faces is None else max_faces
     if len(mesh.faces) > max_faces:
         raise MeshTooLargeError(

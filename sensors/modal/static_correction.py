@@ -54,7 +54,6 @@ nothing n_dof-sized per contact set, Psi (n_dof x a) formed only when someone as
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import csr_matrix
 
 from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from ..fem.assembly import shape_functions
@@ -106,6 +105,11 @@ def nodal_at(model, nodal: np.ndarray, points_m) -> np.ndarray:
 class ContactFlexibility:
     """A free ``ModalModel``'s matrices for the static correction: K, M, the factorization of
     K + sigma M and the mass-normalised rigid-body modes (built once per model)."""
+
+    def __deepcopy__(self, memo):
+        # A per-model cache around a factorization (ctypes handles cannot be copied): an env's
+        # deep copy shares it, as it shares the model.
+        return self
 
     def __init__(self, model) -> None:
         self.model = model
@@ -236,6 +240,8 @@ class ContactFlexibility:
         columns = store.columns(nodes)
         # one sparse product over the store's columns (30 of its rows per vector), no copy
         i, c = np.nonzero(C)
+        from scipy.sparse import csr_matrix  # deferred: `import sensors` loads no SciPy sparse
+
         Ct = csr_matrix((C[i, c], (c, columns[i])), shape=(C.shape[1], store.Y.shape[1]))
         X = np.asarray(Ct @ store.Y.T).T - self.relief @ B
         MX = np.asarray(Ct @ store.MY.T).T - self.mass_relief @ B
