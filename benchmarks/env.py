@@ -255,19 +255,22 @@ def _reference_error(env_id: str, kwargs: dict) -> float:
     from aas_gym import canonical_settle
     from sensors.modal import static_correction
 
-    features = []
-    for reuse in (True, False):
-        static_correction.REUSE_UNIT_LOADS = reuse
-        canonical_settle.CANONICAL_SETTLE = reuse      # GraspPosition-v0's settle where placed (reference)
-        try:
-            env = gym.make(env_id, disable_env_checker=True, **kwargs)
-            u = _grasp_once(env)
-            features.append(u.sensor.sense(u.excitation, u.duration_s, variation=u._variation,
-                                           rng=np.random.default_rng(0), waveform=False).features())
-            env.close()
-        finally:
-            static_correction.REUSE_UNIT_LOADS = True
-            canonical_settle.CANONICAL_SETTLE = True
+    def features_of_one_grasp():
+        env = gym.make(env_id, disable_env_checker=True, **kwargs)
+        u = _grasp_once(env)
+        out = u.sensor.sense(u.excitation, u.duration_s, variation=u._variation,
+                             rng=np.random.default_rng(0), waveform=False).features()
+        env.close()
+        return out
+
+    features = [features_of_one_grasp()]
+    saved_settle = canonical_settle.CANONICAL_SETTLE
+    canonical_settle.CANONICAL_SETTLE = False          # GraspPosition-v0's settle where placed (reference)
+    try:
+        with static_correction.reference_paths():
+            features.append(features_of_one_grasp())
+    finally:
+        canonical_settle.CANONICAL_SETTLE = saved_settle
     fast, reference = features
     return float(np.max(np.abs(fast - reference) / np.abs(reference)))
 

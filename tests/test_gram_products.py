@@ -8,18 +8,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sensors import Contact, ModalModel
+from sensors import Contact
 from sensors._infra.lru import clear_all
 from sensors.modal import static_correction
 from sensors.modal.spring_modes import modal_transfer, spring_modes
 from sensors.modal.static_correction import ContactFlexibility, UnitLoadStore, nodal_at
 
-BAR = dict(length_m=0.2, width_m=0.025, height_m=0.025)
+from test_contact_set_reuse import bar  # noqa: F401  (fixture: the aluminium bar of both files)
 
-
-@pytest.fixture(scope="module")
-def bar():
-    return ModalModel.bar(**BAR, material="aluminium", resolution=0.008, cache=False, max_frequency_hz=12000.0)
 
 
 def grasp(x_m: float, table_force_n: float):
@@ -35,11 +31,8 @@ def rel(a, b):
 
 def paths(bar, contacts):
     fast = spring_modes(bar, contacts)
-    try:
-        static_correction.GRAM_PRODUCTS = False
+    with static_correction.reference_paths(reuse_unit_loads=True):
         reference = spring_modes(bar, contacts)
-    finally:
-        static_correction.GRAM_PRODUCTS = True
     return fast, reference
 
 

@@ -53,6 +53,8 @@ nothing n_dof-sized per contact set, Psi (n_dof x a) formed only when someone as
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
@@ -61,7 +63,7 @@ from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
 from .basis import check_points_m
 
-__all__ = ["GRAM_PRODUCTS", "MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "AttachmentBasis", "ContactFlexibility", "UnitLoadStore",
+__all__ = ["GRAM_PRODUCTS", "MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
            "RitzGeometry", "contact_flexibility", "nodal_at"]
 
 #: The most attachment vectors (constrained directions, up to 3 per contact) one contact set
@@ -79,6 +81,21 @@ REUSE_UNIT_LOADS = True
 #: and Psi is formed (n_dof x a) only when asked for; False: Psi formed explicitly (the
 #: reference).  Read at each call; the attachment-basis and spring-mode caches key on it.
 GRAM_PRODUCTS = True
+
+
+@contextlib.contextmanager
+def reference_paths(reuse_unit_loads: bool = False, gram_products: bool = False):
+    """Within the block, :data:`REUSE_UNIT_LOADS` and :data:`GRAM_PRODUCTS` as given (default:
+    both reference paths); the earlier values come back after it, also on an error."""
+    global REUSE_UNIT_LOADS, GRAM_PRODUCTS
+    saved = REUSE_UNIT_LOADS, GRAM_PRODUCTS
+    REUSE_UNIT_LOADS, GRAM_PRODUCTS = bool(reuse_unit_loads), bool(gram_products)
+    try:
+        yield
+    finally:
+        REUSE_UNIT_LOADS, GRAM_PRODUCTS = saved
+
+
 # The regularising shift of K, relative to the first elastic eigenvalue (see the docstring).
 _SHIFT = 1e-3
 # Attachment vectors whose M-norm after orthogonalisation is below this fraction of the
