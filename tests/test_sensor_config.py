@@ -160,6 +160,23 @@ def test_pipeline_composes_in_order_and_reads_dicts():
         DroppedBuffers(probability=1.5)
 
 
+def test_bad_stage_values_are_refused_when_configured(tmp_path):
+    """Before any recording: a misspelt noise kind, a missing or empty folder, a misspelt field."""
+    (tmp_path / "empty").mkdir()
+    for source, match in (("pinkk", "neither"), (str(tmp_path / "missing"), "neither"),
+                          (str(tmp_path / "empty"), "no .wav or .npz")):
+        with pytest.raises(ValueError, match=match):
+            AcousticConfig(corruption=[{"kind": "background_noise", "source": source}])
+        with pytest.raises(ValueError, match=match):
+            gym.make("aas_gym/GraspPosition-v0", acoustic={"corruption": [{"kind": "background_noise", "source": source}]})
+        with pytest.raises(ValueError, match=match):
+            BackgroundNoise(-60.0, source)
+    with pytest.raises(TypeError, match=r"no field\(s\) \['fullscale'\]; its fields: \['full_scale'\]"):
+        AcousticConfig(corruption=[{"kind": "clipping", "fullscale": 0.5}])
+    np.savez(tmp_path / "empty" / "n.npz", waveform=_signal(100), sample_rate_hz=FS)
+    assert BackgroundNoise(-60.0, tmp_path / "empty").source == str(tmp_path / "empty")  # a folder with a recording
+
+
 def test_pipeline_is_seeded_by_its_generator():
     p = CorruptionPipeline((BackgroundNoise(-50, "motor"), GainDrift(1.0, 1.0), DroppedBuffers(0.2), Latency(0, 0.01)))
     x = _signal()
