@@ -113,3 +113,18 @@ def test_the_example_trains_with_the_extractor_and_logs_to_tensorboard(tmp_path)
     tags = set(acc.Tags()["scalars"])
     assert {"rollout/ep_rew_mean", "rollout/success_rate", "time/fps"} <= tags, tags
     assert acc.Scalars("rollout/ep_rew_mean")[-1].step == 256
+
+
+@pytest.mark.parametrize("args, message", [(["--timesteps", "0"], "must be a positive integer"),
+                                           (["--env", "GraspPositon-v0"], "invalid choice")])
+def test_the_example_refuses_bad_arguments_before_training(tmp_path, args, message):
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(root), "OMP_NUM_THREADS": "1"}
+    proc = subprocess.run([sys.executable, str(root / "examples" / "train_with_extractor.py"), *args, "--out", "runs"],
+                          cwd=tmp_path, capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 2 and message in proc.stderr and not list(tmp_path.iterdir())
