@@ -256,7 +256,7 @@ def main() -> None:
     parser.add_argument("--plot-only", action="store_true")
     args = parser.parse_args()
     ACOUSTIC["contact_model"] = args.contact_model
-    out, figure = (HERE / args.out).resolve(), (HERE / args.figure).resolve()  # an absolute path stays as it is
+    out, figure = args.out.resolve(), args.figure.resolve()  # a relative --out is the caller's, from the cwd
     if not args.plot_only:
         n_eval = args.eval_episodes or (70 if args.env == "ObjectRecognition-v0" else 65)
         log = train(args.env, args.minutes, args.seed, out, n_eval, args.eval_every)

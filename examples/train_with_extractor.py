@@ -31,10 +31,18 @@ from aas_gym.rl import AcousticExtractor
 HERE = Path(__file__).resolve().parent
 
 
+def positive_integer(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
+    return value
+
+
 def main(argv=None) -> Path:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--env", default="GraspPosition-v0", help="an aas_gym env id (without the aas_gym/ prefix)")
-    ap.add_argument("--timesteps", type=int, default=2048)
+    envs = sorted(k.removeprefix("aas_gym/") for k in gym.registry if k.startswith("aas_gym/"))
+    ap.add_argument("--env", default="GraspPosition-v0", choices=envs, help="an aas_gym env id (without the aas_gym/ prefix)")
+    ap.add_argument("--timesteps", type=positive_integer, default=2048, help="PPO steps (256 is one rollout, the smallest)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=HERE.parent / "outputs" / "train_with_extractor",
                     help="folder of the TensorBoard run and the saved model")

@@ -76,7 +76,7 @@ class RealGraspEnv(AcousticEnvMixin, gym.Env):
     |---|---|---|---|
     | `robot` | :class:`RobotInterface` | (required) | the robot driver |
     | `sensor` | `sensors.AcousticSensor` | (required) | :class:`real.RealAcousticSensor`, or any other |
-    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the same configuration as the simulated envs': `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `enabled`, `features`, `history`, `update_period_s` (a multiple of `control_period_s`), `corruption` (the same pipeline and seeding as in simulation); its simulation-only fields (`noise_std`, `leak`, `fingertip`, `stream_tolerance`) are not used |
+    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the same configuration as the simulated envs': `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `enabled`, `features`, `history`, `update_period_s` (in control periods' time: `k * control_period_s` is every k-th step), `corruption` (the same pipeline and seeding as in simulation); its simulation-only fields (`noise_std`, `leak`, `fingertip`, `stream_tolerance`) are not used |
     | `grip_force_n` | float | 40.0 | grasp force [N], in (0, 140] |
     | `control_period_s` | float | 0.05 | time each step lets the robot move [s] (the simulated env's step) |
     | `max_episode_steps` | int | 200 | truncation (as the simulated env) |

@@ -88,3 +88,43 @@ def test_ppo_learns_a_few_hundred_steps_with_the_extractor():
     after = list(model.policy.features_extractor.parameters())
     assert any(not torch.equal(a, b) for a, b in zip(before, after))  # the extractor was trained
     env.close()
+
+
+def test_the_example_trains_with_the_extractor_and_logs_to_tensorboard(tmp_path):
+    """examples/train_with_extractor.py at its smallest budget (one PPO rollout of 256 steps),
+    run from a scratch folder with a relative ``--out``: the TensorBoard run (read back with
+    TensorBoard's own reader) and the model land there, and nothing else is written."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    event_accumulator = pytest.importorskip("tensorboard.backend.event_processing.event_accumulator")
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(root), "OMP_NUM_THREADS": "1"}
+    proc = subprocess.run([sys.executable, str(root / "examples" / "train_with_extractor.py"), "--timesteps", "256",
+                           "--out", "runs"], cwd=tmp_path, capture_output=True, text=True, env=env, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["runs"]
+    events = list((tmp_path / "runs").glob("GraspPosition-v0_*/events.out.tfevents.*"))
+    assert len(events) == 1 and (tmp_path / "runs" / "ppo_GraspPosition-v0.zip").stat().st_size > 0
+    acc = event_accumulator.EventAccumulator(str(events[0].parent))
+    acc.Reload()
+    tags = set(acc.Tags()["scalars"])
+    assert {"rollout/ep_rew_mean", "rollout/success_rate", "time/fps"} <= tags, tags
+    assert acc.Scalars("rollout/ep_rew_mean")[-1].step == 256
+
+
+@pytest.mark.parametrize("args, message", [(["--timesteps", "0"], "must be a positive integer"),
+                                           (["--env", "GraspPositon-v0"], "invalid choice")])
+def test_the_example_refuses_bad_arguments_before_training(tmp_path, args, message):
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(root), "OMP_NUM_THREADS": "1"}
+    proc = subprocess.run([sys.executable, str(root / "examples" / "train_with_extractor.py"), *args, "--out", "runs"],
+                          cwd=tmp_path, capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 2 and message in proc.stderr and not list(tmp_path.iterdir())

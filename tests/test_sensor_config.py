@@ -160,6 +160,23 @@ def test_pipeline_composes_in_order_and_reads_dicts():
         DroppedBuffers(probability=1.5)
 
 
+def test_bad_stage_values_are_refused_when_configured(tmp_path):
+    """Before any recording: a misspelt noise kind, a missing or empty folder, a misspelt field."""
+    (tmp_path / "empty").mkdir()
+    for source, match in (("pinkk", "neither"), (str(tmp_path / "missing"), "neither"),
+                          (str(tmp_path / "empty"), "no .wav or .npz")):
+        with pytest.raises(ValueError, match=match):
+            AcousticConfig(corruption=[{"kind": "background_noise", "source": source}])
+        with pytest.raises(ValueError, match=match):
+            gym.make("aas_gym/GraspPosition-v0", acoustic={"corruption": [{"kind": "background_noise", "source": source}]})
+        with pytest.raises(ValueError, match=match):
+            BackgroundNoise(-60.0, source)
+    with pytest.raises(TypeError, match=r"no field\(s\) \['fullscale'\]; its fields: \['full_scale'\]"):
+        AcousticConfig(corruption=[{"kind": "clipping", "fullscale": 0.5}])
+    np.savez(tmp_path / "empty" / "n.npz", waveform=_signal(100), sample_rate_hz=FS)
+    assert BackgroundNoise(-60.0, tmp_path / "empty").source == str(tmp_path / "empty")  # a folder with a recording
+
+
 def test_pipeline_is_seeded_by_its_generator():
     p = CorruptionPipeline((BackgroundNoise(-50, "motor"), GainDrift(1.0, 1.0), DroppedBuffers(0.2), Latency(0, 0.01)))
     x = _signal()
@@ -277,9 +294,35 @@ def test_streamed_history_and_update_period():
         prev = obs
 
 
-def test_update_period_is_checked_against_dt_and_cadence():
-    with pytest.raises(ValueError, match="whole multiple"):
-        _make("aas_gym/AcousticGrasp-v0", cadence="every_step", update_period_s=0.07)
+@pytest.mark.parametrize("period", ["0.05", "0.15", "0.07", "0.12", "0.03", "0.35"])
+def test_update_schedule_keeps_the_period_in_simulated_time(period):
+    """The steps that update, against exact rational arithmetic: the due times m * T fall in
+    the steps floor(m * T / dt) (T = 0.07 s at dt = 0.05 s: steps 0, 1, 2, 4, 5, 7, 8, ...)."""
+    from fractions import Fraction
+
+    from sensors.task.frames import AcousticFrames
+
+    dt, n_steps = "0.05", 400
+    ratio = Fraction(period) / Fraction(dt)
+    want = sorted({int(m * ratio) for m in range(int(n_steps / ratio) + 2)} & set(range(n_steps)))
+    config = AcousticConfig(cadence="every_step", update_period_s=float(period))
+    frames = AcousticFrames({"acoustic": np.zeros(1)}, 1, config.steps_per_update(float(dt)))
+    for _ in range(2):  # a reset starts the schedule again
+        frames.reset()
+        assert [n for n in range(n_steps) if frames.due()] == want
+    if ratio.denominator == 1:
+        assert config.steps_per_update(float(dt)) == ratio  # every k-th step, a whole number
+
+
+def test_a_period_that_is_no_multiple_of_dt_updates_at_its_mean_rate():
+    env = _make("aas_gym/AcousticGrasp-v0", cadence="every_step", update_period_s=0.07, duration_s=0.5, noise_std=1e-5)
+    env.reset(seed=0)
+    seen = [env.step(np.zeros(6, np.float32))[0]["acoustic"] for _ in range(9)]
+    same = [np.array_equal(seen[i], seen[i - 1]) for i in range(1, 9)]
+    assert same == [False, False, True, False, False, True, False, False]  # updates at steps 0, 1, 2, 4, 5, 7, 8
+
+
+def test_update_period_is_checked_against_the_cadence():
     with pytest.raises(ValueError, match="cadence"):
         AcousticConfig(update_period_s=0.1)  # cadence "action": the policy decides
     with pytest.raises(ValueError, match="probe"):

@@ -19,7 +19,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .noise_library import noise_segment
+from .noise_library import check_noise_source, noise_segment
 
 __all__ = ["BackgroundNoise", "Clipping", "CorruptionPipeline", "DCOffset", "DroppedBuffers", "GainDrift",
            "Latency", "STAGES"]
@@ -159,7 +159,7 @@ class BackgroundNoise(_Stage):
         super().__post_init__()
         if not isinstance(self.source, (str, os.PathLike)):
             raise TypeError(f"BackgroundNoise.source must be a noise kind or a folder path, got {self.source!r}")
-        object.__setattr__(self, "source", os.fspath(self.source))
+        object.__setattr__(self, "source", check_noise_source(self.source))  # a typo fails here, not after a grasp
 
     @property
     def rms_fs(self) -> float:
@@ -210,6 +210,10 @@ class CorruptionPipeline:
                 kind = fields.pop("kind", None)
                 if kind not in STAGES:
                     raise ValueError(f"corruption stage kind must be one of {sorted(STAGES)}, got {kind!r}")
+                known = [f.name for f in dataclasses.fields(STAGES[kind])]
+                unknown = sorted(set(fields) - set(known))
+                if unknown:
+                    raise TypeError(f"corruption stage {kind!r} has no field(s) {unknown}; its fields: {known}")
                 item = STAGES[kind](**fields)
             stages.append(item)
         return cls(tuple(stages))

@@ -35,7 +35,7 @@ import numpy as np
 
 from .._infra.lru import CACHE_SIZES, LRU
 
-__all__ = ["NOISE_KINDS", "load_noise_folder", "noise_segment", "synthesize_noise"]
+__all__ = ["NOISE_KINDS", "check_noise_source", "load_noise_folder", "noise_segment", "synthesize_noise"]
 
 #: The synthesized noise kinds (module docstring: their spectra).
 NOISE_KINDS = ("white", "pink", "room", "motor")
@@ -121,6 +121,25 @@ def _read_recording(path: Path, sample_rate_hz: int) -> np.ndarray:
         raise ValueError(f"{path}: the noise recording is silent") from None
 
 
+def _recording_files(root: Path) -> list[Path]:
+    return sorted(p for p in root.iterdir() if p.suffix.lower() in (".wav", ".npz"))
+
+
+def check_noise_source(source: str | os.PathLike) -> str:
+    """``source`` as :func:`noise_segment` takes it (a noise kind, or a folder path as text),
+    checked before any recording is made: ``ValueError`` for a name that is neither a kind of
+    :data:`NOISE_KINDS` nor a folder holding a ``.wav`` or ``.npz`` file."""
+    if isinstance(source, str) and source in NOISE_KINDS:
+        return source
+    root = Path(source).expanduser()
+    if not root.is_dir():
+        raise ValueError(f"noise source must be one of {NOISE_KINDS} or a folder of .wav/.npz recordings; "
+                         f"{os.fspath(source)!r} is neither")
+    if not _recording_files(root):
+        raise ValueError(f"noise folder {os.fspath(source)!r} holds no .wav or .npz recording")
+    return os.fspath(source)
+
+
 def load_noise_folder(folder: str | os.PathLike, sample_rate_hz: int) -> tuple[np.ndarray, ...]:
     """The ``.wav`` and ``.npz`` noise recordings in ``folder`` (sorted by name), each
     resampled to ``sample_rate_hz``, its mean removed, at unit RMS; loaded once per process."""
@@ -129,7 +148,7 @@ def load_noise_folder(folder: str | os.PathLike, sample_rate_hz: int) -> tuple[n
         raise FileNotFoundError(f"noise folder {folder!s} does not exist")
 
     def load() -> tuple[np.ndarray, ...]:
-        files = sorted(p for p in root.iterdir() if p.suffix.lower() in (".wav", ".npz"))
+        files = _recording_files(root)
         if not files:
             raise ValueError(f"noise folder {root} holds no .wav or .npz recording")
         return tuple(_read_recording(p, int(sample_rate_hz)) for p in files)

@@ -141,9 +141,10 @@ class AcousticConfig:
             first, zeros before the first recordings); 1 (default) keeps the single frame's
             shape. A frame enters at each sensor update.
         update_period_s: with cadence ``"every_step"`` or ``"stream"``, the sensor updates
-            every this many seconds of simulated (or control) time, a whole multiple of the
-            env's ``dt`` (updates at steps 0, k, 2k, ... of an episode); between updates the
-            observation holds the last value. ``None``: every step.
+            every this many seconds of simulated (or control) time; between updates the
+            observation holds the last value. ``k * dt``: at steps 0, k, 2k, ... of an
+            episode; another period T: at each step during which one of the times 0, T, 2T,
+            ... falls (the mean rate is 1/T; T below ``dt``: every step). ``None``: every step.
         corruption: a ``sensors.signals.corruption.CorruptionPipeline`` (or a sequence of its
             stages, or of dicts with a ``kind``) applied to each recording before its
             features: gain drift, DC offset, latency and jitter, dropped buffers, clipping,
@@ -224,19 +225,17 @@ class AcousticConfig:
         if self.features != "fft140":
             n_frames(self.n_samples)  # at least one STFT window
 
-    def steps_per_update(self, dt_s: float | None) -> int:
-        """Env steps per sensor update for an env step of ``dt_s`` seconds: 1 without
-        ``update_period_s``; ``ValueError`` unless the period is a whole multiple of ``dt_s``
-        (``dt_s=None``: an env whose step is a probe, where no period applies)."""
+    def steps_per_update(self, dt_s: float | None) -> float:
+        """The update period in env steps of ``dt_s`` seconds (:class:`AcousticFrames`): 1
+        without ``update_period_s``; a whole number when the period is one within float
+        rounding (every k-th step), else the fraction (a period of simulated time); ``ValueError``
+        for ``dt_s=None`` (an env whose step is one probe, where no period applies)."""
         if self.update_period_s is None:
             return 1
         if dt_s is None:
             raise ValueError("acoustic.update_period_s does not apply to an env whose step is one probe")
         k = self.update_period_s / dt_s
-        if round(k) < 1 or abs(k - round(k)) > 1e-6 * max(1.0, k):
-            raise ValueError(f"acoustic.update_period_s={self.update_period_s:g} s must be a whole multiple of the "
-                             f"env's dt = {dt_s:g} s")
-        return int(round(k))
+        return int(round(k)) if round(k) >= 1 and abs(k - round(k)) <= 1e-6 * k else k
 
     def check_samples(self, n_samples: int, what: str) -> None:
         """Refuse, before anything is simulated, ``what`` holding more than :attr:`max_samples`

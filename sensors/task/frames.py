@@ -17,15 +17,26 @@ class AcousticFrames:
 
     ``empty``: one frame's entries before any recording (zeros); ``history``: frames kept (1:
     the frame itself, shape unchanged; N > 1: each entry stacked to ``(N, ...)``, oldest
-    first); ``steps_per_update``: the sensor updates at steps 0, k, 2k, ... of an episode.
+    first); ``steps_per_update``: the update period in env steps, ``r > 0``. The sensor is due
+    at the times ``0, r, 2r, ...`` (in steps from the episode's start) and updates at each step
+    ``n`` whose span ``[n, n + 1)`` holds one: a whole ``k`` gives steps 0, k, 2k, ...; a
+    fraction keeps the mean rate (``r = 1.4``: steps 0, 1, 2, 4, 5, 7, ...); ``r <= 1``
+    updates every step.
     """
 
-    def __init__(self, empty: dict[str, np.ndarray], history: int = 1, steps_per_update: int = 1) -> None:
+    #: Due times within this many steps of a step boundary belong to the later step (float
+    #: rounding of ``period / dt``).
+    _TOLERANCE_STEPS = 1e-9
+
+    def __init__(self, empty: dict[str, np.ndarray], history: int = 1, steps_per_update: float = 1) -> None:
         self._empty = {k: np.asarray(v) for k, v in empty.items()}
         self.history = int(history)
-        self.steps_per_update = int(steps_per_update)
+        if not (np.isfinite(steps_per_update) and steps_per_update > 0):
+            raise ValueError(f"steps_per_update must be a positive finite number, got {steps_per_update!r}")
+        self.steps_per_update = steps_per_update
         self._frames: deque[dict[str, np.ndarray]] = deque(maxlen=self.history)
         self._step = 0
+        self._next_due = 0  # index m of the next due time m * steps_per_update
         self.reset()
 
     def reset(self) -> dict[str, np.ndarray]:
@@ -33,13 +44,17 @@ class AcousticFrames:
         self._frames.clear()
         self._frames.extend([self._empty] * self.history)
         self._step = 0
+        self._next_due = 0
         return self.observation()
 
     def due(self) -> bool:
         """Whether the sensor updates at this step; advances the schedule by one step (call
         once per env step)."""
-        due = self._step % self.steps_per_update == 0
         self._step += 1
+        end = self._step - self._TOLERANCE_STEPS  # this step spans [step - 1, step)
+        due = self._next_due * self.steps_per_update < end
+        if due:  # the first due time at or after this step's end
+            self._next_due = int(np.ceil(end / self.steps_per_update))
         return due
 
     def push(self, entries: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
