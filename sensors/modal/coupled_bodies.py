@@ -120,7 +120,8 @@ class CoupledBodies:
         K = np.zeros((offs[-1], offs[-1]))
         for i, b in enumerate(blocks):
             K[offs[i]:offs[i + 1], offs[i]:offs[i + 1]] = b
-        for ln, D in zip(self.links, self.link_differences()):
+        self._differences = self.link_differences()      # kept: the dampers of a coupled grasp use them too
+        for ln, D in zip(self.links, self._differences):
             n = np.asarray(ln.normal, float) / np.linalg.norm(ln.normal)
             W = (ln.normal_stiffness_n_per_m * np.outer(n, n)
                  + ln.tangential_stiffness_n_per_m * (np.eye(3) - np.outer(n, n)))
@@ -142,7 +143,11 @@ class CoupledBodies:
 
     def link_difference(self, link: BodyLink) -> np.ndarray:
         """D (3, n): the world-frame motion of the link's point on body a minus that on body b
-        (nothing for the ground) per stacked Ritz coordinate."""
+        (nothing for the ground) per stacked Ritz coordinate (read-only, kept for the
+        assembly's own links)."""
+        for kept, D in zip(self.links, self._differences):
+            if kept is link:
+                return D
         D = np.zeros((3, int(self._offs[-1])))
         for side, sign in ((link.body_a, 1.0), (link.body_b, -1.0)):
             if side is None:
@@ -170,6 +175,8 @@ class CoupledBodies:
             rows = self._parts[body].ritz_at(np.array([p for _, _, p in items]))
             for (i, sign, _), S in zip(items, rows):
                 out[i][:, self.rows(body)] += sign * R @ S
+        for D in out:
+            D.flags.writeable = False
         return out
 
     def mode_shapes_at(self, body: int, points_m) -> np.ndarray:
