@@ -73,3 +73,30 @@ def test_store_path_equals_the_direct_solve_across_moving_contact_sets(bar):
         scale = np.abs(reference.attachment.stiffness).max()
         assert np.abs(fast.attachment.coupling).max() < 1e-9 * scale
         assert np.abs(reference.attachment.coupling).max() < 1e-9 * scale
+
+
+def test_kept_transfers_equal_the_explicit_projection_back_and_forth(bar):
+    """A grasp switching back and forth between two contact sets: every state transfer (the
+    kept T after the first) equals the explicit Phi_to^T M Phi_from from the Ritz bases."""
+    from sensors.synthesis.modal_system import transfer_state
+
+    clear_all()
+    a, b = spring_modes(bar, grasp(0.01, 4.0)), spring_modes(bar, grasp(0.0102, 6.0))
+    M = a.geometry.M
+
+    def explicit(fr, to):
+        n_rigid, r, _ = fr.split
+        return (to.V[:n_rigid + r].T @ fr.V[:n_rigid + r]
+                + to.V[n_rigid + r:].T @ (to.psi.T @ (M @ fr.psi)) @ fr.V[n_rigid + r:])
+
+    x = np.random.default_rng(1).standard_normal(2 * a.n_modes)
+    first = None
+    for _ in range(3):
+        y = transfer_state(x, a, b)
+        T = explicit(a, b)
+        assert np.allclose(y, np.concatenate([T @ x[:a.n_modes], T @ x[a.n_modes:]]), rtol=0, atol=1e-12)
+        first = y if first is None else first
+        assert np.array_equal(y, first)                              # the kept T: the same bits
+        back = transfer_state(y, b, a)
+        Tb = explicit(b, a)
+        assert np.allclose(back, np.concatenate([Tb @ y[:b.n_modes], Tb @ y[b.n_modes:]]), rtol=0, atol=1e-12)

@@ -312,3 +312,28 @@ def test_loads_need_displacement_or_velocity_output():
         PassiveSound(rise_time_s=-1.0)
     with pytest.raises(ValueError):
         ContactLoads(np.zeros((2, 3)), np.zeros((1, 3)), np.zeros((2, 3)))
+
+
+def test_ramp_particular_solves_the_affine_equations():
+    """x_p = alpha + beta t solves x' = A x + [0; p(t)] for a load ramping p0 -> p1 over tau:
+    A beta + [0; (p1 - p0) / tau] = 0 and A alpha + [0; p0] = beta (the state matrix of six
+    damped modes, checked by products with A, independent of the LU solves); equal loads give
+    the equilibrium (beta = 0)."""
+    import scipy.linalg as sla
+
+    from sensors.synthesis.modal_system import modal_state_matrix
+    from sensors.synthesis.passive import ramp_particular
+
+    rng = np.random.default_rng(3)
+    w = 2 * np.pi * np.linspace(800.0, 9000.0, 6)
+    C = np.diag(0.02 * w) + 5.0 * np.outer(rng.random(6), rng.random(6))
+    A = modal_state_matrix(w, C)
+    lu = sla.lu_factor(A)
+    p0, p1, tau = rng.standard_normal(6), rng.standard_normal(6), 2e-4
+    alpha, beta = ramp_particular(lu, p0, p1, tau)
+    load = lambda p: np.concatenate([np.zeros(6), p])  # noqa: E731
+    scale = np.abs(A).max() * np.abs(alpha).max() + np.abs(p0).max()
+    assert np.abs(A @ beta + load((p1 - p0) / tau)).max() < 1e-12 * np.abs(A).max() * np.abs(beta).max()
+    assert np.abs(A @ alpha + load(p0) - beta).max() < 1e-12 * scale
+    eq, zero = ramp_particular(lu, p0, p0, 0.0)
+    assert not np.any(zero) and np.abs(A @ eq + load(p0)).max() < 1e-12 * scale

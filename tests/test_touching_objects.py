@@ -135,3 +135,26 @@ def test_state_transfer_keeps_the_partners_energy_and_never_adds(bar, reference)
     only_grasped = x.reshape(2, -1)
     T0 = a_again.V.T @ a.V
     assert modal_state_energy(np.concatenate([T0 @ only_grasped[0], T0 @ only_grasped[1]])) < e * (1 - 1e-3)
+
+
+def test_link_rows_evaluated_together_equal_each_link_alone(bar, reference):
+    """The coupled stiffness takes every link's Ritz rows from one evaluation per body; each
+    equals the link's difference written out from its two bodies' Ritz bases at its point
+    alone (its own point location), bit for bit."""
+    pads, partner, _ = two_bars(reference, bar)
+    extra = Contact(partner.contacts[0].position_m + [0.004, 0.003, 0.0], DOWN, 3.0, 0.5, *K_LINK,
+                    counter_material="aluminium")
+    partner = TouchingPartner(partner.model, partner.rotation, partner.translation_m,
+                              (*partner.contacts, extra), partner.grounded)
+    modes = contact_modal_model(TouchingObjects(bar, [partner]), pads)
+    A = modes.assembly
+    assert len(A.links) >= 5
+    for link, together in zip(A.links, A.link_differences()):
+        alone = np.zeros_like(together)
+        for side, sign in ((link.body_a, 1.0), (link.body_b, -1.0)):
+            if side is not None:
+                _, R, t = A.bodies[side]
+                point = R.T @ (np.asarray(link.point_m) - t)
+                alone[:, A.rows(side)] += sign * R @ A.parts[side].ritz_at(point[None])[0]
+        assert np.array_equal(together, alone)
+        assert np.array_equal(A.link_difference(link), alone)

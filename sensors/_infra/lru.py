@@ -31,6 +31,7 @@ CACHE_SIZES: dict[str, int] = {
     "stream.drive_systems": 4,       # fingertip drive systems per fingertip model
     "stream.drive_periods": 8,       # the drive's (prefiltered) exciter period per excitation: 176 kB each
     "stream.steady_states": 8,       # periodic steady states per (system, drive)
+    "stream.transfers": 32,          # state transfers T (r x r) between the modes of two contact sets
     "passive.load_projections": 4,   # one contact read's loads on the modes of the latest contact sets
     "modal.flexibility": 8,          # K, M and factorization of K + sigma M per model (static correction; 8: the
                                      # seven paper objects ObjectRecognition-v0 cycles, 40-130 MB each)

@@ -120,11 +120,11 @@ class CoupledBodies:
         K = np.zeros((offs[-1], offs[-1]))
         for i, b in enumerate(blocks):
             K[offs[i]:offs[i + 1], offs[i]:offs[i + 1]] = b
-        for ln in self.links:
+        self._differences = self.link_differences()      # kept: the dampers of a coupled grasp use them too
+        for ln, D in zip(self.links, self._differences):
             n = np.asarray(ln.normal, float) / np.linalg.norm(ln.normal)
             W = (ln.normal_stiffness_n_per_m * np.outer(n, n)
                  + ln.tangential_stiffness_n_per_m * (np.eye(3) - np.outer(n, n)))
-            D = self.link_difference(ln)
             K += D.T @ W @ D
         lam, V = np.linalg.eigh(0.5 * (K + K.T))
         keep = lam > (2 * np.pi * MIN_MODE_FREQUENCY_HZ) ** 2
@@ -143,7 +143,11 @@ class CoupledBodies:
 
     def link_difference(self, link: BodyLink) -> np.ndarray:
         """D (3, n): the world-frame motion of the link's point on body a minus that on body b
-        (nothing for the ground) per stacked Ritz coordinate."""
+        (nothing for the ground) per stacked Ritz coordinate (read-only, kept for the
+        assembly's own links)."""
+        for kept, D in zip(self.links, self._differences):
+            if kept is link:
+                return D
         D = np.zeros((3, int(self._offs[-1])))
         for side, sign in ((link.body_a, 1.0), (link.body_b, -1.0)):
             if side is None:
@@ -152,6 +156,28 @@ class CoupledBodies:
             p_body = R.T @ (np.asarray(link.point_m, float) - t)
             D[:, self.rows(side)] += sign * R @ self._parts[side].ritz_at(p_body[None])[0]
         return D
+
+    def link_differences(self) -> list[np.ndarray]:
+        """:meth:`link_difference` of every link, each body's Ritz basis evaluated at all its
+        link points in one call (a point's rows do not depend on the others evaluated with it:
+        the same numbers, one point location per body instead of one per link end)."""
+        ends: list[list] = [[] for _ in self.bodies]          # per body: (link, sign, point in its frame)
+        for i, link in enumerate(self.links):
+            for side, sign in ((link.body_a, 1.0), (link.body_b, -1.0)):
+                if side is not None:
+                    _, R, t = self.bodies[side]
+                    ends[side].append((i, sign, R.T @ (np.asarray(link.point_m, float) - t)))
+        out = [np.zeros((3, int(self._offs[-1]))) for _ in self.links]
+        for body, items in enumerate(ends):
+            if not items:
+                continue
+            R = self.bodies[body][1]
+            rows = self._parts[body].ritz_at(np.array([p for _, _, p in items]))
+            for (i, sign, _), S in zip(items, rows):
+                out[i][:, self.rows(body)] += sign * R @ S
+        for D in out:
+            D.flags.writeable = False
+        return out
 
     def mode_shapes_at(self, body: int, points_m) -> np.ndarray:
         """Coupled mode shapes at points of ``body`` (its frame): (n, 3, r)."""

@@ -49,6 +49,7 @@ from typing import Sequence
 
 import numpy as np
 
+from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from ..modal.contact import Contact
 from ..modal.damping import check_on_surface, modal_damping_matrix, modal_damping_parts
 from ..modal.spring_modes import modal_transfer, spring_modes
@@ -68,6 +69,9 @@ _METHODS = ("exact", "diagonal")
 _HOLDS = ("foh", "zoh")
 # Relative size below which a gain or a coupling counts as exactly zero (rounding level).
 _NEGLIGIBLE = 1e-13
+# A moving grasp switches back and forth between a few contact sets (about half of a
+# ContactFormation-v0 stream's transfers repeat a pair): T kept per (from, to) modes.
+_TRANSFERS: LRU = LRU(CACHE_SIZES["stream.transfers"])
 # The low-rank complex-mode path (sensors.synthesis.low_rank_modes) pays off from about this many
 # modes, while the contact factor has at most this many rows per mode (benchmarks/synthesis.py).
 LOW_RANK_MIN_MODES = 40
@@ -130,7 +134,8 @@ def transfer_state(x, from_modes, to_modes) -> np.ndarray:
         return x
     ra = len(from_modes.angular_frequencies_rad_s)
     x = np.asarray(x, float).reshape(2, ra)
-    T = modal_transfer(from_modes, to_modes)
+    T = _TRANSFERS.get_or_build((IdentityKey(from_modes), IdentityKey(to_modes)),
+                                lambda: modal_transfer(from_modes, to_modes))
     return np.concatenate([T @ x[0], T @ x[1]])
 
 
