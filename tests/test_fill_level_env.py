@@ -82,3 +82,19 @@ def test_bad_arguments_say_what_is_wrong():
         gym.make("aas_gym/FillLevel-v0", fill_range=(0.5, 1.5))
     with pytest.raises(ValueError, match="two liquids"):
         gym.make("aas_gym/FillLevel-v0", task="liquid", liquids=("water",))
+
+
+def test_each_episode_records_the_liquid_model_it_was_heard_with(env):
+    """``info["liquid_model"]`` names the model the sensor heard (compressible by default)."""
+    u = env.unwrapped
+    _, info = env.reset(seed=5, options={"fill_fraction": 0.7})
+    heard = u.sensor.modal_model(u._scene.bodies[0])
+    assert info["liquid_model"] == heard.liquid_model == "compressible" and heard.n_liquid_modes > 0
+    e = gym.make("aas_gym/FillLevel-v0", objects=["glass"], compressible=False, acoustic={"duration_s": 0.5})
+    _, info = e.reset(seed=5, options={"fill_fraction": 0.7})
+    heard_inc = e.unwrapped.sensor.modal_model(e.unwrapped._scene.bodies[0])
+    assert info["liquid_model"] == heard_inc.liquid_model == "incompressible" and heard_inc.n_liquid_modes == 0
+    # The liquid heard differently: the compressible model moves the volume-changing modes.
+    assert not np.allclose(heard.frequencies_hz[: heard_inc.n_modes], heard_inc.frequencies_hz[: heard.n_modes],
+                           rtol=1e-3)
+    e.close()

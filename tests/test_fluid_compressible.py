@@ -22,6 +22,8 @@ import math
 
 import numpy as np
 import pytest
+import scipy.sparse
+import scipy.sparse.linalg
 import scipy.special
 
 from coupled_fluid_reference import compressible_coupled_frequencies_hz, wall_fem
@@ -148,3 +150,68 @@ def test_every_liquid_has_a_speed_of_sound():
     for bad in (0.0, -1.0, math.nan):
         with pytest.raises(ValueError, match="speed_of_sound"):
             Liquid("bad", 1000.0, 0.0, bad)
+
+
+# ---------------------------------------------------------------- bad inputs, before any work
+
+@pytest.mark.parametrize("args, kwargs, error, message", [
+    ((-0.1,), {}, ValueError, r"fill_fraction must be in \[0, 1\]"),
+    ((math.nan,), {}, ValueError, "fill_fraction must be finite"),
+    ((), {"fill_height_m": math.nan}, ValueError, "fill_height_m"),
+    ((), {"volume_m3": -1e-6}, ValueError, "volume_m3"),
+    ((0.5,), {"liquid": "lava"}, KeyError, "unknown liquid 'lava'"),
+    ((0.5,), {"liquid": math.nan}, ValueError, "density"),
+    ((0.5,), {"liquid": -998.0}, ValueError, "density"),
+    ((0.5,), {"surface_normal": (math.nan, 0.0, 0.0)}, ValueError, "surface_normal"),
+    ((0.5,), {"compressible": "yes"}, TypeError, "compressible"),
+    # 30 m/s: about 10^5 modes of the liquid below 44 kHz (Weyl), each finer than the mesh.
+    ((0.5,), {"liquid": Liquid("slow", 1000.0, 0.0, 30.0)}, ValueError, "acoustic modes"),
+])
+def test_bad_fills_are_refused_before_any_build(no_build, args, kwargs, error, message):
+    with pytest.raises(error, match=message):
+        filled("mug", *args, **kwargs)
+
+
+def test_bad_speeds_of_sound_are_refused():
+    for bad in (0.0, -1482.0, math.nan, -math.inf):
+        with pytest.raises(ValueError, match="speed_of_sound_m_per_s must be positive"):
+            Liquid("bad", 1000.0, 0.0, bad)
+    for bad in (True, "1482", None):
+        with pytest.raises(TypeError, match="speed_of_sound_m_per_s must be a number"):
+            Liquid("bad", 1000.0, 0.0, bad)
+
+
+def test_the_liquid_mode_bound_counts_like_the_analytic_cylinder():
+    """The bound's estimate (Weyl's law) against the exact mode count of a liquid cylinder (rigid
+    wall and floor, free top): below it (the surface term) by at most a factor of two from a few
+    dozen modes up (24: 0.64; 158: 0.78), so MAX_LIQUID_MODES refuses only what would need
+    over a thousand modes."""
+    from sensors.fluid.acoustic import MAX_LIQUID_MODES, check_liquid_mode_count, liquid_modes, weyl_mode_count
+
+    radius, depth, c = 0.028, 0.076, WATER.speed_of_sound_m_per_s
+    for top_hz in (40000.0, 60000.0, 80000.0):
+        exact = len(cylinder_liquid_modes_hz(radius, depth, c, top_hz))
+        weyl = weyl_mode_count(math.pi * radius**2 * depth, (2 * math.pi * top_hz / c) ** 2)
+        assert 0.5 * exact <= weyl <= exact, (top_hz, weyl, exact)
+    check_liquid_mode_count(3e-4, c, 44100.0)  # a full mug of water: about 34
+    with pytest.raises(ValueError, match="above the limit of 1,000"):
+        check_liquid_mode_count(3e-4, 100.0, 44100.0)
+    # The solve itself refuses too (a caller that skipped filled()): 1 litre, c = 1 m/s, 1 kHz.
+    eye = scipy.sparse.identity(50, format="csr")
+    with pytest.raises(ValueError, match="acoustic modes"):
+        liquid_modes(eye, eye * (1e-3 / 50), 1.0, 1000.0)
+    assert MAX_LIQUID_MODES >= 1000
+
+
+def test_an_exact_fill_does_not_depend_on_what_arpack_ran_before(cup):
+    container = cup[1]
+    container.fills.clear()
+    first = filled(container, 0.45)
+    rng = np.random.default_rng(1)
+    A = scipy.sparse.diags(rng.uniform(1.0, 2.0, 400)).tocsc()
+    scipy.sparse.linalg.eigsh(A, k=5)  # moves ARPACK's own start-vector seed
+    container.fills.clear()
+    again = filled(container, 0.45)
+    assert again is not first
+    np.testing.assert_array_equal(again.frequencies_hz, first.frequencies_hz)
+    np.testing.assert_array_equal(again.liquid_modes_hz, first.liquid_modes_hz)

@@ -22,12 +22,40 @@ import scipy.sparse.linalg
 from .added_mass import potential_flow, wall_coupling
 from ..fem.assembly import QUADRATURE, shape_functions, shape_gradients_ref
 
-__all__ = ["liquid_mass_matrix", "liquid_modes", "acoustic_loading", "LIQUID_MODES_BAND_FACTOR"]
+__all__ = ["liquid_mass_matrix", "liquid_modes", "acoustic_loading", "LIQUID_MODES_BAND_FACTOR", "MAX_LIQUID_MODES",
+           "check_liquid_mode_count"]
 
 #: The liquid's modes are kept up to this factor times the wet model's band limit: a mode at
 #: twice the band's top still shifts a mode at the top by a third of its static share (that
 #: share is in the added mass already; see :mod:`sensors.fluid.filled_model`).
 LIQUID_MODES_BAND_FACTOR = 2.0
+#: The most acoustic modes a liquid may bring, as Weyl's law estimates them before any solve
+#: (water in the everyday containers: 33-45 estimated, 41-65 found). A much lower speed of sound
+#: or a much larger volume would ask for thousands: a dense eigenproblem of the whole liquid mesh
+#: (minutes and gigabytes) for modes finer than that mesh resolves.
+MAX_LIQUID_MODES = 1000
+
+
+def weyl_mode_count(volume_m3: float, k2_max: float) -> float:
+    """Weyl's estimate N(k) ~ V k^3 / (6 pi^2) of the acoustic modes of ``volume_m3`` of liquid up
+    to the wavenumber^2 ``k2_max`` [1/m^2]."""
+    return float(volume_m3) * k2_max**1.5 / (6 * math.pi**2)
+
+
+def check_liquid_mode_count(volume_m3: float, speed_of_sound_m_per_s: float, max_frequency_hz: float,
+                            limit: float = MAX_LIQUID_MODES) -> None:
+    """Refuse (ValueError), before any solve, a liquid whose acoustic modes up to ``max_frequency_hz``
+    Weyl's law counts above ``limit`` (:data:`MAX_LIQUID_MODES`)."""
+    c = float(speed_of_sound_m_per_s)
+    if not math.isfinite(c) or volume_m3 <= 0.0:
+        return
+    n = weyl_mode_count(volume_m3, (2.0 * math.pi * max_frequency_hz / c) ** 2)
+    if n > limit:
+        raise ValueError(
+            f"{volume_m3 * 1e6:.4g} ml of a liquid with a speed of sound of {c:g} m/s would have about {n:,.0f} "
+            f"acoustic modes below {max_frequency_hz:.0f} Hz, above the limit of {limit:,.0f} "
+            "(sensors.fluid.acoustic.MAX_LIQUID_MODES): check the speed of sound (water's is 1482 m/s), or fill "
+            "with compressible=False")
 
 
 def liquid_mass_matrix(nodes_m: np.ndarray, tets10: np.ndarray) -> scipy.sparse.csr_matrix:
@@ -45,13 +73,15 @@ def liquid_mass_matrix(nodes_m: np.ndarray, tets10: np.ndarray) -> scipy.sparse.
 
 
 def liquid_modes(laplace_free, mass_free, speed_of_sound_m_per_s: float, max_frequency_hz: float, lu=None,
-                 v0=None):
+                 v0=None, max_modes: float = MAX_LIQUID_MODES):
     """The liquid's acoustic modes up to ``max_frequency_hz`` (rigid walls, p = 0 on the free surface).
 
     Args:
         laplace_free, mass_free: H and Q0 on the nodes off the free surface.
         speed_of_sound_m_per_s: c (``math.inf``: no modes).
         lu: A factorization of ``laplace_free`` (``solve``), reused as the shift-invert operator.
+        max_modes: Refuse (ValueError, :func:`check_liquid_mode_count`) more modes than this, as
+            Weyl's law counts them before the solve.
         v0: ARPACK's start vector (default: ARPACK's own, which depends on its earlier calls in
             the process; a fixed one makes the result's bytes reproducible).
 
@@ -64,12 +94,13 @@ def liquid_modes(laplace_free, mass_free, speed_of_sound_m_per_s: float, max_fre
     if not math.isfinite(c) or n == 0:
         return np.zeros(0), np.zeros((n, 0))
     k2_max = (2.0 * math.pi * max_frequency_hz / c) ** 2
+    check_liquid_mode_count(float(mass_free.sum()), c, max_frequency_hz, max_modes)
     if lu is None:
         lu = scipy.sparse.linalg.splu(laplace_free.tocsc())
     op = scipy.sparse.linalg.LinearOperator((n, n), matvec=lu.solve, matmat=lu.solve, dtype=np.float64)
     # Weyl's law, N(k) ~ V k^3 / (6 pi^2) (the volume from Q0's entries, a partition of unity):
     # one Lanczos run asks for all of them with a margin, instead of restarting as k doubles.
-    weyl = float(mass_free.sum()) * k2_max**1.5 / (6 * math.pi**2)
+    weyl = weyl_mode_count(float(mass_free.sum()), k2_max)
     k = min(int(1.5 * weyl) + 16, n - 1)
     while True:
         if k >= n - 1:  # a tiny mesh: all of it, dense
@@ -107,6 +138,8 @@ def acoustic_loading(nodes_m: np.ndarray, tets10: np.ndarray, free_surface: np.n
     Ma, S, lu = potential_flow(coupling, density_kg_m3)
     free = coupling.free
     Q0 = liquid_mass_matrix(nodes_m, tets10)[free][:, free]
-    w2, psi = liquid_modes(coupling.laplace[free][:, free], Q0, speed_of_sound_m_per_s, max_frequency_hz, lu)
+    # A fixed start vector: the same fill gives the same bytes whatever ARPACK ran before.
+    w2, psi = liquid_modes(coupling.laplace[free][:, free], Q0, speed_of_sound_m_per_s, max_frequency_hz, lu,
+                           v0=np.ones(len(free)))
     B = math.sqrt(density_kg_m3) * (coupling.load[free].T @ psi) / np.sqrt(w2)[None, :]
     return Ma, S, B, w2

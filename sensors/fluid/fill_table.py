@@ -37,7 +37,7 @@ import scipy.linalg
 import scipy.sparse
 
 from .._infra import cache as cache_mod
-from .acoustic import LIQUID_MODES_BAND_FACTOR, liquid_mass_matrix, liquid_modes
+from .acoustic import LIQUID_MODES_BAND_FACTOR, MAX_LIQUID_MODES, liquid_mass_matrix, liquid_modes
 from .added_mass import potential_flow, wall_coupling
 from .cavity import AxisymmetricCavity, p2_mass_properties
 from .filled_model import FilledModalModel
@@ -97,7 +97,8 @@ def _solve(container, height_m: float, k2_sample: float) -> _Solve:
     if k2_sample > 0.0:
         # c = 1 m/s: eigenvalues are k^2 and the modes Q0-normalized; a fixed start vector keeps
         # the table's bytes independent of what ARPACK ran before in this process.
-        k2, psi = liquid_modes(H, Q0, 1.0, math.sqrt(k2_sample) / (2 * math.pi), lu, v0=np.ones(H.shape[0]))
+        k2, psi = liquid_modes(H, Q0, 1.0, math.sqrt(k2_sample) / (2 * math.pi), lu, v0=np.ones(H.shape[0]),
+                               max_modes=MAX_LIQUID_MODES * MODE_MARGIN**3)  # sampled past the cut
     else:
         k2, psi = np.zeros(0), np.zeros((H.shape[0], 0))
     mass, centre, inertia = p2_mass_properties(mesh.nodes_m, mesh.tets, 1.0)

@@ -19,7 +19,7 @@ import numpy as np
 
 from .._infra.checks import holds_bool
 from .._infra.lru import CACHE_SIZES, LRU
-from .acoustic import LIQUID_MODES_BAND_FACTOR, acoustic_loading
+from .acoustic import LIQUID_MODES_BAND_FACTOR, acoustic_loading, check_liquid_mode_count
 from .added_mass import liquid_loading
 from .cavity import AxisymmetricCavity, cavity_of, unit
 from .container import CONTAINER_OPTIONS, Container, check_container_options, liquid_volume_in, solid_of
@@ -27,6 +27,7 @@ from .fill_table import fill_table
 from .filled_model import FilledModalModel
 from .liquid_body import LiquidBody
 from ..materials.liquids import get_liquid
+from ..modal.build import DEFAULT_MAX_FREQUENCY_HZ
 
 __all__ = ["container", "filled"]
 
@@ -131,6 +132,9 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
             structured liquid mesh cannot represent it).
         sensors.mesh.surface.MeshTooLargeError: the liquid mesh would exceed ``liquid_max_nodes``
             (default :data:`sensors.fluid.cavity.MAX_LIQUID_NODES`).
+        ValueError: a compressible liquid whose acoustic modes up to twice the band would number
+            above :data:`sensors.fluid.acoustic.MAX_LIQUID_MODES` by Weyl's law (a speed of sound
+            far below any liquid's).
         TypeError, ValueError: a bad fill, option or object; all of these are raised before the
             container is built.
     """
@@ -145,6 +149,10 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
     volume = _checked_fill(obj if built is None else built, cavity if built is None else None,
                            options if built is None else {}, fill_fraction=fill_fraction,
                            fill_height_m=fill_height_m, volume_m3=volume_m3, surface_normal=surface_normal)
+    if compressible and volume > 0.0:
+        band = _band_limit_hz(obj if built is None else built, options)
+        if band is not None:
+            check_liquid_mode_count(volume, liquid.speed_of_sound_m_per_s, LIQUID_MODES_BAND_FACTOR * band)
     c = container(obj, cavity=cavity, **options) if built is None else built
     up = c.surface_normal(surface_normal)
 
@@ -199,6 +207,22 @@ def _checked_fill(obj, cavity, options, *, surface_normal, **amount):
             # The liquid mesh's own checks (spill, dry floor), run now: no build.
             cav.check_fill(volume, up, mine["liquid_n_theta"])
     return volume
+
+
+def _band_limit_hz(obj, options) -> float | None:
+    """The wet model's band limit [Hz] before the container is built (None: not known yet; the
+    liquid's own solve checks its mode count then)."""
+    if isinstance(obj, Container):
+        return obj.band_limit_hz
+    band = options.get("max_dry_frequency_hz")
+    if band is None and hasattr(obj, "mode_shapes_at") and not hasattr(obj, "tet_mesher"):  # a bare model
+        band = obj.metadata.get("max_frequency_hz") if hasattr(obj, "metadata") else None
+    elif band is None:
+        band = options.get("max_frequency_hz", DEFAULT_MAX_FREQUENCY_HZ)
+    try:
+        return float(band) if band is not None and float(band) > 0 else None
+    except (TypeError, ValueError):  # a bad option: the dry model's build refuses it
+        return None
 
 
 def _checked_normal(surface_normal) -> np.ndarray:

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 
 __all__ = ["Liquid", "LIQUIDS", "get_liquid", "WATER_SPEED_OF_SOUND_M_PER_S"]
 
@@ -50,7 +51,11 @@ class Liquid:
 
     def __post_init__(self):
         for field in ("density_kg_m3", "viscosity_pa_s", "speed_of_sound_m_per_s"):
-            value = float(getattr(self, field))
+            value = getattr(self, field)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real):
+                raise TypeError(f"Liquid {self.name!r}: {field} must be a number, got {value!r} "
+                                f"({type(value).__name__})")
+            value = float(value)
             bad = (math.isnan(value) or value < 0 or (field != "speed_of_sound_m_per_s" and not math.isfinite(value))
                    or (field != "viscosity_pa_s" and value == 0))
             if bad:
