@@ -23,6 +23,7 @@ import pytest
 from sensors._infra.lru import clear_all
 from sensors.fluid import Container, filled
 from sensors.fluid.fill_table import FillTableCostError, fill_table
+from sensors.materials import scaled_material
 from sensors.materials.liquids import get_liquid
 from sensors.objects.everyday import can
 
@@ -119,6 +120,23 @@ def test_tilted_fills_and_films_take_the_exact_path(small_can):
     table = fill_table(container, get_liquid("water"))
     film = filled(container, fill_height_m=0.5 * table.min_height_m, interpolated=True)
     assert "wet_solve" not in film.metadata
+
+
+def test_wet_modes_are_solved_when_first_read_and_solve_the_wet_problem(small_can):
+    """A filled model defers its eigen-solve (an env hearing it through a material view never
+    needs it); what it then reads solves Lambda q = w^2 (I + M_a) q, mass-normalized."""
+    _, _, container = small_can
+    wet = filled(container, 0.45, compressible=False, interpolated=True)
+    stiffer = wet.with_material(scaled_material(wet.material, modulus_scale=1.3, density_scale=0.9))
+    assert "eigenvalues" not in vars(wet) and "eigenvalues" not in vars(stiffer)  # not solved yet
+    for model, scale in ((wet, 1.0), (stiffer, 1.3 / 0.9)):
+        Q, w2 = model.modal_coefficients, model.eigenvalues
+        lam = container.basis_eigenvalues * scale
+        mass = np.eye(len(lam)) + model._Ma
+        np.testing.assert_allclose(Q.T @ mass @ Q, np.eye(len(w2)), atol=1e-9)
+        residual = lam[:, None] * Q - (mass @ Q) * w2
+        assert np.abs(residual).max() <= 1e-9 * lam.max() * np.abs(Q).max()
+        np.testing.assert_array_equal(model.frequencies_hz, np.sqrt(w2) / (2 * np.pi))
 
 
 def test_closest_surface_is_the_nearest_face_of_all(small_can):

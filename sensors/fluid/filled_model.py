@@ -73,6 +73,8 @@ Damping (a documented approximation):
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import scipy.linalg
 
@@ -120,42 +122,70 @@ class FilledModalModel:
         self.liquid = liquid
         self.material = get_material(material) if material is not None else self.dry.material
         freq_scale, self._shape_scale = material_scaling(self.dry.material, self.material)
-        lam = container.basis_eigenvalues * freq_scale**2
         band = container.band_limit_hz * freq_scale
+        self._freq_scale, self._band_hz = freq_scale, band
         if added_mass is None:
-            # No liquid: exactly the dry modes (no eigen-solve whose round-off would rotate pairs).
-            n = container.n_dry
-            Q = np.zeros((container.n_basis, n))
-            Q[6:6 + n] = np.eye(n)
-            w2, self._Ma, self._S = lam[6:6 + n].copy(), None, None
-            self._B, self._wl2 = None, None
+            self._Ma, self._S, self._B, self._wl2 = None, None, None, None
         else:
             self._Ma = added_mass * self._shape_scale**2
             self._S = slip * self._shape_scale**2
-            B = np.zeros((len(lam), 0)) if liquid_coupling is None else liquid_coupling * self._shape_scale
-            wl2 = np.zeros(0) if liquid_eigenvalues is None else np.asarray(liquid_eigenvalues, float)
-            self._B, self._wl2 = B, wl2
-            nb, m = len(lam), len(wl2)
-            mass = np.block([[np.eye(nb) + self._Ma, B], [B.T, np.eye(m)]])
-            w2, X = scipy.linalg.eigh(np.diag(np.concatenate([lam, wl2])), 0.5 * (mass + mass.T))
-            Q = X[:nb]
-            if np.any(np.abs(w2[:6]) > 1e-8 * lam.max()):
-                raise ArithmeticError(f"the six rigid-body modes of the filled container are not at zero: {w2[:6]}")
-            w2, Q = w2[6:], Q[:, 6:]
-            n = _cut(np.sqrt(np.maximum(w2, 0.0)) / (2 * np.pi), band)
-            w2, Q = w2[:n], Q[:, :n]
-        #: w^2 [rad^2/s^2] of the wet modes.
-        self.eigenvalues = np.asarray(w2, dtype=np.float64)
-        #: (n_basis, r) wet modes on the container's basis (rigid, dry, correction).
-        self.modal_coefficients = Q
-        self.angular_frequencies_rad_s = np.sqrt(self.eigenvalues)
-        self.frequencies_hz = self.angular_frequencies_rad_s / (2.0 * np.pi)
-        self.added_damping_per_s = 2.0 * self.viscous_decay_rates_per_s()
+            self._B = (np.zeros((container.n_basis, 0)) if liquid_coupling is None
+                       else liquid_coupling * self._shape_scale)
+            self._wl2 = np.zeros(0) if liquid_eigenvalues is None else np.asarray(liquid_eigenvalues, float)
         self.metadata = dict(self.dry.metadata, kind=f"{container.name} with {liquid.liquid.name}",
                              material=self.material.name, liquid=liquid.liquid.to_dict(),
                              liquid_volume_m3=liquid.volume_m3, fill_fraction=self.fill_fraction,
                              liquid_model=self.liquid_model,
                              surface_normal=np.asarray(liquid.surface_normal).tolist(), max_frequency_hz=band)
+
+    # The wet eigen-solve runs when a modal quantity is first read, not at construction: an
+    # env that fills a container and hears it through a material view (domain randomization,
+    # ``with_material``) reads only the view's modes, so the filled model's own solve would be
+    # thrown away. The quantities are exactly those of solving at construction.
+    @functools.cached_property
+    def _wet_solution(self) -> tuple[np.ndarray, np.ndarray]:
+        """(w^2 (r,) [rad^2/s^2], Q (n_basis, r)) of the wet modes up to the band limit."""
+        container = self.container
+        lam = container.basis_eigenvalues * self._freq_scale**2
+        if self._Ma is None:
+            # No liquid: exactly the dry modes (no eigen-solve whose round-off would rotate pairs).
+            n = container.n_dry
+            Q = np.zeros((container.n_basis, n))
+            Q[6:6 + n] = np.eye(n)
+            return np.asarray(lam[6:6 + n], dtype=np.float64).copy(), Q
+        B, wl2 = self._B, self._wl2
+        nb, m = len(lam), len(wl2)
+        mass = np.block([[np.eye(nb) + self._Ma, B], [B.T, np.eye(m)]])
+        w2, X = scipy.linalg.eigh(np.diag(np.concatenate([lam, wl2])), 0.5 * (mass + mass.T))
+        Q = X[:nb]
+        if np.any(np.abs(w2[:6]) > 1e-8 * lam.max()):
+            raise ArithmeticError(f"the six rigid-body modes of the filled container are not at zero: {w2[:6]}")
+        w2, Q = w2[6:], Q[:, 6:]
+        n = _cut(np.sqrt(np.maximum(w2, 0.0)) / (2 * np.pi), self._band_hz)
+        return np.asarray(w2[:n], dtype=np.float64), Q[:, :n]
+
+    @functools.cached_property
+    def eigenvalues(self) -> np.ndarray:
+        """w^2 [rad^2/s^2] of the wet modes."""
+        return self._wet_solution[0]
+
+    @functools.cached_property
+    def modal_coefficients(self) -> np.ndarray:
+        """(n_basis, r) wet modes on the container's basis (rigid, dry, correction)."""
+        return self._wet_solution[1]
+
+    @functools.cached_property
+    def angular_frequencies_rad_s(self) -> np.ndarray:
+        return np.sqrt(self.eigenvalues)
+
+    @functools.cached_property
+    def frequencies_hz(self) -> np.ndarray:
+        return self.angular_frequencies_rad_s / (2.0 * np.pi)
+
+    @functools.cached_property
+    def added_damping_per_s(self) -> np.ndarray:
+        """Twice the liquid's boundary-layer decay rate of each wet mode [1/s]."""
+        return 2.0 * self.viscous_decay_rates_per_s()
 
     # ---------------------------------------------------------------- modal quantities
 
