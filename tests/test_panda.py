@@ -34,10 +34,13 @@ FRANKA_TAU_MAX = [87, 87, 87, 87, 12, 12, 12]
 FRANKA_DH = [(0, 0.333, 0), (0, 0, -math.pi / 2), (0, 0.316, math.pi / 2), (0.0825, 0, math.pi / 2),
              (-0.0825, 0.384, -math.pi / 2), (0, 0, math.pi / 2), (0.088, 0, math.pi / 2)]
 FLANGE_D_M, TCP_FROM_FLANGE_M = 0.107, 0.1034
+# franka_description: the hand sits on the flange turned by -45 deg about its z axis.
+HAND_MOUNT_YAW_RAD = -math.pi / 4
 
 
 def dh_tcp(q, base):
-    """TCP position and hand approach axis from Franka's DH parameters (numpy only)."""
+    """TCP position, hand approach axis (its z) and hand x axis (normal to the fingers' travel,
+    whose heading is the TCP yaw) from Franka's DH parameters and hand mount (numpy only)."""
     def tf(a, d, alpha, theta):
         ca, sa, ct, st = math.cos(alpha), math.sin(alpha), math.cos(theta), math.sin(theta)
         return np.array([[ct, -st, 0, a], [st * ca, ct * ca, -sa, -d * sa], [st * sa, ct * sa, ca, d * ca],
@@ -46,8 +49,8 @@ def dh_tcp(q, base):
     t[:3, 3] = base
     for (a, d, alpha), qi in zip(FRANKA_DH, q):
         t = t @ tf(a, d, alpha, qi)
-    t = t @ tf(0, FLANGE_D_M + TCP_FROM_FLANGE_M, 0, 0)
-    return t[:3, 3], t[:3, 2]
+    t = t @ tf(0, FLANGE_D_M + TCP_FROM_FLANGE_M, 0, HAND_MOUNT_YAW_RAD)
+    return t[:3, 3], t[:3, 2], t[:3, 0]
 
 
 @pytest.fixture(scope="module")
@@ -85,9 +88,23 @@ def test_ik_matches_franka_dh_over_the_command_box(scene):
         q = arm.solve_ik(data, tcp)
         assert np.all(q >= np.array(FRANKA_Q_MIN)) and np.all(q <= np.array(FRANKA_Q_MAX))
         assert not arm.self_collides(q)
-        pos, approach = dh_tcp(q, base)
+        pos, approach, hand_x = dh_tcp(q, base)
         np.testing.assert_allclose(pos, tcp[:3], atol=1e-3)
         np.testing.assert_allclose(approach, [0, 0, -1], atol=1e-2)  # hand pointing down
+        # the commanded yaw is the heading of Franka's hand x axis (fingers travel along its y)
+        np.testing.assert_allclose(hand_x, [math.cos(tcp[3]), math.sin(tcp[3]), 0], atol=1e-2)
+
+
+def test_the_fingers_close_along_the_franka_hand_y_axis(scene):
+    model, data, arm = scene
+    q = arm.solve_ik(data, (0.05, -0.1, 0.1, 0.7))
+    data.qpos[arm.arm_qpos] = q
+    mujoco.mj_forward(model, data)
+    _, _, hand_x = dh_tcp(q, model.body("panda_link0").pos)
+    hand_y = np.cross([0, 0, -1], hand_x)  # z_hand x x_hand, with z_hand pointing down
+    left, right = (data.site_xpos[model.site(s).id] for s in ("aas_actuator", "aas_mic"))
+    gap = (right - left) / np.linalg.norm(right - left)
+    assert abs(gap @ hand_y) == pytest.approx(1.0, abs=1e-3)
 
 
 def test_unreachable_grasps_raise_instead_of_clipping(scene):
@@ -213,5 +230,13 @@ def test_joint_space_control_option_of_acoustic_grasp():
     for _ in range(6):  # the servo catches up
         env.step(np.zeros(9, np.float32))
     assert env.hand.joint_positions(env.data)[0] - q0[0] == pytest.approx(0.2, abs=0.01)
+    obs = env.reset(seed=0)[0]
+    # the joints are observed (the TCP pose leaves the arm's redundancy open)
+    np.testing.assert_allclose(obs["joint_positions"], env.hand.joint_positions(env.data), atol=1e-6)
+    assert obs["joint_velocities"].shape == (7,)
+    assert "joint_positions" not in gym.make("aas_gym/AcousticGrasp-v0", robot="panda",
+                                             acoustic={"cadence": "never"}).observation_space.spaces
     with pytest.raises(ValueError, match="robot='panda'"):
         gym.make("aas_gym/AcousticGrasp-v0", control="joint")
+    with pytest.raises(ValueError, match="robot must be one of"):  # the misspelt robot is named
+        gym.make("aas_gym/AcousticGrasp-v0", robot="Panda", control="joint")

@@ -7,6 +7,7 @@ from gymnasium import spaces
 
 from aas_gym.envs.base import AasEnv
 from aas_gym.grasp import SQUEEZE_TARGET_M
+from aas_gym.robots import DEFAULT_ROBOT, check_robot
 from aas_gym.scenario import position_along_path
 from sensors.task import (GRASP_REWARD_TERMS, HOME_TCP, MAX_OPENING_M, STATE_LAYOUT, GraspHold, check_action,
                           check_choice, decode_grasp_action, grasp_reward_terms, next_tcp_target, records_this_step,
@@ -58,7 +59,7 @@ class AcousticGraspEnv(AasEnv):
     | Parameter | Type | Default | Description |
     |---|---|---|---|
     | `objects` | sequence of str or `ObjectSpec` | `("aluminium_bar",)` | candidate targets, one drawn per episode (`"<material>_<shape>"`, an everyday object, `"<file>:<material>"`) |
-    | `control` | str | `"cartesian"` | `"cartesian"`: the Box(6) action above (any robot); `"joint"` (`robot="panda"` only): Box(9), seven joint-target deltas (scaled by 0.05 rad, kept within the joint limits), gripper, sense |
+    | `control` | str | `"cartesian"` | `"cartesian"`: the Box(6) action above (any robot); `"joint"` (`robot="panda"` only): Box(9), seven joint-target deltas (scaled by 0.05 rad, kept within the joint limits), gripper, sense; the observation adds `joint_positions` [rad] and `joint_velocities` [rad/s] |
     """
 
     _acoustic_defaults = {"cadence": "action"}
@@ -68,16 +69,25 @@ class AcousticGraspEnv(AasEnv):
 
     def __init__(self, objects=("aluminium_bar",), *, control: str = "cartesian", **kwargs) -> None:
         self.control = check_choice("control", control, ("cartesian", "joint"))
-        if control == "joint" and kwargs.get("robot", "floating_hand") != "panda":
+        # the robot's name first: a misspelt robot is named as such, not as a missing arm
+        if control == "joint" and check_robot(kwargs.get("robot", DEFAULT_ROBOT)) != "panda":
             raise ValueError("control='joint' needs an arm: pass robot='panda'")
         super().__init__(objects, **kwargs)
         self.action_space = spaces.Box(-1.0, 1.0, (9 if control == "joint" else 6,), np.float32)
-        self.observation_space = spaces.Dict({**self._proprio_spaces(with_object=True), **self._acoustic_spaces()})
+        joints = {} if control != "joint" else {name: spaces.Box(-np.inf, np.inf, (7,), np.float32)
+                                                  for name in ("joint_positions", "joint_velocities")}
+        self.observation_space = spaces.Dict({**self._proprio_spaces(with_object=True), **joints,
+                                              **self._acoustic_spaces()})
         self._last_acoustic = self._empty_acoustic()
         self._hold = GraspHold(self.excitation.period_samples)
 
     def _obs_and_values(self):
         obs, values = self._state_obs(True)
+        if self.control == "joint":
+            # joint-space actions need the joints: the TCP pose leaves the arm's redundancy open
+            sc = self._scene
+            obs["joint_positions"] = sc.qpos[sc.hand.arm_qpos].astype(np.float32)
+            obs["joint_velocities"] = sc.qvel[sc.hand.arm_qvel].astype(np.float32)
         for key, value in self._last_acoustic.items():
             obs[key] = value.copy()
         return obs, values
