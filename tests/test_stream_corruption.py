@@ -147,3 +147,28 @@ def test_streamed_contact_formation_is_corrupted_seeded_and_passes_check_env():
         assert np.array_equal(on["acoustic"], noisy.acoustic.scale_features(np.zeros(140) if f is None else f))
     assert expected.latest_features_period >= 0 and not np.array_equal(b[-1]["acoustic"], c[-1]["acoustic"])
     assert not np.array_equal(_episode(noisy, 4)[-1]["audio"], b[-1]["audio"])
+
+
+def test_streamed_acoustic_grasp_with_corruption_passes_check_env():
+    env = gym.make("aas_gym/AcousticGrasp-v0", acoustic={"cadence": "stream", "corruption": CORRUPTION}).unwrapped
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        check_env(env, skip_render_check=True)
+    obs, _ = env.reset(seed=0)
+    assert env.stream_corruption is not None and not obs["audio"].any()
+
+
+def test_a_streamed_probe_hears_its_hold_corrupted_from_a_fresh_stream():
+    """Probe envs stream each probe's hold anew: the hold's audio is the clean hold through a
+    new corrupted stream spawned from the episode's corruption generator."""
+    acoustic = {"cadence": "stream", "duration_s": 0.5}
+    clean = gym.make("aas_gym/ObjectRecognition-v0", acoustic=acoustic).unwrapped
+    noisy = gym.make("aas_gym/ObjectRecognition-v0", acoustic=dict(acoustic, corruption=CORRUPTION)).unwrapped
+    action = clean.action_space.sample()
+    clean.reset(seed=2)
+    noisy.reset(seed=2)
+    expected = noisy.acoustic.corrupted_stream(copy.deepcopy(noisy.corruption_rng))
+    oc, on = clean.step(action)[0], noisy.step(action)[0]
+    assert np.array_equal(on["audio"], expected.process(oc["audio"].astype(np.float64)).astype(np.float32))
+    assert np.array_equal(on["acoustic"], noisy.acoustic.scale_features(expected.latest_features()))
+    assert not np.array_equal(on["acoustic"], oc["acoustic"])
