@@ -76,7 +76,7 @@ class RealGraspEnv(AcousticEnvMixin, gym.Env):
     |---|---|---|---|
     | `robot` | :class:`RobotInterface` | (required) | the robot driver |
     | `sensor` | `sensors.AcousticSensor` | (required) | :class:`real.RealAcousticSensor`, or any other |
-    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the same configuration as the simulated envs': `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `enabled`, `features`, `history`, `update_period_s` (in control periods' time: `k * control_period_s` is every k-th step), `corruption` (the same pipeline and seeding as in simulation); its simulation-only fields (`noise_std`, `leak`, `fingertip`, `stream_tolerance`) are not used |
+    | `acoustic` | `sensors.task.AcousticConfig`, dict of its fields, or None | None | the same configuration as the simulated envs': `excitation`, `cadence`, `duration_s`, `waveform`, `feature_scale`, `enabled`, `features`, `history`, `update_period_s` (in control periods' time: `k * control_period_s` is every k-th step), `corruption` (the same pipeline and seeding as in simulation; streamed, over the unbroken stream from the first step's audio); its simulation-only fields (`noise_std`, `leak`, `fingertip`, `stream_tolerance`) are not used |
     | `grip_force_n` | float | 40.0 | grasp force [N], in (0, 140] |
     | `control_period_s` | float | 0.05 | time each step lets the robot move [s] (the simulated env's step) |
     | `max_episode_steps` | int | 200 | truncation (as the simulated env) |
@@ -133,6 +133,7 @@ class RealGraspEnv(AcousticEnvMixin, gym.Env):
         self._steps = 0
         self.last_recording = None
         self.stream = None  # the RigStream of the episode (cadence "stream")
+        self._stream_corruption = None  # its sensors.signals.CorruptedStream (acoustic.corruption)
         self._hold = GraspHold(self.excitation.period_samples)
 
     def _empty_acoustic(self) -> dict[str, np.ndarray]:
@@ -180,7 +181,9 @@ class RealGraspEnv(AcousticEnvMixin, gym.Env):
             self._gripper_closed = close
         if self.stream is not None:
             # This step's audio starts as the move does; an episode's first, at phase 0.
-            self.stream.catch_up(period_start=self._steps == 0)
+            before = self.stream.position
+            skipped = self.stream.catch_up(period_start=self._steps == 0)
+            self._advance_stream_corruption(before, skipped)
             audio_start = self.stream.position
         self.robot.move(self._target, self.control_period_s)
         s = self.robot.state()
@@ -192,10 +195,12 @@ class RealGraspEnv(AcousticEnvMixin, gym.Env):
         cadence = self.cadence
         success = False
         if cadence == "stream":
-            audio = self.stream.read(self.audio_samples)
+            audio, features = self.stream.read(self.audio_samples), self.stream.latest_features()
+            if self._stream_corruption is not None:
+                audio = self._stream_corruption.process(audio).astype(np.float32)
+                features = self._stream_corruption.latest_features()
             if due:
-                self._acoustic = self.acoustic_frames.push(self.acoustic.stream_entries(self.stream.latest_features(),
-                                                                                        audio))
+                self._acoustic = self.acoustic_frames.push(self.acoustic.stream_entries(features, audio))
             info["audio_phase_samples"] = audio_start % self.excitation.period_samples
             info["stream_problems"] = self.stream.problems
             self._hold.update(grasped, self.stream.position)
@@ -215,6 +220,16 @@ class RealGraspEnv(AcousticEnvMixin, gym.Env):
         info["reward_terms"] = terms
         truncated = not success and self._steps >= self.max_episode_steps
         return self._obs(s), reward_total(terms), success, truncated, info
+
+    def _advance_stream_corruption(self, before: int, skipped: int) -> None:
+        """The corrupted stream (``acoustic.corruption``) starts at the episode's first step's
+        audio (period phase 0), a new one spawned from ``corruption_rng``; later, the samples
+        a step's ``catch_up`` skipped go through it too, so it corrupts one unbroken stream
+        (its latency, drift, buffer grid and noise run on as in simulation)."""
+        if self._steps == 0:
+            self._stream_corruption = self.acoustic.corrupted_stream(self.corruption_rng, self.excitation)
+        elif self._stream_corruption is not None and skipped:
+            self._stream_corruption.process(self.stream.samples(before, before + skipped))
 
     def _start_stream(self) -> None:
         """A new stream for the episode (nothing of the last one carries over), aligned."""

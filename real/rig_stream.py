@@ -169,6 +169,13 @@ class RigStream:
         self.position += n
         return self._mic(start, start + n).copy()
 
+    def samples(self, start: int, stop: int) -> np.ndarray:
+        """Aligned stream samples ``[start, stop)`` already recorded (float32 copy), e.g.
+        those a :meth:`catch_up` skipped."""
+        if self.latency_samples is None or not 0 <= start <= stop <= self._n - self.latency_samples:
+            raise ValueError(f"stream samples [{start}, {stop}) are not recorded yet")
+        return self._mic(self.latency_samples + start, self.latency_samples + stop).copy()
+
     def catch_up(self, *, period_start: bool = False, timeout_s: float | None = None) -> int:
         """Skip the samples recorded but not read yet, so that the next :meth:`read` returns
         samples recorded from now on (the stream index moves on with them: alignment holds).

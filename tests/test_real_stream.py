@@ -253,3 +253,44 @@ def test_env_stream_passes_check_env(stream_env):
         except AssertionError:
             if attempt == ATTEMPTS - 1:
                 raise
+
+
+def test_env_stream_corrupts_the_unbroken_stream_as_the_simulation(audio_loopback):
+    """With ``acoustic.corruption`` and cadence "stream" every step's audio and features are
+    those of the aligned stream, from the first step's audio on (skipped samples included),
+    through the simulation's streaming corruption in one piece, from the same generator."""
+    import copy
+
+    from aas_gym.robot import MujocoRobot
+    from real.env import RealGraspEnv
+
+    corruption = [{"kind": "background_noise", "level_dbfs": -40.0, "source": "room"},
+                  {"kind": "gain_drift", "gain_std_db": 2.0, "drift_db_per_s": 1.0},
+                  {"kind": "dc_offset", "offset_std_fs": 1e-3}, {"kind": "clipping", "full_scale": 0.45},
+                  {"kind": "dropped_buffers", "probability": 0.1}, {"kind": "latency", "jitter_s": 0.005}]
+    robot = MujocoRobot(randomization=False)
+    sensor = real.RealAcousticSensor(real.PyAudioRig(output_gain=GAIN, frames_per_buffer=FRAMES_PER_BUFFER,
+                                                      stall_timeout_s=5.0))
+    env = RealGraspEnv(robot, sensor, acoustic={"excitation": "linear", "cadence": "stream",
+                                                "corruption": corruption})
+    try:
+        obs, _ = env.reset(seed=4)
+        expected = env.acoustic.corrupted_stream(copy.deepcopy(env.corruption_rng), env.excitation)
+        n = env.audio_samples
+        seen = []
+        for _ in range(14):  # 0.7 s: a period completes meanwhile
+            obs, *_ = env.step(np.array([0, 0, 0, 0, 1, 0], np.float32))
+            assert env.observation_space.contains(obs)
+            seen.append((env.stream.position - n, obs))
+        start, stop = seen[0][0], env.stream.position
+        assert start % env.excitation.period_samples == 0
+        whole = expected.process(env.stream.samples(start, stop)).astype(np.float32)
+        for at, o in seen:
+            assert np.array_equal(o["audio"], whole[at - start:at - start + n])
+        assert expected.latest_features_period >= 0
+        assert np.array_equal(seen[-1][1]["acoustic"], env.acoustic.scale_features(expected.latest_features()))
+        clean = env.stream.samples(seen[-1][0], seen[-1][0] + n)
+        assert not np.allclose(seen[-1][1]["audio"], clean)
+    finally:
+        env.close()
+        robot.close()

@@ -281,6 +281,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         self._leaks = _load_leaks(self.acoustic.leak)
         self._variation = SensorVariation()
         self._stream: SimAcousticStream | None = None
+        self._stream_corruption = None  # the stream's sensors.signals.CorruptedStream (acoustic.corruption)
         self._scenes: LRU[_Scene] = LRU(CACHE_SIZES["env.scenes"])
         self._renderer = None
         self._viewer = None
@@ -524,9 +525,22 @@ class AasEnv(AcousticEnvMixin, gym.Env):
 
     # --- streaming --------------------------------------------------------------------------
     def _new_stream(self, excitation=None) -> SimAcousticStream:
-        return SimAcousticStream(self.sensor, self.excitation if excitation is None else excitation,
-                                 variation=self._variation, rng=self.np_random, tolerance=self.acoustic.stream_tolerance,
-                                 passive=self.acoustic.passive)
+        """A new stream; ``_stream_corruption``: its corruption (``acoustic.corruption``), new too."""
+        stream = SimAcousticStream(self.sensor, self.excitation if excitation is None else excitation,
+                                   variation=self._variation, rng=self.np_random,
+                                   tolerance=self.acoustic.stream_tolerance, passive=self.acoustic.passive)
+        self._stream_corruption = self.acoustic.corrupted_stream(self.corruption_rng, stream.stream.excitation)
+        return stream
+
+    @property
+    def stream_corruption(self):
+        """The running stream's ``sensors.signals.CorruptedStream`` (``acoustic.corruption``
+        with cadence ``"stream"``; ``None`` otherwise): its state, seeded at each new stream."""
+        return self._stream_corruption
+
+    def _stream_features(self, stream: SimAcousticStream):
+        """The features a streamed observation shows: of the corrupted stream, if corrupted."""
+        return (stream if self._stream_corruption is None else self._stream_corruption).latest_features()
 
     def _simulate(self) -> None:
         """One env step of physics (``frame_skip`` MuJoCo steps); streamed, the microphone
@@ -535,10 +549,13 @@ class AasEnv(AcousticEnvMixin, gym.Env):
             mujoco.mj_step(self._scene.model, self._scene.data, nstep=self.frame_skip)
             return
         self._stream_audio = self._stream.step_physics(self.frame_skip, self.step_samples)
+        if self._stream_corruption is not None:
+            self._stream_audio = self._stream_corruption.process(self._stream_audio)
 
     def _stream_entries(self) -> dict:
         """The streamed observation entries after ``_simulate``."""
-        return self.acoustic_frames.push(self.acoustic.stream_entries(self._stream.latest_features(), self._stream_audio))
+        return self.acoustic_frames.push(self.acoustic.stream_entries(self._stream_features(self._stream),
+                                                                     self._stream_audio))
 
     def _stream_hold(self, excitation) -> tuple[dict, object]:
         """A probe streamed: a new stream (the hand was placed anew) records while the
@@ -548,10 +565,14 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         stream = self._new_stream(excitation)
         n_steps = max(1, int(round(self.duration_s / self.model.opt.timestep)))
         audio = stream.step_physics(n_steps, self.n_samples)
+        if self._stream_corruption is not None:
+            audio = self._stream_corruption.process(audio).astype(np.float32)
         meta = stream.metadata
         meta.update({"grasped": stream.stream.latest_features_heard > 0.99, "heard_body": stream.heard_body})
+        if self._stream_corruption is not None:
+            meta["corrupted"] = True
         rec = AcousticObservation(audio, stream.sample_rate_hz, stream.stream.excitation, metadata=meta)
-        return self.acoustic_frames.push(self.acoustic.stream_entries(stream.latest_features(), audio)), rec
+        return self.acoustic_frames.push(self.acoustic.stream_entries(self._stream_features(stream), audio)), rec
 
     def _is_grasped(self) -> bool:
         """Both sensor fingertips touch the target (this runs every step: MuJoCo's contact

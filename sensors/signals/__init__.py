@@ -13,6 +13,7 @@ from .features import (amplitude_spectrum, feature_frequencies_hz, scale_feature
 from .leak import LeakRecording, align_leak, aligned_leak_cycle, load_leak, save_leak
 from .noise_library import NOISE_KINDS, load_noise_folder, noise_segment, synthesize_noise
 from .observation import AcousticObservation, AcousticSensor
+from .stream_corruption import NOISE_BLOCK_S, CorruptedStream, StreamCorruptor
 from .spectrogram import mel_filterbank, mel_frequencies_hz, mel_spectrogram, spectrogram, spectrogram_frequencies_hz
 
 __all__ = ["Excitation", "amplitude_spectrum", "feature_frequencies_hz", "scale_features", "segment",
@@ -21,4 +22,4 @@ __all__ = ["Excitation", "amplitude_spectrum", "feature_frequencies_hz", "scale_
            "save_leak", "AcousticObservation", "AcousticSensor", "BackgroundNoise", "Clipping", "CorruptionPipeline",
            "DCOffset", "DroppedBuffers", "GainDrift", "Latency", "NOISE_KINDS", "load_noise_folder", "noise_segment",
            "synthesize_noise", "mel_filterbank", "mel_frequencies_hz", "mel_spectrogram", "spectrogram",
-           "spectrogram_frequencies_hz"]
+           "spectrogram_frequencies_hz", "NOISE_BLOCK_S", "CorruptedStream", "StreamCorruptor"]

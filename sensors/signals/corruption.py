@@ -8,6 +8,9 @@ seed gives the same corruption in simulation and on the rig.
 A physically ordered chain: ``BackgroundNoise`` (what the microphone hears) -> ``GainDrift``
 (the preamplifier) -> ``DCOffset`` -> ``Clipping`` (the converter's full scale) ->
 ``DroppedBuffers`` (the driver) -> ``Latency``.
+
+On a stream (``cadence="stream"``) the same stages run chunk by chunk:
+``sensors.signals.stream_corruption``.
 """
 
 from __future__ import annotations

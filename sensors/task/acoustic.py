@@ -13,6 +13,7 @@ import numpy as np
 
 from .._infra.deprecation import warn_deprecated
 from ..signals.corruption import CorruptionPipeline
+from ..signals.stream_corruption import CorruptedStream
 from ..signals.excitation import KINDS, Excitation
 from ..signals.features import FEATURE_SCALES, feature_frequencies_hz, scale_features
 from ..signals.leak import LeakRecording
@@ -150,8 +151,10 @@ class AcousticConfig:
             features: gain drift, DC offset, latency and jitter, dropped buffers, clipping,
             background noise; seeded from the env's ``np_random`` (a generator spawned from its
             seed at each reset, so the clean signal's random stream is unchanged). Same in
-            simulation and on ``real.RealGraspEnv``; per recording only, not with cadence
-            ``"stream"``. ``None``: none.
+            simulation and on ``real.RealGraspEnv``. With cadence ``"stream"`` it runs on the
+            stream chunk by chunk (``sensors.signals.stream_corruption``: the same samples as
+            over the whole stream at once), the ``audio`` and the period features both of the
+            corrupted stream. ``None``: none.
         max_samples: the most samples one recording (``duration_s``) or one streamed step
             may hold (default :data:`MAX_SAMPLES`, 60 s at 44.1 kHz; each sample costs about
             :data:`BYTES_PER_SAMPLE` bytes to simulate): a longer one is refused at
@@ -219,9 +222,8 @@ class AcousticConfig:
                                  f"'every_step' or 'stream', got {self.cadence!r}")
         pipeline = CorruptionPipeline.coerce(self.corruption)
         object.__setattr__(self, "corruption", pipeline if pipeline else None)
-        if self.cadence == "stream" and (self.features != "fft140" or self.corruption is not None):
-            raise ValueError("acoustic.features other than 'fft140' and acoustic.corruption work on whole "
-                             "recordings: not with cadence 'stream'")
+        if self.cadence == "stream" and self.features != "fft140":
+            raise ValueError("acoustic.features other than 'fft140' work on whole recordings: not with cadence 'stream'")
         if self.features != "fft140":
             n_frames(self.n_samples)  # at least one STFT window
 
@@ -383,6 +385,18 @@ class AcousticConfig:
         w = self.corruption.apply(recording.waveform, recording.sample_rate_hz, rng)
         return AcousticObservation(w.astype(np.float32), recording.sample_rate_hz, recording.excitation,
                                    recording.start_time_s, dict(recording.metadata, corrupted=True))
+
+    def corrupted_stream(self, rng: np.random.Generator | None, excitation=None):
+        """A new ``sensors.signals.CorruptedStream`` of :attr:`corruption` for a stream that
+        starts now, looping ``excitation`` (default :attr:`excitation`; its period frames the
+        features), its generators spawned from ``rng`` (the env's corruption_rng); ``None``
+        without a corruption."""
+        if self.corruption is None:
+            return None
+        if rng is None:
+            raise ValueError("acoustic.corruption needs a random generator (the env's corruption_rng)")
+        ex = self.excitation if excitation is None else excitation
+        return CorruptedStream(self.corruption, ex.sample_rate_hz, rng, ex.period_samples, ex.period_s)
 
     @property
     def needs_waveform(self) -> bool:
