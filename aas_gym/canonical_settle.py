@@ -16,11 +16,10 @@ solves, ``sensors.modal.static_correction``).
 Always the canonical run, hit or miss: a reset's state does not depend on what ran before.
 A placement at the origin, unturned (``randomization=False``), settles as drawn, as before.
 
-Used by ``GraspPosition-v0`` (``AasEnv._settle_canonical``).  ``ObjectRecognition-v0`` settles
-as drawn: there the grasps from moved settles put contact points off mesh faces by about 1e-13 m
-(rounding, as the direct settle's do elsewhere), above the unit-load reuse's negligible shape
-weight (``static_correction``), and its probes touched twice as many new nodes (186 against
-83 unit-load misses in 800 warm steps), costing more than the settles saved.
+Used by ``GraspPosition-v0`` and ``ObjectRecognition-v0`` (``AasEnv._settle_canonical``).
+Grasps from moved settles put contact points off mesh faces by about 1e-13 m (rounding), a
+shape weight far below the unit-load reuse's negligible weight (``static_correction``), so
+they load the same nodes as the direct settle's grasps.
 The result equals the settle simulated where the objects were placed to the rounding of the
 rigid motion (object poses within 1e-9 m and rad, features within 1e-6 after the grasp,
 ``tests/test_canonical_settle.py``), not bit for bit; :data:`CANONICAL_SETTLE` ``= False`` is

@@ -265,7 +265,7 @@ def _reference_error(env_id: str, kwargs: dict) -> float:
 
     features = [features_of_one_grasp()]
     saved_settle = canonical_settle.CANONICAL_SETTLE
-    canonical_settle.CANONICAL_SETTLE = False          # GraspPosition-v0's settle where placed (reference)
+    canonical_settle.CANONICAL_SETTLE = False          # the canonical-settle envs' settle where placed (reference)
     try:
         with static_correction.reference_paths():
             features.append(features_of_one_grasp())
@@ -358,7 +358,7 @@ def env_lines(rows: list[dict], budget_s: float, warmup_s: float = 0.0) -> list[
         "`tests/test_closed_form_features.py`). *Modes error*: the same grasp's closed-form features with the "
         "contact modes' attachment vectors combined from kept unit-load solves (the default) against the direct "
         "solve of each contact set (`sensors.modal.static_correction.REUSE_UNIT_LOADS = False`, the reference) "
-        "and, in GraspPosition-v0, the placement settled where it was drawn "
+        "and, in GraspPosition-v0 and ObjectRecognition-v0, the placement settled where it was drawn "
         "(`aas_gym.canonical_settle.CANONICAL_SETTLE = False`), largest difference per feature / that feature "
         "(`tests/test_unit_load_reuse.py`, `tests/test_canonical_settle.py`).",
         "",

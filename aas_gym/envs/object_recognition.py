@@ -50,6 +50,7 @@ class ObjectRecognitionEnv(AasEnv):
 
     _acoustic_defaults = {"cadence": "every_step"}
     _step_is_probe = True
+    _settle_canonical = True
     reset_options = ("label_index",)
     reward_term_names = ("probe", "answer")
 

@@ -102,8 +102,9 @@ _SHIFT = 1e-3
 # largest are (numerically) in the span of the others and dropped.
 _DEPENDENT = 1e-10
 # Shape-function weights below this are rounding (a point on a vertex, edge or face has exact
-# zeros there): the reused path leaves those nodes out (a load change below 1e-13 relative).
-_NEGLIGIBLE_WEIGHT = 1e-13
+# zeros there; a contact point moved by a rigid motion lands ~1e-13 m off its face, a weight
+# of ~1e-11): the reused path leaves those nodes out (a load change below 1e-9 relative).
+_NEGLIGIBLE_WEIGHT = 1e-9
 # Lower nodes per block of the unit-load store's node-pair products (UnitLoadStore.products).
 _PRODUCT_BLOCK = 4
 
