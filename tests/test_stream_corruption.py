@@ -164,11 +164,12 @@ def test_a_streamed_probe_hears_its_hold_corrupted_from_a_fresh_stream():
     acoustic = {"cadence": "stream", "duration_s": 0.5}
     clean = gym.make("aas_gym/ObjectRecognition-v0", acoustic=acoustic).unwrapped
     noisy = gym.make("aas_gym/ObjectRecognition-v0", acoustic=dict(acoustic, corruption=CORRUPTION)).unwrapped
-    action = clean.action_space.sample()
+    action = np.array([-1.0, 0.2, 0.0, 0.0], np.float32)  # a probe (command <= 0) with the linear chirp
     clean.reset(seed=2)
     noisy.reset(seed=2)
     expected = noisy.acoustic.corrupted_stream(copy.deepcopy(noisy.corruption_rng))
     oc, on = clean.step(action)[0], noisy.step(action)[0]
+    assert oc["audio"].any()                               # the probe held and recorded
     assert np.array_equal(on["audio"], expected.process(oc["audio"].astype(np.float64)).astype(np.float32))
     assert np.array_equal(on["acoustic"], noisy.acoustic.scale_features(expected.latest_features()))
     assert not np.array_equal(on["acoustic"], oc["acoustic"])
