@@ -61,9 +61,8 @@ def touching_grasp(sensor, body: str, contacts: Mapping[str, ObjectContacts], va
     ``TouchingObjects`` of it and the sensed objects it touches, and the contacts that stay
     grounded on it (``others`` from ``ObjectContacts.sensor_grasp`` without the partners')."""
     model = sensor.scaled_model(body, variation)
-    others = on_solid(model, others)
     if sensor.contact_model != "spring_damper":
-        return model, others
+        return model, on_solid(model, others)
     oc = contacts[body]
     objs = oc.select("object")
     partners, names, tables, models = [], [], [], []
@@ -87,7 +86,7 @@ def touching_grasp(sensor, body: str, contacts: Mapping[str, ObjectContacts], va
         tables += [GraspState(None, None, None, links).contact_table(),
                    GraspState(None, None, None, (pose, *grounded)).contact_table()]
     if not partners:
-        return model, others
+        return model, on_solid(model, others)
     rest = oc.select(~np.isin(oc.kinds, ("actuator", "mic")) & ~np.isin(oc.other_bodies, names))
     memo = getattr(sensor, "touching", None)
     build = lambda: TouchingObjects(model, partners)  # noqa: E731

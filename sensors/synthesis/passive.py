@@ -249,17 +249,16 @@ def ramp_particular(lu, p_start: np.ndarray, p_end: np.ndarray, ramp_s: float):
     x' = A x + [0; p(t)], the modal load p rising linearly from ``p_start`` to ``p_end`` over
     ``ramp_s`` seconds (equal loads: the equilibrium, beta = 0).  ``lu``: A's LU factors
     (``scipy.linalg.lu_factor``).  Returns (alpha, beta), each (2 r,)."""
-    lu_solve = _lu_solve
     r = len(p_start)
     slope = (np.asarray(p_end, float) - np.asarray(p_start, float)) / ramp_s if ramp_s > 0 else np.zeros(r)
     beta = np.zeros(2 * r)
     if np.any(slope):
         rhs = np.zeros(2 * r)
         rhs[r:] = -slope
-        beta = lu_solve(lu, rhs)
+        beta = _lu_solve(lu, rhs)
     rhs = beta.copy()
     rhs[r:] -= p_start
-    return lu_solve(lu, rhs), beta
+    return _lu_solve(lu, rhs), beta
 
 
 def _lu_solve(lu, rhs: np.ndarray) -> np.ndarray:
