@@ -27,8 +27,9 @@ __all__ = ["CollisionGeometry", "convex_decomposition", "collision_geometry", "m
 log = logging.getLogger(__name__)
 
 #: CoACD settings: a concavity threshold of 5% with a shallow tree search keeps the cavities
-#: of the containers and the mug's handle open with 13-32 pieces that cover at most 2.2 mm
-#: outside the solid (docs/benchmarks/everyday_objects.md; the 2% / 100-iteration search took
+#: of the containers and the mug's handle open with 13-32 pieces that stand 2.6 mm (mug) to 5 mm
+#: (bottle, spoon) outside the solid by the one-sided Hausdorff distance of
+#: benchmarks/collision_fidelity.py (docs/benchmarks/everyday_objects.md; the 2% / 100-iteration search took
 #: 100-180 s for the same cavities). Our surfaces are manifold already: no remeshing
 #: preprocess. Seeded.
 COACD_OPTIONS = dict(threshold=0.05, max_convex_hull=32, preprocess_mode="off", resolution=1000,
