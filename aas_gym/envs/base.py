@@ -509,15 +509,19 @@ class AasEnv(AcousticEnvMixin, gym.Env):
                                 waveform=self.acoustic.needs_waveform, contacts=contacts)
         return self._recording_entries(rec), rec
 
-    def _sense_and_truth(self, excitation=None) -> tuple[dict, object, dict]:
-        """``_sense`` then ``_ground_truth(contacts=True)`` of the state it leaves; a probe
-        that runs no physics reads the contacts once for both."""
+    def _sense_and_truth(self, excitation=None) -> tuple[dict, bool, dict]:
+        """``_sense`` then ``_ground_truth(contacts=True)`` of the state it leaves: the entries,
+        whether the recording heard a grasp, the truth; a probe that runs no physics reads the
+        contacts once for both. With sensing off nothing is recorded (nothing observes it):
+        no entries, and whether a grasp would be heard."""
         if self.acoustic.streaming:
             acoustic, rec = self._sense(excitation)
-            return acoustic, rec, self._ground_truth(contacts=True)
+            return acoustic, bool(rec.metadata.get("grasped", False)), self._ground_truth(contacts=True)
         contacts = self._scene.stream.read(self.data)
+        if not self.acoustic.enabled:
+            return {}, self.sensor.grasped_body(contacts) is not None, self._ground_truth(contacts=contacts)
         acoustic, rec = self._sense(excitation, contacts)
-        return acoustic, rec, self._ground_truth(contacts=contacts)
+        return acoustic, bool(rec.metadata.get("grasped", False)), self._ground_truth(contacts=contacts)
 
     def _empty_acoustic(self) -> dict:
         """The acoustic entries of an empty history (zeros)."""
