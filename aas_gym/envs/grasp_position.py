@@ -38,7 +38,8 @@ class GraspPositionEnv(AasEnv):
     the true position: the nearest grid position is the right one), ``grasp_position_m``,
     ``position_index``, ``label``, ``estimate_m``, ``abs_error_m``, ``reward_terms``.
 
-    ``acoustic``: every episode records once, through its grasp, whatever the cadence.
+    ``acoustic``: every episode records once, through its grasp, whatever the cadence (and not
+    at all with ``enabled=False``: ``recording_grasped`` then says whether a grasp would be heard).
 
     ## Arguments
 

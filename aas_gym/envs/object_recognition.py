@@ -36,7 +36,8 @@ class ObjectRecognitionEnv(AasEnv):
     position, excitation, padded contacts; an answer adds ``guess``.
 
     ``acoustic`` defaults here: ``cadence="every_step"`` (every probe records, with the
-    excitation the action chooses; ``acoustic.excitation`` is not used).
+    excitation the action chooses; ``acoustic.excitation`` is not used; with ``enabled=False``
+    nothing is recorded: ``recording_grasped`` then says whether a grasp would be heard).
 
     ## Arguments
 
