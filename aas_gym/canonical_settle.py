@@ -16,6 +16,12 @@ solves, ``sensors.modal.static_correction``).
 Always the canonical run, hit or miss: a reset's state does not depend on what ran before.
 A placement at the origin, unturned (``randomization=False``), settles as drawn, as before.
 
+The first section after a reset that leaves the hand far from the objects (the release that
+opens the hand at home before the first grasp: 30 steps, half a grasp's physics) is the same
+motion wherever the placement is, too: :func:`run_after_settle` runs it after the canonical
+settle, in the canonical frame, through the memo (once per object), and moves the end state
+back, if the scene is still in the state the settle left (:class:`SettledPlacement`).
+
 Used by ``GraspPosition-v0`` and ``ObjectRecognition-v0`` (``AasEnv._settle_canonical``).
 Grasps from moved settles put contact points off mesh faces by about 1e-13 m (rounding), a
 shape weight far below the unit-load reuse's negligible weight (``static_correction``), so
@@ -29,23 +35,51 @@ that reference (the direct settle, cached only for a repeated placement).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Hashable, Sequence
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from aas_gym.object_bodies import euler_to_quat, yaw_rest_quat
-from aas_gym.physics_memo import PhysicsMemo
+from aas_gym.physics_memo import EDITED_MODEL_FIELDS, PhysicsMemo
 from aas_gym.scenario import Layout, settle
 from sensors.objects.catalog import ObjectSpec
 
-__all__ = ["CANONICAL_SETTLE", "canonical_quat", "settle_placed"]
+__all__ = ["CANONICAL_SETTLE", "SettledPlacement", "canonical_quat", "run_after_settle", "settle_placed"]
 
 #: Whether :func:`settle_placed` settles the canonical placement and moves it (True, fast) or
-#: settles the objects where they were placed (False: the reference).  Read at each call.
+#: settles the objects where they were placed (False: the reference; the first release then
+#: runs where placed too).  Read at each call.
 CANONICAL_SETTLE = True
 # A turned-back orientation this close to the canonical one is it, up to rounding.
 _SAME_QUAT = 1e-12
+_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+
+
+@dataclass(frozen=True)
+class SettledPlacement:
+    """A placement :func:`settle_placed` settled canonically: the canonical start state
+    (``mj_getState`` integration state), the settle's duration [s], the objects' free joints,
+    the planar motion back (``layout``), and the state the settle left and the model's edited
+    fields then (to tell whether the scene is still there)."""
+
+    start_state: np.ndarray
+    settle_s: float
+    free_joints: tuple
+    layout: Layout
+    settled_state: np.ndarray
+    model_fields: bytes
+
+    def is_current(self, model: mujoco.MjModel, data: mujoco.MjData) -> bool:
+        """Whether ``data`` and ``model`` are as the settle left them (nothing ran since)."""
+        state = np.empty(self.settled_state.size)
+        mujoco.mj_getState(model, data, state, _STATE)
+        return bool(np.array_equal(state, self.settled_state)) and _model_fields(model) == self.model_fields
+
+
+def _model_fields(model: mujoco.MjModel) -> bytes:
+    return b"".join(getattr(model, f).tobytes() for f in EDITED_MODEL_FIELDS)
 
 
 def canonical_quat(target: ObjectSpec) -> np.ndarray:
@@ -56,24 +90,61 @@ def canonical_quat(target: ObjectSpec) -> np.ndarray:
 
 def settle_placed(memo: PhysicsMemo, model: mujoco.MjModel, data: mujoco.MjData,
                   free_joints: Sequence[tuple[int, int]], layout: Layout, settle_s: float,
-                  target_quat: np.ndarray) -> None:
+                  target_quat: np.ndarray) -> SettledPlacement | None:
     """Let the placed scene in ``data`` settle for ``settle_s`` (as ``aas_gym.scenario.settle``),
     through ``memo``; the objects' free joints ``(qpos address, qvel address)``, target first,
     its planar pose from ``layout`` and its :func:`canonical_quat` ``target_quat``.  The module
-    docstring says how and how exactly."""
+    docstring says how and how exactly.  Returns the :class:`SettledPlacement` for
+    :func:`run_after_settle`, or None with :data:`CANONICAL_SETTLE` False (the reference)."""
+    if not CANONICAL_SETTLE:                            # the reference
+        memo.run(data, ("settle", settle_s), lambda: settle(model, data, settle_s))
+        return None
+    _to_canonical(data, free_joints, layout, target_quat)
+    start = np.empty(mujoco.mj_stateSize(model, _STATE))
+    mujoco.mj_getState(model, data, start, _STATE)
+    memo.run(data, ("settle", settle_s), lambda: settle(model, data, settle_s))
+    _from_canonical(model, data, free_joints, layout)
+    settled = np.empty(start.size)
+    mujoco.mj_getState(model, data, settled, _STATE)
+    return SettledPlacement(start, float(settle_s), tuple(free_joints), layout, settled, _model_fields(model))
+
+
+def run_after_settle(memo: PhysicsMemo, model: mujoco.MjModel, data: mujoco.MjData, placement: SettledPlacement,
+                     args: Hashable, section: Callable[[], object]):
+    """Run ``section`` (deterministic, with the hand far from every object: a rigid motion of
+    the table plane maps its run onto itself) from the state ``placement``'s settle left in
+    ``data``, as the same run from the canonical settle, moved: through ``memo`` under ``args``,
+    once per object.  Returns ``section``'s result (kept with the run)."""
+    mujoco.mj_setState(model, data, placement.start_state, _STATE)
+    memo.run(data, ("settle", placement.settle_s), lambda: settle(model, data, placement.settle_s))
+    result = memo.run(data, args, section)
+    _from_canonical(model, data, placement.free_joints, placement.layout)
+    return result
+
+
+def _to_canonical(data: mujoco.MjData, free_joints, layout: Layout, target_quat: np.ndarray) -> None:
+    """Move the placed objects to the canonical placement (target at the origin, yaw 0), the
+    target's orientation set to ``target_quat`` where it is that up to rounding."""
     x, y = layout.target_xy_m
     yaw = float(layout.target_yaw_rad)
-    if not CANONICAL_SETTLE or x == y == yaw == 0.0:     # the reference, or already canonical
-        memo.run(data, ("settle", settle_s), lambda: settle(model, data, settle_s))
+    if x == y == yaw == 0.0:                            # already canonical: as drawn
         return
     _move_free_bodies(data, free_joints, -yaw, (x, y), inverse=True)
     a = free_joints[0][0]
     quat = data.qpos[a + 3:a + 7]
     if min(np.abs(quat - target_quat).max(), np.abs(quat + target_quat).max()) < _SAME_QUAT:
         quat[:] = target_quat                           # (q and -q: one rotation); else a run of its own
-    memo.run(data, ("settle", settle_s), lambda: settle(model, data, settle_s))
+
+
+def _from_canonical(model: mujoco.MjModel, data: mujoco.MjData, free_joints, layout: Layout) -> None:
+    """Move a canonical end state back to the placement (poses, contacts and forces of the
+    moved state recomputed); as it is for a placement that was canonical."""
+    x, y = layout.target_xy_m
+    yaw = float(layout.target_yaw_rad)
+    if x == y == yaw == 0.0:
+        return
     _move_free_bodies(data, free_joints, yaw, (x, y), inverse=False)
-    mujoco.mj_forward(model, data)      # poses, contacts and forces of the moved state
+    mujoco.mj_forward(model, data)
 
 
 def _move_free_bodies(data: mujoco.MjData, free_joints, yaw_rad: float, shift_xy, inverse: bool) -> None:

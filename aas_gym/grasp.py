@@ -226,8 +226,7 @@ def planar_grasp(model: mujoco.MjModel, data: mujoco.MjData, body: str, position
     while t < max_time_s:
         mujoco.mj_step(model, data, nstep=chunk)
         t += chunk * dt
-        contacts = stream.read(data)[body]
-        fa, fm = contacts.total_normal_force_n("actuator"), contacts.total_normal_force_n("mic")
+        fa, fm = stream.fingertip_forces_n(data, body)
         moving = np.max(np.abs(hand.finger_velocity(data))) > 1e-4 or np.max(np.abs(hand.tcp_velocity(data))) > 1e-3
         steady = prev is not None and abs(fa - prev) < 1e-3 * grip_force_n
         prev = fa
@@ -239,8 +238,7 @@ def planar_grasp(model: mujoco.MjModel, data: mujoco.MjData, body: str, position
                 continue
             settled = True
             break
-    contacts = stream.read(data)[body]
-    fa, fm = contacts.total_normal_force_n("actuator"), contacts.total_normal_force_n("mic")
+    fa, fm = stream.fingertip_forces_n(data, body)
     return GraspResult(success=bool(fa > 0 and fm > 0), actuator_force_n=fa, mic_force_n=fm,
                        opening_m=hand.opening_m(data), grasp_position_m=float(position_m),
                        settle_time_s=t, settled=settled)

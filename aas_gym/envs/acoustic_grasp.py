@@ -129,10 +129,10 @@ class AcousticGraspEnv(AasEnv):
             success = step_success(cadence, sense=act.sense, grasped=grasped,
                                    heard_whole_period=self._hold.heard_whole_period(stream.latest_features_period))
         elif due and records_this_step(cadence, act.sense):
-            acoustic, rec, truth = self._sense_and_truth()
+            acoustic, heard_grasped, truth = self._sense_and_truth()
             self._last_acoustic = acoustic
             info.update(truth)
-            info["recording_grasped"] = bool(rec.metadata.get("grasped", False))
+            info["recording_grasped"] = heard_grasped
             # Where along the object's main axis the TCP is (the grasp position when grasped).
             rot = sc.data.xmat[sc.target_body].reshape(3, 3)
             local = rot.T @ (sc.site_xpos[sc.tcp_site] - sc.xpos[sc.target_body])

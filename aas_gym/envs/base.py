@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from aas_gym import has_display
-from aas_gym.canonical_settle import canonical_quat, settle_placed
+from aas_gym.canonical_settle import canonical_quat, run_after_settle, settle_placed
 from aas_gym.contacts import ContactStream
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
 from aas_gym.robots import DEFAULT_ROBOT, check_robot, robot_controller
@@ -281,6 +281,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         self._leaks = _load_leaks(self.acoustic.leak)
         self._variation = SensorVariation()
         self._stream: SimAcousticStream | None = None
+        self._placement = None      # the canonical settle of this reset (AasEnv._grasp's first release)
         self._stream_corruption = None  # the stream's sensors.signals.CorruptedStream (acoustic.corruption)
         self._scenes: LRU[_Scene] = LRU(CACHE_SIZES["env.scenes"])
         self._renderer = None
@@ -425,8 +426,9 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         sc.hand.teleport(d, HOME_TCP, MAX_OPENING_M)
         self._layout = place_objects(m, d, sc.objects, sc.free_joints, self.np_random, self.randomization,
                                      far_end_only=self._far_end_only)
+        self._placement = None
         if self._settle_canonical:
-            settle_placed(sc.memo, m, d, sc.free_joints, self._layout, settle_s, sc.canonical_quat)
+            self._placement = settle_placed(sc.memo, m, d, sc.free_joints, self._layout, settle_s, sc.canonical_quat)
         else:
             sc.memo.run(d, ("settle", settle_s), lambda: settle(m, d, settle_s))
 
@@ -457,14 +459,26 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         grasp = target_grasp(self._scene.objects[0], position_m, self._layout, shift_m=noise,
                              min_width_m=self._min_grasp_width_m)
 
-        def section():
+        def release_hand():
             release(self.model, self.data, self.hand, retreat_m=0.0, duration_s=0.06)
+
+        # The first release after a canonical settle (the hand at home, nothing moved since) is
+        # replayed from the canonical run; any other runs here, as part of the grasp.
+        placement, self._placement = self._placement, None
+        released = placement is not None and placement.is_current(self.model, self.data)
+        if released:
+            run_after_settle(self._scene.memo, self.model, self.data, placement, ("release", 0.06), release_hand)
+
+        def section():
+            if not released:
+                release_hand()
             return planar_grasp(self.model, self.data, self._scene.bodies[0], position_m + noise, grip_force_n,
                                 hand=self.hand, stream=self._scene.stream, grasp=grasp)
 
         grasp_key = None if grasp is None else (np.asarray(grasp.centre_m).tobytes(), np.asarray(grasp.axis).tobytes(),
                                                 grasp.width_m, grasp.position_m)
-        result = self._scene.memo.run(self.data, ("grasp", position_m + noise, grip_force_n, grasp_key), section)
+        result = self._scene.memo.run(self.data, ("grasp", position_m + noise, grip_force_n, grasp_key, released),
+                                      section)
         return {"grasp_position_m": result.grasp_position_m, "grasp_success": result.success,
                 "grip_force_n": grip_force_n}
 
@@ -509,15 +523,19 @@ class AasEnv(AcousticEnvMixin, gym.Env):
                                 waveform=self.acoustic.needs_waveform, contacts=contacts)
         return self._recording_entries(rec), rec
 
-    def _sense_and_truth(self, excitation=None) -> tuple[dict, object, dict]:
-        """``_sense`` then ``_ground_truth(contacts=True)`` of the state it leaves; a probe
-        that runs no physics reads the contacts once for both."""
+    def _sense_and_truth(self, excitation=None) -> tuple[dict, bool, dict]:
+        """``_sense`` then ``_ground_truth(contacts=True)`` of the state it leaves: the entries,
+        whether the recording heard a grasp, the truth; a probe that runs no physics reads the
+        contacts once for both. With sensing off nothing is recorded (nothing observes it):
+        no entries, and whether a grasp would be heard."""
         if self.acoustic.streaming:
             acoustic, rec = self._sense(excitation)
-            return acoustic, rec, self._ground_truth(contacts=True)
+            return acoustic, bool(rec.metadata.get("grasped", False)), self._ground_truth(contacts=True)
         contacts = self._scene.stream.read(self.data)
+        if not self.acoustic.enabled:
+            return {}, self.sensor.grasped_body(contacts) is not None, self._ground_truth(contacts=contacts)
         acoustic, rec = self._sense(excitation, contacts)
-        return acoustic, rec, self._ground_truth(contacts=contacts)
+        return acoustic, bool(rec.metadata.get("grasped", False)), self._ground_truth(contacts=contacts)
 
     def _empty_acoustic(self) -> dict:
         """The acoustic entries of an empty history (zeros)."""

@@ -121,13 +121,8 @@ class FillLevelEnv(AasEnv):
 
     def _reset_episode(self, options: dict):
         grasp = self._grasp(self._grasp_position(), self._episode_grip_force())
-        if self.acoustic.enabled:
-            acoustic, rec, truth = self._sense_and_truth()
-            heard_grasped = bool(rec.metadata.get("grasped", False))
-        else:  # nothing observed: no recording (as AcousticGrasp-v0 with sensing off); a grasp would be heard
-            contacts = self._scene.stream.read(self.data)
-            acoustic, truth = {}, self._ground_truth(contacts=contacts)
-            heard_grasped = self.sensor.grasped_body(contacts) is not None
+        # sensing off: no recording, and whether a grasp would be heard (AasEnv._sense_and_truth)
+        acoustic, heard_grasped, truth = self._sense_and_truth()
         obs = self._proprio()
         obs.update(acoustic)
         info = truth

@@ -38,7 +38,8 @@ class GraspPositionEnv(AasEnv):
     the true position: the nearest grid position is the right one), ``grasp_position_m``,
     ``position_index``, ``label``, ``estimate_m``, ``abs_error_m``, ``reward_terms``.
 
-    ``acoustic``: every episode records once, through its grasp, whatever the cadence.
+    ``acoustic``: every episode records once, through its grasp, whatever the cadence (and not
+    at all with ``enabled=False``: ``recording_grasped`` then says whether a grasp would be heard).
 
     ## Arguments
 
@@ -92,14 +93,14 @@ class GraspPositionEnv(AasEnv):
         start = 0.0 if self._scene.objects[0].is_prism else grasp_span_m(self._scene.objects[0])[0]
         grasp = self._grasp(start + float(self.positions_m[k]), self._episode_grip_force())
         grasp["grasp_position_m"] -= start
-        acoustic, rec, truth = self._sense_and_truth()
+        acoustic, heard_grasped, truth = self._sense_and_truth()
         self._true_position = grasp["grasp_position_m"]
         self._position_index = int(k)
         obs = self._proprio()
         obs.update(acoustic)
         info = truth
         info.update(grasp, position_index=k, nominal_position_m=float(self.positions_m[k]),
-                    recording_grasped=bool(rec.metadata.get("grasped", False)))
+                    recording_grasped=heard_grasped)
         return obs, info
 
     def step(self, action):

@@ -36,7 +36,8 @@ class ObjectRecognitionEnv(AasEnv):
     position, excitation, padded contacts; an answer adds ``guess``.
 
     ``acoustic`` defaults here: ``cadence="every_step"`` (every probe records, with the
-    excitation the action chooses; ``acoustic.excitation`` is not used).
+    excitation the action chooses; ``acoustic.excitation`` is not used; with ``enabled=False``
+    nothing is recorded: ``recording_grasped`` then says whether a grasp would be heard).
 
     ## Arguments
 
@@ -133,13 +134,13 @@ class ObjectRecognitionEnv(AasEnv):
             lo, hi = grasp_span_m(target)
             position = lo + (fraction + 1.0) / 2.0 * (hi - lo)
         grasp = self._grasp(position, self._grip)
-        self._acoustic, rec, truth = self._sense_and_truth(self.excitations[e])
+        self._acoustic, heard_grasped, truth = self._sense_and_truth(self.excitations[e])
         self._probe = np.zeros_like(self._probe)
         self._probe[0], self._probe[1 + e] = fraction, 1.0
         self._n_probes += 1
         info = truth
         info.update(grasp, is_success=False, label_index=self._label_index, excitation=EXCITATION_NAMES[e],
-                    recording_grasped=bool(rec.metadata.get("grasped", False)),
+                    recording_grasped=heard_grasped,
                     reward_terms={"probe": -self.probe_cost, "answer": 0.0})
         if self.render_mode == "human":
             self.render()
