@@ -33,9 +33,9 @@ log = logging.getLogger(__name__)
 #: Below this many dofs a dense solve is both faster and more robust than ARPACK.
 DENSE_MAX_DOF = 1200
 # The shift-invert shift as a fraction of the band's top eigenvalue (2 pi f_max)^2, and the
-# Krylov block size (see _block_krylov); both measured on the default objects.
+# full Krylov block size (see _block_krylov); both measured on the default objects.
 BAND_SHIFT = 0.5
-_BLOCK = 6
+FULL_BLOCK = 6
 #: Krylov block for a sparse band: at most :data:`SPARSE_BAND_BELOW` modes below the shift (the
 #: factorization's inertia says so before the iteration starts). A block of 6 costs PARDISO
 #: about 2x a block of 3 per solve, while a band of a few modes converges in nearly as many
@@ -115,7 +115,7 @@ def _settled(theta: np.ndarray, prev_theta: np.ndarray) -> np.ndarray:
 def krylov_block(n_below: int | None) -> int:
     """Block size of the Krylov iteration given the elastic modes below the shift (None:
     unknown): the small block for a sparse band, else the full one."""
-    return SPARSE_BAND_BLOCK if n_below is not None and n_below <= SPARSE_BAND_BELOW else _BLOCK
+    return SPARSE_BAND_BLOCK if n_below is not None and n_below <= SPARSE_BAND_BELOW else FULL_BLOCK
 
 
 def _hides_copies(lam: np.ndarray, block: int) -> bool:
@@ -133,7 +133,7 @@ class _Stagnated(EigenSolveError):
     """The Krylov iteration stopped improving the residuals (try another shift)."""
 
 
-def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block=_BLOCK, shift=0.0,
+def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block=FULL_BLOCK, shift=0.0,
                   n_below=None):
     """Shift-invert block Krylov with full M-reorthogonalization and Rayleigh-Ritz.
 
@@ -270,9 +270,9 @@ def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol,
         try:
             lam, U = _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block=block,
                                    shift=sigma, n_below=n_below)
-            if block < _BLOCK and _hides_copies(lam, block):
+            if block < FULL_BLOCK and _hides_copies(lam, block):
                 say("eigensolve: a repeated eigenvalue fills the block: again with the full block")
-                block = _BLOCK
+                block = FULL_BLOCK
                 lam, U = _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block=block,
                                        shift=sigma, n_below=n_below)
             info["block"] = block
