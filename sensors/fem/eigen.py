@@ -139,7 +139,8 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
 
     Small blocks of right-hand sides: a block of 6 costs SuperLU 1.3x more per vector than
     one of 24, but the Krylov space reaches a higher polynomial degree for the same number of
-    vectors (ABS bar: 132 vectors instead of 240 at 12 and 336 at 24). The basis B, M B and K B
+    vectors (ABS bar: 132 vectors instead of 240 at 12 and 336 at 24); a sparse band takes a
+    block of 3 (:func:`krylov_block`). The basis B, M B and K B
     are kept (column-major: only the filled columns are ever touched), so neither the
     orthogonalization nor the Ritz residuals need a sparse product. ``op`` returns the solved
     block with its product with K (derived from the solve: see _shift_invert_modes), which
