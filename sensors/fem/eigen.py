@@ -26,7 +26,7 @@ import numpy as np
 
 from .direct_solver import FactorizationError, default_solver, factorize
 
-__all__ = ["EigenSolveError", "rigid_body_modes", "solve_modes", "mode_residuals"]
+__all__ = ["EigenSolveError", "krylov_block", "rigid_body_modes", "solve_modes", "mode_residuals"]
 
 log = logging.getLogger(__name__)
 
