@@ -178,11 +178,11 @@ def assemble(nodes_m: np.ndarray, tets: np.ndarray, material: Material, element:
         # not per element entry (3x less time than forming each element's K).
         A = np.matmul(wGf.transpose(0, 2, 1), Gf).reshape(ne, n_el, 3, n_el, 3)
         s = slot[sel].ravel()
-        # One bincount per block entry (i, j) over the (element, a, b) slots: a 9x smaller
-        # index array and output than one bincount over all entries, 2x faster.
-        for i in range(3):
-            for j in range(3):
-                a_blocks[:, 3 * i + j] += np.bincount(s, weights=A[:, :, i, :, j].ravel(), minlength=nnzb)
+        # Each (element, a, b) slot's 3 x 3 entries added into its node block in one pass: the
+        # product of a 0/1 scatter matrix (one entry per column, in CSC form) with the
+        # (slot, 9) entries, 3x faster than one bincount per block entry.
+        scatter = scipy.sparse.csc_matrix((np.ones(len(s)), s, np.arange(len(s) + 1)), shape=(nnzb, len(s)))
+        a_blocks += scatter @ A.transpose(0, 1, 3, 2, 4).reshape(len(s), 9)
         # The mass needs only det J: the stiffness's when the rules coincide, and constant over
         # a straight element (its first point's).
         if rule == m_rule:
@@ -196,14 +196,46 @@ def assemble(nodes_m: np.ndarray, tets: np.ndarray, material: Material, element:
     # Symmetrize exactly (round-off in the element sums breaks it at 1e-16 relative): entry
     # (a, b) of block (i, j) is mirrored by entry (b, a) of block (j, i).
     ab = a_blocks.reshape(-1, 3, 3)
-    kb = lam * ab + mu * ab.transpose(0, 2, 1) + (mu * np.trace(ab, axis1=1, axis2=2))[:, None, None] * np.eye(3)
-    kb = (kb + kb[mirror].transpose(0, 2, 1)) * 0.5
-    mb = (m_blocks + m_blocks[mirror]) * 0.5
+    # The symmetric part of A taken first (block b and the transpose of its mirror; the sum is
+    # the same either way round, so the two halves stay exact mirrors), then the Lame combination,
+    # which keeps that symmetry exactly.
+    sym = np.take(ab, mirror, axis=0)  # take: 2.5x faster than fancy indexing here
+    sym += ab.transpose(0, 2, 1)
+    sym *= 0.5
+    ab = sym.transpose(0, 2, 1)  # = (ab + ab[mirror]^T) / 2
+    kb = lam * ab
+    kb += mu * ab.transpose(0, 2, 1)
+    trace = mu * (ab[:, 0, 0] + ab[:, 1, 1] + ab[:, 2, 2])
+    for i in range(3):
+        kb[:, i, i] += trace
+    mb = (m_blocks + np.take(m_blocks, mirror)) * 0.5
     shape = (3 * n_nodes, 3 * n_nodes)
     K = scipy.sparse.bsr_matrix((kb, indices, indptr), shape=shape).tocsr()
-    M = scipy.sparse.bsr_matrix((mb[:, None, None] * np.eye(3), indices, indptr), shape=shape).tocsr()
     K.eliminate_zeros()
-    M.eliminate_zeros()
     K.sort_indices()
-    M.sort_indices()
-    return K, M
+    return K, _block_identity_csr(mb, indices, indptr, shape)
+
+
+def _block_identity_csr(values: np.ndarray, indices: np.ndarray, indptr: np.ndarray, shape):
+    """CSR of the matrix whose node block b is ``values[b]`` times the 3 x 3 identity (the
+    consistent mass), laid out directly: row 3 a + i holds, for each block b of node row a, the
+    entry at column 3 indices[b] + i (sorted, as the blocks are)."""
+    import scipy.sparse
+
+    n_rows = len(indptr) - 1
+    length = np.diff(indptr)
+    row = np.repeat(np.arange(n_rows), length)
+    within = np.arange(len(values)) - indptr[row]
+    out_indptr = np.zeros(3 * n_rows + 1, dtype=np.int64)
+    out_indptr[1:] = np.cumsum(np.repeat(length, 3))
+    data = np.empty(3 * len(values))
+    cols = np.empty(3 * len(values), dtype=indices.dtype)
+    for i in range(3):
+        at = 3 * indptr[row] + i * length[row] + within
+        data[at] = values
+        cols[at] = 3 * indices + i
+    M = scipy.sparse.csr_matrix((data, cols, out_indptr), shape=shape)
+    M.has_sorted_indices = True
+    if not np.all(values):
+        M.eliminate_zeros()  # as the entries of the blocks off the identity's diagonal
+    return M

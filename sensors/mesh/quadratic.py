@@ -21,8 +21,11 @@ def quadratic_mesh(mesh: TetMesh) -> tuple[np.ndarray, np.ndarray]:
     projected radially onto that cylinder.
     """
     v, t = mesh.vertices_m, mesh.tets
-    edges = np.sort(t[:, P2_EDGES].reshape(-1, 2), axis=1)
-    unique, inverse = np.unique(edges, axis=0, return_inverse=True)
+    edges = np.sort(t[:, P2_EDGES].reshape(-1, 2), axis=1).astype(np.int64)
+    # Unique edges by one integer key per vertex pair (the same lexicographic order as
+    # np.unique(axis=0), which sorts rows as structured records: 5x slower).
+    keys, inverse = np.unique(edges[:, 0] * len(v) + edges[:, 1], return_inverse=True)
+    unique = np.stack(np.divmod(keys, len(v)), axis=1)
     mid = 0.5 * (v[unique[:, 0]] + v[unique[:, 1]])
     if mesh.cylinder_radii_m:
         r_v = np.hypot(v[:, 1], v[:, 2])
