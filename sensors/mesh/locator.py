@@ -8,7 +8,12 @@ import numpy as np
 from .._infra.lru import CACHE_SIZES, LRU
 from .tets import boundary_faces
 
-__all__ = ["TetLocator", "closest_points_on_triangles"]
+__all__ = ["TetLocator", "VECTORIZED_UNSURE", "closest_points_on_triangles"]
+
+#: Whether the points whose 16 nearest face centroids may miss the closest face are settled in
+#: one batch (True, fast) or one at a time (False, the reference): the same faces, distances and
+#: points bit for bit (``tests/test_locator_batch.py``).  Read at each query.
+VECTORIZED_UNSURE = True
 
 
 def closest_points_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -47,6 +52,28 @@ def closest_points_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: 
     for cond, choice in zip(reversed(conditions), reversed(choices)):
         out = np.where(cond[:, None], choice, out)
     return out
+
+
+def _settle_unsure(s: dict, points, unsure, face, dist, closest) -> None:
+    """For each point in ``unsure``: the closest of every face whose centroid lies within its
+    current distance plus the face radius (written into ``face``, ``dist``, ``closest``).  All
+    points' candidates in one batch; per point, the first of the nearest in ascending face order
+    (the per-point loop's ``argmin`` choice among ties)."""
+    radii = (dist[unsure] + s["radius"]) * (1 + 1e-9)
+    lists = s["tree"].query_ball_point(points[unsure], radii)
+    near = [np.sort(np.asarray(c, dtype=np.intp)) for c in lists]
+    counts = np.array([len(c) for c in near])
+    cand = np.concatenate(near)
+    owner = np.repeat(np.arange(len(unsure)), counts)
+    p = points[unsure][owner]
+    q = closest_points_on_triangles(p, s["tri"][cand, 0], s["tri"][cand, 1], s["tri"][cand, 2])
+    dd = np.linalg.norm(q - p, axis=1)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    best = np.minimum.reduceat(dd, starts)
+    # first candidate of each point at its minimum: positions are ascending within a point
+    at_min = np.flatnonzero(dd == best[owner])
+    first = at_min[np.concatenate([[True], owner[at_min][1:] != owner[at_min][:-1]])]
+    face[unsure], dist[unsure], closest[unsure] = cand[first], dd[first], q[first]
 
 
 class TetLocator:
@@ -108,6 +135,9 @@ class TetLocator:
         face, dist, closest = cand[rows, best], d[rows, best], q[rows, best]
         # Exact: a face not among the k nearest centroids is farther than dc_k - radius.
         unsure = np.flatnonzero((k < n_faces) & (dc[:, -1] - s["radius"] < dist))
+        if len(unsure) and VECTORIZED_UNSURE:
+            _settle_unsure(s, points, unsure, face, dist, closest)
+            return closest, face, dist
         for i in unsure:  # a point off the surface or uneven triangles: every face that can be closer
             # A face with a point within dist has its centroid within dist + radius (the margin
             # covers the tree's round-off); ascending order keeps argmin's choice among ties.
