@@ -281,7 +281,7 @@ class FilledModalModel:
     def rigid_mode_shapes_at(self, points_m) -> np.ndarray:
         """The filled container's six rigid-body modes at points [m / sqrt(kg)], (n, 3, 6): what
         its contact springs hold beside the wet elastic modes (``sensors.modal.spring_modes``)."""
-        U = self.container.basis_shapes_at(points_m)[:, :, :6]
+        U = self.container.rigid_shapes_at(points_m)
         return (U @ self.rigid_coefficients[:6]) * self._shape_scale
 
     def surface_distance_m(self, points_m) -> np.ndarray:
