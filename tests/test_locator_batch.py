@@ -77,3 +77,25 @@ def test_batched_is_the_nearest_face_of_all(plate):
         assert dist[i] == d.min()
         assert d[face[i]] == d.min()
         np.testing.assert_allclose(np.linalg.norm(closest[i] - p), d.min(), rtol=1e-12, atol=1e-15)
+
+
+def test_answers_kept_per_point_equal_fresh_batches(plate, monkeypatch):
+    """Batches that repeat points of earlier ones (in another order, with new points beside them)
+    answered from the per-point store (``SURFACE_POINTS_KEPT``) against each batch computed
+    afresh by a new locator: the same bits."""
+    nodes, tets = plate
+    tri = TetLocator(nodes, tets).surface_data()["tri"]
+    points = query_points(tri, n=40, seed=4)
+    rng = np.random.default_rng(5)
+    kept = TetLocator(nodes, tets)
+    batches = [points[:50], points[rng.permutation(len(points))[:70]], np.concatenate([points[10:20], points[-5:]]),
+               points[[3]]]
+    for batch in batches:
+        monkeypatch.setattr(locator_mod, "SURFACE_POINTS_KEPT", True)
+        fast = kept.closest_surface(batch)
+        monkeypatch.setattr(locator_mod, "SURFACE_POINTS_KEPT", False)
+        fresh = TetLocator(nodes, tets).closest_surface(batch)
+        for a, b in zip(fast, fresh):
+            assert a.dtype == b.dtype and a.shape == b.shape
+            np.testing.assert_array_equal(a, b)
+    assert kept._surface_points.hits > 50          # the later batches were answered from kept points
