@@ -149,7 +149,8 @@ class FillLevelEnv(AasEnv):
 
     def _set_liquid_mass(self, bid: int, liquid) -> None:
         """Body mass, centre of mass and inertia of container + liquid (restored from the dry
-        values each episode); then MuJoCo's derived constants."""
+        values each episode); then MuJoCo's derived constants. Called before the placement's
+        ``mj_resetData`` (it leaves the data's state undefined)."""
         m = self.model
         key = (id(m), bid)
         if key not in self._dry_inertia:
@@ -175,11 +176,9 @@ class FillLevelEnv(AasEnv):
         quat = np.zeros(4)
         mujoco.mju_mat2Quat(quat, vectors.ravel())
         m.body_mass[bid], m.body_ipos[bid], m.body_inertia[bid], m.body_iquat[bid] = total, com, values, quat
-        d = self.data
-        state = (d.qpos.copy(), d.qvel.copy(), d.ctrl.copy(), d.act.copy(), d.time)
-        mujoco.mj_setConst(m, d)  # masses the solver's scaling derives from; it uses d as scratch
-        d.qpos[:], d.qvel[:], d.ctrl[:], d.act[:], d.time = state
-        mujoco.mj_forward(m, d)
+        # masses the solver's scaling derives from; it uses the data as scratch, which the reset
+        # that follows (``AasEnv._place_objects``: ``mj_resetData``) rewrites
+        mujoco.mj_setConst(m, self.data)
 
     def estimate_from_action(self, action):
         """The fill fraction (task ``"fill"``) or liquid index (task ``"liquid"``) an action stands for."""

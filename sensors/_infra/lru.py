@@ -44,6 +44,7 @@ CACHE_SIZES: dict[str, int] = {
     "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container
     "fluid.containers": 8,           # containers (dry model + static correction) per object
     "mesh.point_locations": 64,      # per mesh: located point batches (containing tet, barycentrics; surface)
+    "mesh.surface_points": 1024,     # per mesh: closest surface point, face, distance of single points (56 B each)
     "fluid.layer_nodes": 4,          # P2 nodes per layer of the liquid's disc, by elements around
     "fluid.fill_tables": 8,          # fill tables of one container, per liquid (a few MB each)
     "objects.solids": 64,            # surfaces and meshers of the catalog's surface objects

@@ -231,6 +231,17 @@ class Container:
         """(n, 3, n_basis) mass-normalized basis at points [m / sqrt(kg)]: 3 translations, 3
         rotations about the centre of mass, the dry modes, the correction vectors."""
         p = check_points_m(points_m)
+        rigid = self.rigid_shapes_at(p)
+        tet, bary = self.dry.locator.locate(p)
+        N = shape_functions(bary, self.dry.element)
+        nodal = self._nodal[self.dry.elements[tet]]  # (n, n_el, 3, k)
+        elastic = np.matmul(N[:, None, :], nodal.reshape(len(p), N.shape[1], -1)).reshape(len(p), 3, -1)
+        return np.concatenate([rigid, elastic], axis=2)
+
+    def rigid_shapes_at(self, points_m) -> np.ndarray:
+        """(n, 3, 6) the basis's first six columns at points [m / sqrt(kg)]: 3 translations and 3
+        rotations about the centre of mass, mass-normalized on the dry container."""
+        p = check_points_m(points_m)
         r = p - self._centre_m
         cross = np.zeros((len(p), 3, 3))  # [r]_x
         cross[:, 0, 1], cross[:, 0, 2] = -r[:, 2], r[:, 1]
@@ -238,11 +249,7 @@ class Container:
         cross[:, 2, 0], cross[:, 2, 1] = -r[:, 1], r[:, 0]
         trans = np.broadcast_to(np.eye(3) / math.sqrt(self._mass_kg), (len(p), 3, 3))
         rot = -cross @ self._rot  # (a x r) for rotation vectors a = columns of J^-1/2
-        tet, bary = self.dry.locator.locate(p)
-        N = shape_functions(bary, self.dry.element)
-        nodal = self._nodal[self.dry.elements[tet]]  # (n, n_el, 3, k)
-        elastic = np.matmul(N[:, None, :], nodal.reshape(len(p), N.shape[1], -1)).reshape(len(p), 3, -1)
-        return np.concatenate([trans, rot, elastic], axis=2)
+        return np.concatenate([trans, rot], axis=2)
 
     # ---------------------------------------------------------------- how much liquid
 

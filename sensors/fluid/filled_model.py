@@ -263,6 +263,27 @@ class FilledModalModel:
         U = self.container.basis_shapes_at(points_m)
         return (U @ self.modal_coefficients) * self._shape_scale
 
+    @functools.cached_property
+    def rigid_coefficients(self) -> np.ndarray:
+        """(n_basis, 6) the filled container's rigid-body modes on its basis, mass-normalized
+        with the liquid (Q_r^T (I + M_a) Q_r = I; no liquid coordinates).
+
+        The basis's six rigid columns span the stiffness's null space (the liquid's acoustic
+        coordinates, with w_l > 0, are not in it), so the rigid modes are those columns
+        orthonormalized in the wet mass, Q_r = [L^-T; 0] with L L^T the rigid block of
+        I + M_a: no eigen-solve, exactly zero frequency, and M-orthogonal to every wet elastic
+        mode (w^2 x_r^T M x_e = x_r^T K x_e = 0)."""
+        Q = np.zeros((self.container.n_basis, 6))
+        mass = np.eye(6) if self._Ma is None else np.eye(6) + 0.5 * (self._Ma[:6, :6] + self._Ma[:6, :6].T)
+        Q[:6] = scipy.linalg.solve_triangular(np.linalg.cholesky(mass), np.eye(6), lower=True).T
+        return Q
+
+    def rigid_mode_shapes_at(self, points_m) -> np.ndarray:
+        """The filled container's six rigid-body modes at points [m / sqrt(kg)], (n, 3, 6): what
+        its contact springs hold beside the wet elastic modes (``sensors.modal.spring_modes``)."""
+        U = self.container.rigid_shapes_at(points_m)
+        return (U @ self.rigid_coefficients[:6]) * self._shape_scale
+
     def surface_distance_m(self, points_m) -> np.ndarray:
         """Distance [m] to the container's surface (the dry model's)."""
         return self.dry.surface_distance_m(points_m)

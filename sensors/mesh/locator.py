@@ -8,7 +8,15 @@ import numpy as np
 from .._infra.lru import CACHE_SIZES, LRU
 from .tets import boundary_faces
 
-__all__ = ["TetLocator", "closest_points_on_triangles"]
+__all__ = ["TetLocator", "SURFACE_POINTS_KEPT", "VECTORIZED_UNSURE", "closest_points_on_triangles"]
+
+#: Whether the points whose 16 nearest face centroids may miss the closest face are settled in
+#: one batch (True, fast) or one at a time (False, the reference): the same faces, distances and
+#: points bit for bit (``tests/test_locator_batch.py``).  Read at each query.
+VECTORIZED_UNSURE = True
+#: Whether closest-surface answers are also kept per point (True, fast: a batch computes only
+#: the points no earlier batch asked) or per batch only (False, the reference): the same bits.
+SURFACE_POINTS_KEPT = True
 
 
 def closest_points_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -49,6 +57,28 @@ def closest_points_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: 
     return out
 
 
+def _settle_unsure(s: dict, points, unsure, face, dist, closest) -> None:
+    """For each point in ``unsure``: the closest of every face whose centroid lies within its
+    current distance plus the face radius (written into ``face``, ``dist``, ``closest``).  All
+    points' candidates in one batch; per point, the first of the nearest in ascending face order
+    (the per-point loop's ``argmin`` choice among ties)."""
+    radii = (dist[unsure] + s["radius"]) * (1 + 1e-9)
+    lists = s["tree"].query_ball_point(points[unsure], radii)
+    near = [np.sort(np.asarray(c, dtype=np.intp)) for c in lists]
+    counts = np.array([len(c) for c in near])
+    cand = np.concatenate(near)
+    owner = np.repeat(np.arange(len(unsure)), counts)
+    p = points[unsure][owner]
+    q = closest_points_on_triangles(p, s["tri"][cand, 0], s["tri"][cand, 1], s["tri"][cand, 2])
+    dd = np.linalg.norm(q - p, axis=1)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    best = np.minimum.reduceat(dd, starts)
+    # first candidate of each point at its minimum: positions are ascending within a point
+    at_min = np.flatnonzero(dd == best[owner])
+    first = at_min[np.concatenate([[True], owner[at_min][1:] != owner[at_min][:-1]])]
+    face[unsure], dist[unsure], closest[unsure] = cand[first], dd[first], q[first]
+
+
 class TetLocator:
     """Point queries on the linear corners of a tet mesh (``elements[:, :4]``)."""
 
@@ -61,6 +91,7 @@ class TetLocator:
         # the same points are asked again and again (a contact set's points for its springs,
         # damping, mode shapes and loads): answers kept by the points' bytes, exact
         self._answers: LRU = LRU(CACHE_SIZES["mesh.point_locations"])
+        self._surface_points: LRU = LRU(CACHE_SIZES["mesh.surface_points"])
 
     def surface_data(self):
         if self._surface is None:
@@ -79,7 +110,25 @@ class TetLocator:
     def closest_surface(self, points: np.ndarray):
         """Closest surface point, face index and distance for each point (read-only arrays,
         kept for the same points)."""
-        return self._remembered("surface", points, self._closest_surface)
+        if not SURFACE_POINTS_KEPT:
+            return self._remembered("surface", points, self._closest_surface)
+        return self._remembered("surface", points, self._closest_surface_by_point)
+
+    def _closest_surface_by_point(self, points: np.ndarray):
+        """``_closest_surface`` with each point's answer kept: a batch that repeats points of
+        earlier batches (a contact read checked, then the same contacts with the fingertips)
+        computes only its new points.  A point's answer does not depend on its batch."""
+        keys = [p.tobytes() for p in points]
+        known = [self._surface_points.get(k) for k in keys]
+        new = [i for i, hit in enumerate(known) if hit is None]
+        if new:
+            closest, face, dist = self._closest_surface(points[new])
+            for j, i in enumerate(new):
+                known[i] = self._surface_points.put(keys[i], (closest[j].copy(), int(face[j]), float(dist[j])))
+        closest = np.array([hit[0] for hit in known], dtype=float).reshape(len(points), 3)
+        face = np.array([hit[1] for hit in known], dtype=np.intp)
+        dist = np.array([hit[2] for hit in known], dtype=float)
+        return closest, face, dist
 
     def _remembered(self, kind: str, points: np.ndarray, compute):
         points = np.ascontiguousarray(points, dtype=float)
@@ -108,6 +157,9 @@ class TetLocator:
         face, dist, closest = cand[rows, best], d[rows, best], q[rows, best]
         # Exact: a face not among the k nearest centroids is farther than dc_k - radius.
         unsure = np.flatnonzero((k < n_faces) & (dc[:, -1] - s["radius"] < dist))
+        if len(unsure) and VECTORIZED_UNSURE:
+            _settle_unsure(s, points, unsure, face, dist, closest)
+            return closest, face, dist
         for i in unsure:  # a point off the surface or uneven triangles: every face that can be closer
             # A face with a point within dist has its centroid within dist + radius (the margin
             # covers the tree's round-off); ascending order keeps argmin's choice among ties.
