@@ -5,7 +5,8 @@ union U of the pieces against the solid S (exact booleans by manifold3d):
 extra volume vol(U - S) / vol(S) (what the pieces fill that is not solid: cavities, chords of thin
 walls), missed volume vol(S - U) / vol(S), and the one-sided Hausdorff distance from U's surface to
 S (vertices plus 4000 area-weighted samples of U's surface; how far a contact can sit off the
-solid). The pieces of S cover S when the missed volume is ~0.
+solid). The pieces of S cover S when the missed volume is ~0; the missed depth (the deepest vertex of
+S - U below S's surface) tells a skin of rounding (microns) from a region a contact could sink into.
 
     OMP_NUM_THREADS=1 python benchmarks/collision_fidelity.py can mug bottle --settings current previous --out /tmp/fidelity.md
 """
@@ -44,8 +45,16 @@ def pieces(surface: trimesh.Trimesh, options: dict, tolerance: float, symmetric:
     return [trimesh.Trimesh(p).convex_hull for p in parts], cpu_s
 
 
-def fidelity(surface: trimesh.Trimesh, hulls) -> tuple[float, float, float]:
-    """(extra volume fraction, missed volume fraction, Hausdorff of the union to the solid [m])."""
+def depth_below(surface: trimesh.Trimesh, points: np.ndarray) -> float:
+    """The deepest of ``points`` below the closed surface [m] (0 for none inside)."""
+    signed = np.concatenate([trimesh.proximity.signed_distance(surface, points[k:k + 2000])
+                             for k in range(0, len(points), 2000)])  # positive inside the solid
+    return max(0.0, float(signed.max())) if len(signed) else 0.0
+
+
+def fidelity(surface: trimesh.Trimesh, hulls) -> tuple[float, float, float, float]:
+    """(extra volume fraction, missed volume fraction, Hausdorff of the union to the solid [m],
+    missed depth [m])."""
     solid = m3.Manifold(m3.Mesh(vert_properties=np.asarray(surface.vertices, np.float32),
                                 tri_verts=np.asarray(surface.faces, np.uint32)))
     union = m3.Manifold()
@@ -57,7 +66,10 @@ def fidelity(surface: trimesh.Trimesh, hulls) -> tuple[float, float, float]:
     points = np.concatenate([skin.vertices, trimesh.sample.sample_surface(skin, 4000, seed=1)[0]])
     signed = np.concatenate([trimesh.proximity.signed_distance(surface, points[k:k + 2000])
                              for k in range(0, len(points), 2000)])  # positive inside the solid
-    return (union - solid).volume() / volume, (solid - union).volume() / volume, max(0.0, float(-signed.min()))
+    missed = (solid - union)
+    missed_depth_m = depth_below(surface, np.asarray(missed.to_mesh().vert_properties[:, :3], float))
+    return ((union - solid).volume() / volume, missed.volume() / volume, max(0.0, float(-signed.min())),
+            missed_depth_m)
 
 
 def main(argv=None):
@@ -66,16 +78,16 @@ def main(argv=None):
     ap.add_argument("--settings", nargs="+", default=["current", "previous"], choices=list(SETTINGS))
     ap.add_argument("--out", help="also write the table to this Markdown file")
     args = ap.parse_args(argv)
-    lines = ["| object | setting | pieces | CPU s | extra volume % | missed volume % | Hausdorff mm |",
-             "|---|---|---:|---:|---:|---:|---:|"]
+    lines = ["| object | setting | pieces | CPU s | extra volume % | missed volume % | missed depth mm | Hausdorff mm |",
+             "|---|---|---:|---:|---:|---:|---:|---:|"]
     print("\n".join(lines), flush=True)
     for name in args.objects:
         surface = get_object(name).solid().surface
         for setting in args.settings:
             hulls, cpu_s = pieces(surface, *SETTINGS[setting])
-            extra, missed, hausdorff_m = fidelity(surface, hulls)
+            extra, missed, hausdorff_m, depth_m = fidelity(surface, hulls)
             lines.append(f"| {name} | {setting} | {len(hulls)} | {cpu_s:.2f} | {100 * extra:.2f} | "
-                         f"{100 * missed:.2f} | {1e3 * hausdorff_m:.2f} |")
+                         f"{100 * missed:.2f} | {1e3 * depth_m:.3f} | {1e3 * hausdorff_m:.2f} |")
             print(lines[-1], flush=True)
     if args.out:
         with open(args.out, "w") as out:
