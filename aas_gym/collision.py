@@ -28,8 +28,8 @@ __all__ = ["CollisionGeometry", "convex_decomposition", "decompose", "mirror_pla
 log = logging.getLogger(__name__)
 
 #: CoACD settings: a concavity threshold of 3% with a shallow tree search keeps the cavities
-#: of the containers and the mug's handle open with 8-48 pieces that stand 0.2 mm (box) to 3.5 mm
-#: (bottle, spoon) outside the solid by the one-sided Hausdorff distance of
+#: of the containers and the mug's handle open with 2-48 pieces that stand 0.02 mm (bracket) to 3.5 mm
+#: (bottle; box 0.2 mm, spoon 3.3 mm) outside the solid by the one-sided Hausdorff distance of
 #: benchmarks/collision_fidelity.py (docs/benchmarks/everyday_objects.md; the 2% / 100-iteration search took
 #: 100-180 s for the same cavities). ``max_convex_hull`` bounds the whole object's pieces (a
 #: mirrored part gets its share, see :func:`decompose`); 500 samples for the concavity measure
