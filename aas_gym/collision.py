@@ -33,7 +33,7 @@ log = logging.getLogger(__name__)
 #: benchmarks/collision_fidelity.py (docs/benchmarks/everyday_objects.md; the 2% / 100-iteration search took
 #: 100-180 s for the same cavities). ``max_convex_hull`` bounds the whole object's pieces (a
 #: mirrored part gets its share, see :func:`decompose`); 500 samples for the concavity measure
-#: (CoACD's default 2000) halve the cost of its merge pass. Our surfaces are manifold already: no
+#: (1000 before) took the whole can's CoACD from 6.6 to 4.5 s. Our surfaces are manifold already: no
 #: remeshing preprocess. Seeded.
 COACD_OPTIONS = dict(threshold=0.03, max_convex_hull=48, preprocess_mode="off", resolution=500,
                      mcts_iterations=20, mcts_nodes=10, mcts_max_depth=2, seed=0)
@@ -145,8 +145,8 @@ def decompose(vertices: np.ndarray, faces: np.ndarray, options: dict | None = No
     """Convex pieces of a closed surface by CoACD (uncached): the vertices of each piece's hull.
 
     With ``symmetric``, CoACD decomposes only the part of the solid on one side of each of its
-    :func:`mirror_planes` (a half or a quarter: a quarter of a can took 1.6 s where the whole
-    took 6.6 s, with less extra volume, ``docs/benchmarks/everyday_objects.md``) and the pieces are
+    :func:`mirror_planes` (a half or a quarter: a quarter of a can took 1.4 s where the whole
+    took 6.8 s, with less extra volume, ``docs/benchmarks/everyday_objects.md``) and the pieces are
     mirrored back (a piece that is convex with its image joined with it); the part gets ``max_convex_hull`` over the number of copies. A part above
     :data:`SIMPLIFY_ABOVE_FACES` faces is first :func:`simplified` by ``simplify_tolerance`` of the
     whole solid's bounding-box diagonal. ``options`` override :data:`COACD_OPTIONS`."""
