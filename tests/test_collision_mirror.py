@@ -5,9 +5,10 @@ import manifold3d
 import numpy as np
 import pytest
 import trimesh
-from scipy.spatial import ConvexHull, cKDTree
+from scipy.spatial import cKDTree
 
 from aas_gym.collision import decompose, mirror_planes
+from convex_coverage import coverage
 from sensors.objects import get_object
 
 
@@ -50,11 +51,6 @@ def test_the_pieces_of_a_mirrored_box_are_mirror_images_that_cover_it():
     lo, hi = box.bounds
     points = np.random.default_rng(2).uniform(lo, hi, size=(4000, 3))
     inside = points[box.contains(points)]
-    covered = np.zeros(len(inside), bool)
-    volume = 0.0
-    for piece in pieces:
-        hull = ConvexHull(piece)
-        volume += hull.volume
-        covered |= np.all(inside @ hull.equations[:, :3].T + hull.equations[:, 3] <= 1e-9, axis=1)
-    assert covered.mean() > 0.99
+    covered, volume = coverage(pieces, inside)
+    assert covered > 0.99
     assert volume < 1.1 * box.volume, "the walls' pieces do not close the box's cavity"

@@ -4,9 +4,9 @@ tolerance, and the pieces decomposed from it still cover the original solid."""
 import numpy as np
 import pytest
 import trimesh
-from scipy.spatial import ConvexHull
 
 from aas_gym.collision import COACD_OPTIONS, SIMPLIFY_ABOVE_FACES, SIMPLIFY_TOLERANCE, convex_decomposition, simplified
+from convex_coverage import coverage
 from sensors.objects import get_object
 
 
@@ -40,13 +40,8 @@ def test_pieces_of_a_simplified_surface_cover_the_original_solid(glass, tmp_path
     # In chunks: trimesh's ray test on the 30k-face glass holds every ray's candidates at once
     # (4.8 GB for 4000 points in one call, 0.8 GB in eight).
     inside = points[np.concatenate([glass.contains(chunk) for chunk in np.array_split(points, 8)])]
-    covered = np.zeros(len(inside), bool)
-    volume = 0.0
-    for piece in pieces:
-        hull = ConvexHull(piece)
-        volume += hull.volume
-        covered |= np.all(inside @ hull.equations[:, :3].T + hull.equations[:, 3] <= 1e-9, axis=1)
-    assert covered.mean() > 0.97, "the pieces cover the original (not only the simplified) solid"
+    covered, volume = coverage(pieces, inside)
+    assert covered > 0.97, "the pieces cover the original (not only the simplified) solid"
     assert volume < 1.4 * glass.volume, "and do not bloat it (the glass's hull would close its cavity)"
     # No piece reaches more than a millimetre outside the original surface.
     outside_m = max(float(np.max(-trimesh.proximity.signed_distance(glass, p))) for p in pieces)

@@ -12,19 +12,14 @@ import numpy as np
 import pytest
 
 from sensors import Contact
-from sensors.fluid import Container, filled
+from sensors.fluid import filled
 from sensors.modal.spring_modes import spring_modes
-from sensors.objects.everyday import can
-
-SMALL_CAN = dict(outer_radius_m=0.02, wall_m=0.002, height_m=0.04, floor_m=0.003, material="aluminium")
+from small_can import small_can_container
 
 
 @pytest.fixture(scope="module")
 def small_can(tmp_path_factory):
-    cache_dir = tmp_path_factory.mktemp("filled-springs-cache")
-    obj = can(**SMALL_CAN)
-    dry = obj.modal_model(resolution=0.5, max_frequency_hz=20000.0, cache_dir=cache_dir, progress=False)
-    return obj, dry, Container.of(obj, dry=dry, cache_dir=cache_dir)
+    return small_can_container(tmp_path_factory.mktemp("filled-springs-cache"))
 
 
 def contact_points(obj, up):

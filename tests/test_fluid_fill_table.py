@@ -25,18 +25,14 @@ from sensors.fluid import Container, filled
 from sensors.fluid.fill_table import FillTableCostError, fill_table
 from sensors.materials import scaled_material
 from sensors.materials.liquids import get_liquid
-from sensors.objects.everyday import can
+from small_can import small_can_container
 
-SMALL_CAN = dict(outer_radius_m=0.02, wall_m=0.002, height_m=0.04, floor_m=0.003, material="aluminium")
 FREQUENCY_RTOL = 1e-3
 
 
 @pytest.fixture(scope="module")
 def small_can(tmp_path_factory):
-    cache_dir = tmp_path_factory.mktemp("fill-table-cache")
-    obj = can(**SMALL_CAN)
-    dry = obj.modal_model(resolution=0.5, max_frequency_hz=20000.0, cache_dir=cache_dir, progress=False)
-    return obj, dry, Container.of(obj, dry=dry, cache_dir=cache_dir)
+    return small_can_container(tmp_path_factory.mktemp("fill-table-cache"))
 
 
 def between_grid_heights(table) -> np.ndarray:
@@ -176,6 +172,8 @@ def test_fill_level_hears_the_same_features_from_the_table():
     fast, exact = features
     # A wet frequency moved by ~1e-4 changes a feature on a resonance's flank by up to a few percent
     # (measured: 2 %, 0.18 dB, on one of 140; median 4e-4): bounded in dB and against the spectrum.
+    # The largest feature can sit on such a flank: since the glass's mirrored collision pieces
+    # (e40de52) this grasp's peak feature moves 0.48 % (0.04 dB; seeds 5 and 6: 0.03 %, 0.2 %).
     assert np.max(np.abs(20 * np.log10(fast / exact))) <= 0.5
-    assert np.max(np.abs(fast - exact)) <= 2e-3 * np.max(exact)
+    assert np.max(np.abs(fast - exact)) <= 1e-2 * np.max(exact)
     assert np.median(np.abs(fast - exact) / exact) <= 1e-3
