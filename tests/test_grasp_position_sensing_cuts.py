@@ -1,4 +1,4 @@
-"""The fingertip drive's microphone-side system built from the actuator side's eigen-solve
+"""Exact per-episode cuts for GraspPosition-v0. The fingertip drive's microphone-side system built from the actuator side's eigen-solve
 (``DiscreteSystem.with_output``) against solving it anew (the reference path, bit for bit) and
 against the eigenvector-free discretisation (augmented matrix exponential, 1e-9 relative)."""
 
@@ -70,3 +70,17 @@ def test_dense_part_with_output_matches_building_it_anew():
     assert np.array_equal(shared.periodic_response(u[:500]), anew.periodic_response(u[:500]))
     assert np.allclose(shared.frequency_response([250.0, 4000.0]), anew.frequency_response([250.0, 4000.0]),
                        rtol=1e-12, atol=0)
+
+
+def test_cross3_is_numpys_cross_bit_for_bit():
+    """The spring tangents' cross product (``sensors.modal.spring_modes.cross3``) against
+    ``np.cross`` and the determinant definition."""
+    from sensors.modal.spring_modes import cross3
+
+    rng = np.random.default_rng(5)
+    for a, b in rng.standard_normal((2000, 2, 3)) * np.exp(rng.uniform(-20, 20, (2000, 2, 1))):
+        c = cross3(a, b)
+        assert np.array_equal(c, np.cross(a, b))
+    e = np.eye(3)
+    assert np.array_equal(cross3(e[0], e[1]), e[2]) and np.array_equal(cross3(e[1], e[2]), e[0])
+    assert np.array_equal(cross3(e[0], (0.0, 1.0, 0.0)), e[2])
