@@ -44,7 +44,6 @@ from .grasp_state import GraspState
 from .microphone import mic_gain
 from .recording import simulate_recording
 from .lti import SteadyState
-from .periodic_spectrum import closed_form_periodic_supported, sampled_periodic_response
 from .stream import AcousticStream
 from .window_spectra import (Exponentials, bandlimited_steady_spectra, closed_form_supported, periodic_transient,
                              window_spectra)
@@ -134,33 +133,13 @@ def _drive_spectrum(stream: AcousticStream, tip: FingertipModel, from_rest: bool
     if not (closed_form_supported(sy.drive.act) and closed_form_supported(sy.drive.mic)):
         return None
     fe, fe_spectrum = _exciter_period(stream, tip.actuator_force_n, sy.period)
-    act_out, mic_out = _sampled_steady_outputs(sy.drive.act, sy.drive.mic, fe, fe_spectrum)
+    act = SteadyState(sy.drive.act, fe, input_spectrum=fe_spectrum)       # sampled (FOH) steady states
+    mic = SteadyState(sy.drive.mic, fe, input_spectrum=fe_spectrum)
     x0 = sy.drive.act.periodic_state(fe)
     transient = periodic_transient(sy.drive.act, x0)
     mic_tr = periodic_transient(sy.drive.mic, x0)
-    lowest = min(act_out.min() - transient.bound(), mic_out.min() - mic_tr.bound())
-    return _DriveSpectrum(act_out, transient, float(lowest))
-
-
-#: How the drive's sampled (FOH) periodic steady states are computed for the features:
-#: ``"closed_form"`` (impulse spectrum per mode in closed form, ``periodic_spectrum``; a new
-#: fingertip model per randomized mass costs no power sums and no FFT of the impulse
-#: response) or ``"reference"`` (``SteadyState``: power sums and an FFT).  They agree within
-#: about 1e-14 relative (tests/test_periodic_spectrum.py).
-DRIVE_STEADY_STATE = "closed_form"
-
-
-def _sampled_steady_outputs(act_system, mic_system, fe: np.ndarray, fe_spectrum: np.ndarray):
-    """One period of the actuator and mic contact forces' sampled periodic steady states."""
-    if DRIVE_STEADY_STATE == "closed_form" and closed_form_periodic_supported(act_system) \
-            and closed_form_periodic_supported(mic_system):
-        P = len(fe)
-        return (sampled_periodic_response(act_system, fe_spectrum, P),
-                sampled_periodic_response(mic_system, fe_spectrum, P))
-    if DRIVE_STEADY_STATE not in ("closed_form", "reference"):
-        raise ValueError(f"DRIVE_STEADY_STATE must be 'closed_form' or 'reference', got {DRIVE_STEADY_STATE!r}")
-    return (SteadyState(act_system, fe, input_spectrum=fe_spectrum).output,
-            SteadyState(mic_system, fe, input_spectrum=fe_spectrum).output)
+    lowest = min(act.output.min() - transient.bound(), mic.output.min() - mic_tr.bound())
+    return _DriveSpectrum(act.output, transient, float(lowest))
 
 
 def _window_amplitudes(spectra: np.ndarray, P: int) -> np.ndarray:
