@@ -61,7 +61,12 @@ import numpy as np
 from .._infra.jit import jitted
 from .lti import DiscreteSystem, lti_system
 
-__all__ = ["DriveSystems", "FingertipModel"]
+__all__ = ["DriveSystems", "FingertipModel", "SHARED_DRIVE_EIGENSOLVE"]
+
+#: ``FingertipModel.discretised``: True builds the microphone-side system from the actuator
+#: side's eigen-decomposition (``DiscreteSystem.with_output``), False solves it again (the
+#: reference; the same numbers bit for bit, one eigen-solve and one inverse more per model).
+SHARED_DRIVE_EIGENSOLVE = True
 
 
 @dataclass(frozen=True)
@@ -161,7 +166,10 @@ class FingertipModel:
         # mic-side contact force: F_g + k_c (d_o - d_m) + c_c (v_o - v_m)
         Cm = np.zeros(8)
         Cm[4], Cm[5], Cm[6], Cm[7] = kc, cc, -kc, -cc
-        return DriveSystems(lti_system(A, B, C, 0.0, sample_rate_hz), lti_system(A, B, Cm, 0.0, sample_rate_hz))
+        act = lti_system(A, B, C, 0.0, sample_rate_hz)
+        # both outputs observe one state equation: one eigen-solve (the same numbers)
+        mic = act.with_output(Cm) if SHARED_DRIVE_EIGENSOLVE else lti_system(A, B, Cm, 0.0, sample_rate_hz)
+        return DriveSystems(act, mic)
 
     # -- simulation ---------------------------------------------------------------------
     def contact_force(self, excitation_signal, sample_rate_hz: float, return_info: bool = False):

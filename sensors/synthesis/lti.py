@@ -48,6 +48,8 @@ latter adds only the hold's images (see ``sensors.synthesis.bandlimit``).
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 __all__ = ["DiscreteSystem", "EigenPart", "DensePart", "SteadyState", "SETTLE_E_FOLDS", "lti_system", "lti_parts",
@@ -223,6 +225,14 @@ class EigenPart:
         self.G0 = self.g * self.b0
         self.G1 = self.g * self.b1
 
+    def with_output(self, Cout, D: float = 0.0) -> "EigenPart":
+        """This part with the output row ``Cout`` (its own indices) and feedthrough ``D``:
+        the eigen-decomposition, its lazily inverted rows and the input gains are shared."""
+        part = copy.copy(self)
+        part.co = self.w * (np.asarray(Cout, dtype=float) @ self.V)
+        part.D = float(D)
+        return part
+
     @property
     def Vinv(self):
         if isinstance(self._vinv, _LazyInverseRows):
@@ -353,6 +363,14 @@ class DensePart:
         self.B0 = np.asarray(B, dtype=float)
         self._phiB = {}
 
+    def with_output(self, Cout, D: float = 0.0) -> "DensePart":
+        """This part with the output row ``Cout`` and feedthrough ``D`` (Phi, the input
+        gains and the cached powers of Phi, which depend on A only, are shared)."""
+        part = copy.copy(self)
+        part.C = np.asarray(Cout, dtype=float)
+        part.D = float(D)
+        return part
+
     def to_coords(self, x):
         return np.asarray(x, dtype=float)
 
@@ -454,6 +472,14 @@ class DiscreteSystem:
         self.state_size = int(state_size)
         self.sample_rate_hz = float(sample_rate_hz)
         self.hold = hold
+
+    def with_output(self, Cout, D: float = 0.0) -> "DiscreteSystem":
+        """The same state equation observed through another output y = Cout x + D u
+        (``state_size`` row; ``D`` goes to the first part): no new eigen-solve or matrix
+        exponential, and the numbers of building it anew (the same decomposition of A)."""
+        Cout = np.asarray(Cout, dtype=float).reshape(self.state_size)
+        parts = [p.with_output(Cout[p.idx], D if i == 0 else 0.0) for i, p in enumerate(self.parts)]
+        return DiscreteSystem(parts, self.state_size, self.sample_rate_hz, self.hold)
 
     def response(self, force_n, initial_state=None) -> np.ndarray:
         """Output for the sampled force [N] (one sample per force sample), float64.
