@@ -150,3 +150,51 @@ def test_evicted_solves_are_solved_again_right(bar):
     pts, dirs = grasp_contacts(rng)
     fast, direct = flex.attachment_modes(pts, dirs), flex.attachment_modes(pts, dirs, reuse_unit_loads=False)
     assert len(flex.unit_loads.slots) == 0 and span_residual(flex, direct[0], fast[0]) < 1e-9
+
+
+def test_slots_stay_distinct_and_hold_their_nodes_under_eviction_and_clearing(bar):
+    """The store's slot bookkeeping: after evictions and after its LRU is emptied (as
+    ``clear_all`` does), every kept node has its own slot, and that slot's columns are the
+    node's own unit-load solves (an independent solve of the node's three unit loads)."""
+    from sensors.modal.static_correction import UnitLoadStore
+
+    flex = ContactFlexibility(bar)
+    store = flex.unit_loads = UnitLoadStore(flex, capacity=20)
+    rng = np.random.default_rng(5)
+
+    def check():
+        slots = list(store.slots.values())
+        assert len(set(slots)) == len(slots)
+        held = [(int(store.slot_node[k]), k) for k in slots]
+        assert all(n in store.slots for n, _ in held)
+        for n, k in held[:3]:
+            F = np.zeros((flex.n_dof, 3))
+            F[3 * n + np.arange(3), np.arange(3)] = 1.0
+            Y = flex._projected(scipy.sparse.linalg.spsolve((flex.K + flex.sigma * flex.M).tocsc(), F).reshape(flex.n_dof, 3))
+            assert np.max(np.abs(store.Y[:, 3 * k:3 * k + 3] - Y)) < 1e-9 * np.max(np.abs(Y))
+
+    for _ in range(4):
+        flex.attachment_modes(*grasp_contacts(rng))
+    assert store.slots.misses > 20
+    check()
+    store.slots.clear()
+    flex.attachment_modes(*grasp_contacts(rng))
+    assert sorted(store.slots.values()) == list(range(len(store.slots)))   # lowest slots first
+    check()
+
+
+def test_implicit_rows_at_nodes_equal_the_formed_vectors(bar):
+    """``AttachmentBasis.nodal`` of an implicit basis (rows made per node, kept) equals the
+    rows of Psi formed explicitly, in any order and with repeats."""
+    flex = ContactFlexibility(bar)
+    pts, dirs = grasp_contacts(np.random.default_rng(6))
+    basis = flex.attachment_basis(pts, dirs)
+    assert basis._psi is None
+    nodes_a = np.array([5, 17, 3, 17, 40])
+    nodes_b = np.array([40, 2, 5, 99, 2])
+    rows_a, rows_b, empty = basis.nodal(nodes_a), basis.nodal(nodes_b), basis.nodal(np.zeros(0, int))
+    psi = basis.psi.reshape(-1, 3, basis.size)
+    scale = np.max(np.abs(psi))
+    assert np.max(np.abs(rows_a - psi[nodes_a])) < 1e-12 * scale
+    assert np.max(np.abs(rows_b - psi[nodes_b])) < 1e-12 * scale
+    assert empty.shape == (0, 3, basis.size)

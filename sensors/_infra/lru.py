@@ -137,6 +137,11 @@ class LRU(Generic[V]):
         self.misses += 1
         return self.put(key, build())
 
+    def oldest(self):
+        """``(key, value)`` of the least recently used entry (the one the next ``put`` of a new
+        key evicts when full), without making it recent; None when empty."""
+        return next(iter(self._entries.items()), None)
+
     def values(self):
         return self._entries.values()
 

@@ -316,7 +316,8 @@ class AttachmentBasis:
         self._psi, self.stiffness, self.coupling = psi, stiffness, coupling
         self._M, self._mass_psi = M, mass_psi
         self._implicit = implicit            # (flex, nodes, C, B, T) or None
-        self._rows: dict = {}                # node -> Psi rows (3, a), of an implicit basis
+        # of an implicit basis: the nodes whose Psi rows are made (sorted) and the rows (k, 3, a)
+        self._rows = (np.zeros(0, int), np.zeros((0, 3, self.size)))
 
     @property
     def psi(self) -> np.ndarray:
@@ -344,15 +345,18 @@ class AttachmentBasis:
         if self._implicit is None or self._psi is not None:
             return self.psi.reshape(-1, 3, self.size)[nodes]
         flex, own, C, B, T = self._implicit
-        missing = np.unique(nodes[[n not in self._rows for n in nodes.tolist()]])
+        kept, values = self._rows
+        missing = np.setdiff1d(nodes, kept)
         if missing.size:
             store = flex.unit_loads
             cols = store.columns(own)
             dofs = (3 * missing[:, None] + np.arange(3)).ravel()
             rows = (store.Y[np.ix_(dofs, cols)] @ C - flex.relief[dofs] @ B) @ T
-            for i, n in enumerate(missing.tolist()):
-                self._rows[n] = rows[3 * i:3 * i + 3]
-        return np.stack([self._rows[n] for n in nodes.tolist()]) if nodes.size else np.zeros((0, 3, self.size))
+            kept = np.concatenate([kept, missing])
+            order = np.argsort(kept, kind="stable")
+            kept, values = kept[order], np.concatenate([values, rows.reshape(-1, 3, rows.shape[1])])[order]
+            self._rows = kept, values
+        return values[np.searchsorted(kept, nodes)]
 
     def mass_product(self, other: "AttachmentBasis") -> np.ndarray:
         """Psi^T M Psi_other (a, a_other), from the store's node-pair products when both are
@@ -416,15 +420,14 @@ class UnitLoadStore:
             Y = flex._projected(np.asarray(flex.factor.solve(B)).reshape(flex.n_dof, -1))
             KU = Y.T @ flex.KU
             MY = flex.M @ Y
+            # the free slots, lowest first (the LRU may have been emptied by clear_all)
+            free = sorted(set(range(self.capacity)) - set(self.slots.values()), reverse=True)
             for i, n in enumerate(missing):
-                used = set(self.slots.values())
-                if len(used) < self.capacity:
-                    k = min(set(range(len(used) + 1)) - used)
-                    self.slots.put(n, k)
+                if free:
+                    k = free.pop()
                 else:                               # the least recently used node gives its slot
-                    self.slots.put(n, -1)
-                    k = (used - set(self.slots.values())).pop()
-                    self.slots.put(n, k)
+                    k = self.slots.oldest()[1]
+                self.slots.put(n, k)
                 self.Y[:, 3 * k:3 * k + 3] = Y[:, 3 * i:3 * i + 3]
                 self.MY[:, 3 * k:3 * k + 3] = MY[:, 3 * i:3 * i + 3]
                 self.KU[3 * k:3 * k + 3] = KU[3 * i:3 * i + 3]
