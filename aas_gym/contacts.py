@@ -199,6 +199,8 @@ class ContactStream:
             kind[b] = KINDS.index(key)
         kind[self.body_ids] = KINDS.index("object")
         self._kind_of_body = kind
+        self._kind_of_geom = kind[self._geom_body]
+        self._geom_of_body = [self._body_index[self._geom_body] == i for i in range(len(self.body_ids))]
         self._body_names = np.array([mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i) or f"body{i}"
                                      for i in range(model.nbody)], dtype=object)
         self._geom_names = np.array([mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, i) or f"geom{i}"
@@ -260,12 +262,15 @@ class ContactStream:
         if not n or not data.nefc:
             return np.zeros(len(KINDS))
         con = data.contact
-        geom_body = self._geom_body[con.geom[:n]]
-        rows, sides = np.nonzero(self._body_index[geom_body] == i)
+        geom = con.geom[:n]
+        # Per-geom tables (is it body i's; the kind its body is to the sensed objects): two
+        # lookups per contact instead of four, about half the per-step cost.
+        rows, sides = self._geom_of_body[i][geom].nonzero()
         adr = con.efc_address[:n][rows]
-        fn = np.maximum(np.where(adr >= 0, data.efc_force[adr], 0.0), 0.0)   # -1: no rows, no force
-        kinds = self._kind_of_body[geom_body[rows, 1 - sides]]
-        return np.bincount(kinds, weights=fn, minlength=len(KINDS))
+        fn = data.efc_force[adr]
+        fn[adr < 0] = 0.0                                                     # -1: no rows, no force
+        np.maximum(fn, 0.0, out=fn)
+        return np.bincount(self._kind_of_geom[geom[rows, 1 - sides]], weights=fn, minlength=len(KINDS))
 
     def fingertip_forces_n(self, data: mujoco.MjData, body: str) -> tuple[float, float]:
         """Summed normal force [N] of the actuator and the mic fingertip on ``body``: equal bit
