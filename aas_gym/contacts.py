@@ -254,23 +254,11 @@ class ContactStream:
         building the contact list (a per-step ground truth needs only these sums; elliptic
         cones: the solver's normal rows).  The same forces added in the same order: equal bit
         for bit up to 7 contacts of a kind (numpy sums 8 and more pairwise), to rounding beyond."""
-        i = self.bodies.index(body)
         if self.model.opt.cone != mujoco.mjtCone.mjCONE_ELLIPTIC:
             c = self.read(data)[body]
             return np.array([c.total_normal_force_n(k) for k in KINDS])
-        n = data.ncon
-        if not n or not data.nefc:
-            return np.zeros(len(KINDS))
-        con = data.contact
-        geom = con.geom[:n]
-        # Per-geom tables (is it body i's; the kind its body is to the sensed objects): two
-        # lookups per contact instead of four, about half the per-step cost.
-        rows, sides = self._geom_of_body[i][geom].nonzero()
-        adr = con.efc_address[:n][rows]
-        fn = data.efc_force[adr]
-        fn[adr < 0] = 0.0                                                     # -1: no rows, no force
-        np.maximum(fn, 0.0, out=fn)
-        return np.bincount(self._kind_of_geom[geom[rows, 1 - sides]], weights=fn, minlength=len(KINDS))
+        fn, kinds = self._normal_forces(data, body)
+        return np.bincount(kinds, weights=fn, minlength=len(KINDS))
 
     def fingertip_forces_n(self, data: mujoco.MjData, body: str) -> tuple[float, float]:
         """Summed normal force [N] of the actuator and the mic fingertip on ``body``: equal bit
@@ -280,16 +268,25 @@ class ContactStream:
         if self.model.opt.cone != mujoco.mjtCone.mjCONE_ELLIPTIC:
             c = self.read(data)[body]
             return c.total_normal_force_n("actuator"), c.total_normal_force_n("mic")
-        n = data.ncon
-        if not n:
-            return 0.0, 0.0
-        con = data.contact
-        geom_body = self._geom_body[con.geom[:n]]
-        rows, sides = np.nonzero(self._body_index[geom_body] == self.bodies.index(body))
-        adr = con.efc_address[:n][rows]
-        fn = np.maximum(np.where(adr >= 0, data.efc_force[adr], 0.0), 0.0)   # -1: no rows, no force
-        kinds = self._kind_of_body[geom_body[rows, 1 - sides]]
+        fn, kinds = self._normal_forces(data, body)
         return (float(np.sum(fn[kinds == _ACTUATOR])), float(np.sum(fn[kinds == _MIC])))
+
+    def _normal_forces(self, data: mujoco.MjData, body: str) -> tuple[np.ndarray, np.ndarray]:
+        """Elliptic cones: the normal force [N] (the solver's normal row, clipped at 0) of each
+        contact on ``body`` in contact order, and the kind of what touches it there."""
+        n = data.ncon
+        if not n or not data.nefc:
+            return np.zeros(0), np.zeros(0, np.intp)
+        con = data.contact
+        geom = con.geom[:n]
+        # Per-geom tables (is it body i's; the kind its body is to the sensed objects): two
+        # lookups per contact instead of four, about half the per-step cost.
+        rows, sides = self._geom_of_body[self.bodies.index(body)][geom].nonzero()
+        adr = con.efc_address[:n][rows]
+        fn = data.efc_force[adr]
+        fn[adr < 0] = 0.0                                                     # -1: no rows, no force
+        np.maximum(fn, 0.0, out=fn)
+        return fn, self._kind_of_geom[geom[rows, 1 - sides]]
 
     def _contact_forces(self, data, con, n: int, rows: np.ndarray) -> np.ndarray:
         """Normal and two tangential force components (contact frame, acting on geom[1])."""
