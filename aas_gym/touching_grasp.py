@@ -99,7 +99,7 @@ def on_solid(model, contacts) -> list:
     """``contacts`` without those of a collision piece where the solid is absent.
 
     CoACD's convex pieces stand up to a few millimetres proud of the solid they wrap
-    (``benchmarks/collision_fidelity.py``: 2.6 mm on the mug, 5 mm on the bottle), so MuJoCo can
+    (``benchmarks/collision_fidelity.py``: 1.1 mm on the mug, 3.5 mm on the bottle), so MuJoCo can
     let the hull touch the table where the real solid stands clear of it (the mug's handle):
     such a contact presses nothing real and lies beyond the sensor's surface tolerance
     (``MAX_SURFACE_DISTANCE_M``), where the synthesis refuses it. Every contact within the
