@@ -129,12 +129,16 @@ class SimAcousticStream:
     def grasp_state(self) -> GraspState:
         """What touches the heard object after the latest physics step (the previous
         ``GraspState`` object itself while the contact signature did not change)."""
+        signature = None
         if self._state is not None:
-            present, vec = self._signature(self._heard_index)
-            if not self._changed(present, vec):
+            signature = self._signature(self._heard_index)
+            if not self._changed(*signature):
                 return self._state
+        index = self._heard_index
         self._state = self._read_state()
-        self._ref_present, self._ref_vec = self._signature(self._heard_index)
+        if signature is None or self._heard_index != index:
+            signature = self._signature(self._heard_index)   # the same data: no physics step between
+        self._ref_present, self._ref_vec = signature
         return self._state
 
     def _read_state(self) -> GraspState:
