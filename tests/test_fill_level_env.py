@@ -62,7 +62,7 @@ def test_fuller_sounds_lower(env):
 def test_a_fill_is_the_memoized_wet_model_of_its_container(env):
     """The env fills its target's Container directly (kept per target): the very wet model
     ``filled(solid, ...)`` memoizes; a film of 0.1 % comes from the fill table's film segment
-    (it took a 0.6 s exact solve before)."""
+    (it took an exact solve of about 0.4 CPU s before)."""
     from sensors.fluid import filled
 
     u = env.unwrapped
