@@ -10,7 +10,8 @@ solve, acoustic modes and wet eigenproblem), at fills between the table's grid h
   its centre of mass within a micrometre;
 * the table's bytes do not depend on what ran before (a table built afresh in another cache
   and one reloaded after every in-memory cache is cleared give bit-identical fills);
-* the cost bound refuses before any solve; tilted fills and films take the exact path;
+* the cost bound refuses before any solve; tilted fills and films thinner than the film
+  segment's take the exact path (films down to 0.01 % of an element height are in the table);
 * FillLevel-v0 hears the same features from the table as from the exact solve (within 0.5 dB
   each, 0.2 % of the largest).
 """
@@ -38,7 +39,7 @@ def small_can(tmp_path_factory):
 def between_grid_heights(table) -> np.ndarray:
     """Heights at a third and at the middle of every grid interval (never a grid height)."""
     out = []
-    for seg in (s for s in table.segments if len(s.ma)):  # (a segment left to the exact solve has none)
+    for seg in (s for s in table.all_segments if len(s.ma)):  # (a segment left to the exact solve has none)
         h = seg.heights_m
         out += list(h[:-1] + (h[1:] - h[:-1]) / 3) + list(0.5 * (h[1:] + h[:-1]))
     return np.array(out)
@@ -116,6 +117,12 @@ def test_tilted_fills_and_films_take_the_exact_path(small_can):
     table = fill_table(container, get_liquid("water"))
     film = filled(container, fill_height_m=0.5 * table.min_height_m, interpolated=True)
     assert "wet_solve" not in film.metadata
+    # films down to FILM_HEIGHT_FRACTION of an element height have their own segment (checked
+    # against the exact solve with the others in test_fills_between_grid_heights_match_the_exact_solve)
+    assert table.film is not None and len(table.film.ma) > 0
+    assert table.min_height_m < 0.02 * table.segments[0].heights_m[0]
+    thin = filled(container, fill_height_m=0.5 * table.segments[0].heights_m[0], interpolated=True)
+    assert thin.metadata["wet_solve"] == "interpolated"
 
 
 def test_wet_modes_are_solved_when_first_read_and_solve_the_wet_problem(small_can):

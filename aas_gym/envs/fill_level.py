@@ -7,6 +7,7 @@ import numpy as np
 from gymnasium import spaces
 
 from aas_gym.envs.base import AasEnv
+from sensors._infra.lru import CACHE_SIZES, LRU
 from sensors.task import check_action, check_choice, check_integer, check_number
 
 TASKS = ("fill", "liquid")
@@ -100,6 +101,7 @@ class FillLevelEnv(AasEnv):
         self.observation_space = spaces.Dict({**self._proprio_spaces(), **self._acoustic_spaces()})
         self._truth = {}
         self._dry_inertia: dict = {}
+        self._containers = LRU(CACHE_SIZES["env.containers"])  # the target's Container, per ObjectSpec
 
     def reset(self, *, seed=None, options=None):
         """As every env (``options``: ``fill_fraction``, ``liquid_index``, ``object``)."""
@@ -137,11 +139,14 @@ class FillLevelEnv(AasEnv):
 
     def _fill(self, fill_fraction: float, liquid):
         """Put the liquid in: the sensor hears the wet modes, MuJoCo carries its mass."""
-        from sensors.fluid import filled
+        from sensors.fluid import container, filled
 
         sc = self._scene
         target, body = sc.objects[0], sc.bodies[0]
-        wet = filled(target.solid(), fill_fraction, liquid=liquid, compressible=self.compressible,
+        # the memoized container itself (``sensors.fluid.container``): the same wet model as
+        # ``filled(target.solid(), ...)``, without keying the solid's description every episode
+        held = self._containers.get_or_build(target, lambda: container(target.solid()))
+        wet = filled(held, fill_fraction, liquid=liquid, compressible=self.compressible,
                      interpolated=self.interpolated_fill)
         sc.sensor.set_modal_model(body, wet)
         self._set_liquid_mass(sc.body_ids[0], wet.liquid)

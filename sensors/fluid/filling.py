@@ -118,7 +118,8 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
             ``GRID_RTOL`` of the exact wet frequencies as measured between its grid heights; the
             first fill of a container and liquid builds the table, about 25 s, or loads it from
             the disk cache). Tilted fills, surface cavities and films thinner than the table's
-            first height take the exact solve. False (default): the exact solve of this fill.
+            first height (0.01 % of the liquid's element height: about a micrometre) take the
+            exact solve. False (default): the exact solve of this fill.
         options: :class:`Container` and dry-model build options (:func:`container`).
 
     Returns:
