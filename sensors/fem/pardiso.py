@@ -78,6 +78,8 @@ def mkl_library():
         lib.pardiso.argtypes = [ctypes.c_void_p, i32p, i32p, i32p, i32p, i32p, ctypes.c_void_p, ctypes.c_void_p,
                                 ctypes.c_void_p, ctypes.c_void_p, i32p, ctypes.c_void_p, i32p, ctypes.c_void_p,
                                 ctypes.c_void_p, i32p]
+        lib.MKL_Set_Num_Threads_Local.restype = ctypes.c_int  # the C name (mkl_set_... takes a pointer)
+        lib.MKL_Set_Num_Threads_Local.argtypes = [ctypes.c_int]
     LIBRARY.append(lib)
     return lib
 
@@ -158,6 +160,18 @@ class PardisoLDLT:
         self.n_positive, self.n_negative = int(ip[21]), int(ip[22])
 
     def _call(self, phase: int, B: np.ndarray, X: np.ndarray | None = None) -> None:
+        # One OpenMP thread in every phase, whatever MKL_NUM_THREADS says: the factor depends on
+        # the thread count MKL actually runs (mug: 337.8 MB on one thread, 336.7 MB on two, the
+        # solutions equal to round-off only), and MKL runs fewer threads than asked on a loaded
+        # machine, so more than one would make the modes differ from run to run. The setting is
+        # this thread's own; the caller's comes back after the call.
+        previous = self._lib.MKL_Set_Num_Threads_Local(1)
+        try:
+            self._pardiso(phase, B, X)
+        finally:
+            self._lib.MKL_Set_Num_Threads_Local(previous)
+
+    def _pardiso(self, phase: int, B: np.ndarray, X: np.ndarray | None) -> None:
         one, err = ctypes.c_int32(1), ctypes.c_int32(0)
         self._lib.pardiso(self._pt.ctypes.data, ctypes.byref(one), ctypes.byref(one),
                           ctypes.byref(ctypes.c_int32(_MTYPE_REAL_SYMMETRIC_INDEFINITE)), ctypes.byref(ctypes.c_int32(phase)),
