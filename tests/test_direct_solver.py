@@ -113,6 +113,24 @@ def test_solves_match_scipy(solver):
     np.testing.assert_allclose(fact.solve(B[:, 2]), ref[:, 2], rtol=1e-8, atol=1e-8 * np.abs(ref).max())
 
 
+@pytest.mark.parametrize("n", [299, 300])
+def test_pardiso_scalar_and_node_block_input(n):
+    """A size divisible by 3 goes to PARDISO in 3 x 3 blocks (BSR), any other size as scalar
+    rows (CSR): both solve and count the inertia of an indefinite tridiagonal matrix exactly
+    as a dense eigensolve does."""
+    _needs_pardiso()
+    from sensors.fem.pardiso import PardisoLDLT
+
+    main = 2.0 + np.linspace(0.0, 1.0, n)
+    A = scipy.sparse.diags([-np.ones(n - 1), main - 2.3, -np.ones(n - 1)], [-1, 0, 1], format="csr")
+    fact = PardisoLDLT(A)
+    assert fact.block == (3 if n % 3 == 0 else 1)
+    dense = A.toarray()
+    assert fact.n_negative == int((np.linalg.eigvalsh(dense) < 0).sum()) > 0
+    B = np.random.default_rng(3).standard_normal((n, 2))
+    np.testing.assert_allclose(fact.solve(B), np.linalg.solve(dense, B), rtol=1e-9, atol=1e-9)
+
+
 def test_pardiso_is_the_same_bit_for_bit_whatever_mkl_threads_say():
     """PARDISO's factor depends on the number of threads MKL runs (and MKL runs fewer than
     asked on a loaded machine): the solver pins its calls to one, so a process-wide setting of
