@@ -19,11 +19,14 @@ def machine_line() -> str:
             f"1-minute load average at the end of the run {load:.1f}{busy}.")
 
 
-def parse_args(description: str, items_name: str, default_items, page_name: str, argv=None) -> argparse.Namespace:
+def parse_args(description: str, items_name: str, default_items, page_name: str, argv=None,
+               flags: dict[str, str] | None = None) -> argparse.Namespace:
     """``[items ...] [--out OUT]``: which items to run (default all) and the page to write
-    (default docs/benchmarks/<page_name>)."""
+    (default docs/benchmarks/<page_name>); ``flags`` adds on/off options (``{"--name": help}``)."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument(items_name, nargs="*", default=list(default_items))
+    for flag, text in (flags or {}).items():
+        parser.add_argument(flag, action="store_true", help=text)
     parser.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "docs" / "benchmarks" / page_name))
     return parser.parse_args(argv)
 
