@@ -6,7 +6,8 @@ and 1x1 diagonal pivots (Bunch-Kaufman 2x2 pivots when a 1x1 pivot is too small)
 It also reports the inertia of A (the counts of its positive and negative eigenvalues), which
 :mod:`sensors.fem.eigen` uses to check that no mode was missed.
 
-Only the upper triangle is passed, zero-based (``iparm[34] = 1``): in 3 x 3 node blocks (BSR) for FE dofs, else CSR. The 32-bit integer
+Only the upper triangle is passed, zero-based (``iparm[34] = 1``): in 3 x 3 node blocks (BSR)
+when the size is a multiple of 3 (node-major FE dofs), else as CSR. The 32-bit integer
 interface (LP64) covers every model the project builds (factor entries are counted in 64 bits
 by MKL itself; the matrix's own entries stay far below 2**31).
 """
@@ -97,6 +98,7 @@ class PardisoLDLT:
             a 1x1 pivot had to be perturbed or failed).
         factor_mb: Memory of the numerical factorization [MB] (with block rows, PARDISO counts
             blocks, not entries).
+        block: Rows per block as passed to PARDISO (3: node-block BSR; 1: CSR).
     """
 
     def __init__(self, A):
