@@ -113,6 +113,46 @@ def test_solves_match_scipy(solver):
     np.testing.assert_allclose(fact.solve(B[:, 2]), ref[:, 2], rtol=1e-8, atol=1e-8 * np.abs(ref).max())
 
 
+@pytest.mark.parametrize("n", [299, 300])
+def test_pardiso_scalar_and_node_block_input(n):
+    """A size divisible by 3 goes to PARDISO in 3 x 3 blocks (BSR), any other size as scalar
+    rows (CSR): both solve and count the inertia of an indefinite tridiagonal matrix exactly
+    as a dense eigensolve does."""
+    _needs_pardiso()
+    from sensors.fem.pardiso import PardisoLDLT
+
+    main = 2.0 + np.linspace(0.0, 1.0, n)
+    A = scipy.sparse.diags([-np.ones(n - 1), main - 2.3, -np.ones(n - 1)], [-1, 0, 1], format="csr")
+    fact = PardisoLDLT(A)
+    assert fact.block == (3 if n % 3 == 0 else 1)
+    dense = A.toarray()
+    assert fact.n_negative == int((np.linalg.eigvalsh(dense) < 0).sum()) > 0
+    B = np.random.default_rng(3).standard_normal((n, 2))
+    np.testing.assert_allclose(fact.solve(B), np.linalg.solve(dense, B), rtol=1e-9, atol=1e-9)
+
+
+def test_pardiso_is_the_same_bit_for_bit_whatever_mkl_threads_say():
+    """PARDISO's factor depends on the number of threads MKL runs (and MKL runs fewer than
+    asked on a loaded machine): the solver pins its calls to one, so a process-wide setting of
+    two threads changes no bit (without the pin this fails wherever MKL gets two free cores)."""
+    _needs_pardiso()
+    from sensors.fem.pardiso import mkl_library
+
+    K, M, _ = _problem("tube", "aluminium")
+    A = (K - (2 * math.pi * 11000.0) ** 2 * M).tocsr()
+    B = np.random.default_rng(2).standard_normal((A.shape[0], 3))
+    lib = mkl_library()
+    solutions = []
+    try:
+        for threads in (1, 2, 1):
+            lib.MKL_Set_Num_Threads(threads)
+            solutions.append(factorize(A, "pardiso").solve(B))
+    finally:
+        lib.MKL_Set_Num_Threads(1)
+    assert np.array_equal(solutions[0], solutions[1]) and np.array_equal(solutions[0], solutions[2])
+    np.testing.assert_allclose(A @ solutions[0], B, atol=1e-9 * np.abs(B).max())
+
+
 def test_environment_variable_forces_a_solver(monkeypatch):
     monkeypatch.setenv(direct_solver.SOLVER_ENV, "superlu")
     assert default_solver() == "superlu"
