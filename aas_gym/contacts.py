@@ -207,6 +207,15 @@ class ContactStream:
                                      for i in range(model.ngeom)], dtype=object)
         self._f6 = np.zeros(6)
         self._kind_names = np.array(KINDS)
+        # Per sensed body, per geom pair: 1 where one geom is the body's and the other the
+        # actuator fingertip's, 2 for the mic fingertip's, else 0 (fingertip_forces_n).
+        pad = np.select([self._kind_of_geom == _ACTUATOR, self._kind_of_geom == _MIC], [1, 2], 0).astype(np.int8)
+        self._pad_code = []
+        for mine in self._geom_of_body:
+            code = np.zeros((model.ngeom, model.ngeom), np.int8)
+            code[mine] = pad
+            code[:, mine] = np.maximum(code[:, mine], pad[:, None])
+            self._pad_code.append(code)
 
     def read(self, data: mujoco.MjData) -> dict[str, ObjectContacts]:
         """Body name -> ``ObjectContacts`` for the current state of ``data`` (vectorized over
@@ -268,8 +277,25 @@ class ContactStream:
         if self.model.opt.cone != mujoco.mjtCone.mjCONE_ELLIPTIC:
             c = self.read(data)[body]
             return c.total_normal_force_n("actuator"), c.total_normal_force_n("mic")
-        fn, kinds = self._normal_forces(data, body)
-        return (float(np.sum(fn[kinds == _ACTUATOR])), float(np.sum(fn[kinds == _MIC])))
+        n = data.ncon
+        if not n or not data.nefc:
+            return 0.0, 0.0
+        con = data.contact
+        geom = con.geom[:n]
+        # the fingertips' contacts with the body in contact order (one lookup per contact)
+        code = self._pad_code[self.bodies.index(body)][geom[:, 0], geom[:, 1]]
+        if not code.any():                             # no fingertip touches it: empty sums
+            return 0.0, 0.0
+        adr = con.efc_address[:n]
+        return self._pad_sum(data, adr[code == 1]), self._pad_sum(data, adr[code == 2])
+
+    @staticmethod
+    def _pad_sum(data: mujoco.MjData, adr: np.ndarray) -> float:
+        """The normal rows' forces at ``adr`` clipped at 0 (-1: no rows, no force), summed."""
+        fn = data.efc_force[adr]
+        fn[adr < 0] = 0.0
+        np.maximum(fn, 0.0, out=fn)
+        return float(np.sum(fn))
 
     def _normal_forces(self, data: mujoco.MjData, body: str) -> tuple[np.ndarray, np.ndarray]:
         """Elliptic cones: the normal force [N] (the solver's normal row, clipped at 0) of each

@@ -24,6 +24,7 @@ from dataclasses import asdict, dataclass
 import mujoco
 import numpy as np
 
+from aas_gym import grasp
 from aas_gym.object_bodies import euler_to_quat, yaw_rest_quat
 from aas_gym.object_grasps import END_MARGIN_M, grasp_set, rest_height_m, rest_rotation
 from aas_gym.object_names import DEFAULT_OBJECT_NAMES
@@ -238,7 +239,8 @@ def place_beside(data: mujoco.MjData, objects: Sequence[ObjectSpec], free_joints
 
 def settle(model: mujoco.MjModel, data: mujoco.MjData, duration_s: float = 0.4) -> None:
     """Let the placed scene come to rest."""
-    mujoco.mj_forward(model, data)
+    if not grasp.LEAN_SCRIPT:            # the reference; a step recomputes what this forward derives
+        mujoco.mj_forward(model, data)
     mujoco.mj_step(model, data, nstep=max(1, int(duration_s / model.opt.timestep)))
 
 

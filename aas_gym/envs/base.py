@@ -18,6 +18,7 @@ import numpy as np
 from aas_gym import has_display
 from aas_gym.canonical_settle import canonical_quat, run_after_settle, settle_placed
 from aas_gym.contacts import ContactStream
+from aas_gym import grasp as grasp_module
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
 from aas_gym.robots import DEFAULT_ROBOT, check_robot, robot_controller
 from aas_gym.contact_sensors import touch_sensor_name
@@ -423,7 +424,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         sc, m, d = self._scene, self._scene.model, self._scene.data
         mujoco.mj_resetData(m, d)
         sc.hand.set_grip_force(self.grip_force_n)
-        sc.hand.teleport(d, HOME_TCP, MAX_OPENING_M)
+        sc.hand.teleport(d, HOME_TCP, MAX_OPENING_M, forward=not grasp_module.LEAN_SCRIPT)  # a settle follows
         self._layout = place_objects(m, d, sc.objects, sc.free_joints, self.np_random, self.randomization,
                                      far_end_only=self._far_end_only)
         self._placement = None
@@ -467,7 +468,8 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         placement, self._placement = self._placement, None
         released = placement is not None and placement.is_current(self.model, self.data)
         if released:
-            run_after_settle(self._scene.memo, self.model, self.data, placement, ("release", 0.06), release_hand)
+            run_after_settle(self._scene.memo, self.model, self.data, placement, ("release", 0.06), release_hand,
+                             forward=False)   # the grasp reads its poses itself
 
         def section():
             if not released:
