@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from aas_gym import grasp
 from aas_gym.object_bodies import euler_to_quat, yaw_rest_quat
 from aas_gym.physics_memo import EDITED_MODEL_FIELDS, PhysicsMemo
 from aas_gym.scenario import Layout, settle
@@ -110,15 +111,33 @@ def settle_placed(memo: PhysicsMemo, model: mujoco.MjModel, data: mujoco.MjData,
 
 
 def run_after_settle(memo: PhysicsMemo, model: mujoco.MjModel, data: mujoco.MjData, placement: SettledPlacement,
-                     args: Hashable, section: Callable[[], object]):
+                     args: Hashable, section: Callable[[], object], forward: bool = True):
     """Run ``section`` (deterministic, with the hand far from every object: a rigid motion of
     the table plane maps its run onto itself) from the state ``placement``'s settle left in
-    ``data``, as the same run from the canonical settle, moved: through ``memo`` under ``args``,
-    once per object.  Returns ``section``'s result (kept with the run)."""
+    ``data``, as the same run from the canonical settle, moved: through ``memo`` under ``args``
+    (a tuple), once per object.  Returns ``section``'s result (kept with the run).  ``forward=False``
+    (with ``aas_gym.grasp.LEAN_SCRIPT``) leaves the moved state's derived quantities stale,
+    for a caller whose next call steps or recomputes them."""
     mujoco.mj_setState(model, data, placement.start_state, _STATE)
-    memo.run(data, ("settle", placement.settle_s), lambda: settle(model, data, placement.settle_s))
-    result = memo.run(data, args, section)
-    _from_canonical(model, data, placement.free_joints, placement.layout)
+    settle_args = ("settle", placement.settle_s)
+
+    def settle_run():
+        memo.run(data, settle_args, lambda: settle(model, data, placement.settle_s))
+
+    if not grasp.LEAN_SCRIPT:                           # the reference: two replays, then a forward
+        settle_run()
+        result = memo.run(data, args, section)
+        _from_canonical(model, data, placement.free_joints, placement.layout)
+        return result
+
+    def settle_then_section():
+        settle_run()
+        return section()
+
+    # settle and section kept as one run (keyed by the section's arguments, then the settle's):
+    # one replay from the start state
+    result = memo.run(data, (*args, settle_args), settle_then_section)
+    _from_canonical(model, data, placement.free_joints, placement.layout, forward=forward)
     return result
 
 
@@ -136,15 +155,18 @@ def _to_canonical(data: mujoco.MjData, free_joints, layout: Layout, target_quat:
         quat[:] = target_quat                           # (q and -q: one rotation); else a run of its own
 
 
-def _from_canonical(model: mujoco.MjModel, data: mujoco.MjData, free_joints, layout: Layout) -> None:
+def _from_canonical(model: mujoco.MjModel, data: mujoco.MjData, free_joints, layout: Layout,
+                    forward: bool = True) -> None:
     """Move a canonical end state back to the placement (poses, contacts and forces of the
-    moved state recomputed); as it is for a placement that was canonical."""
+    moved state recomputed, unless ``forward`` is False); as it is for a placement that was
+    canonical."""
     x, y = layout.target_xy_m
     yaw = float(layout.target_yaw_rad)
     if x == y == yaw == 0.0:
         return
     _move_free_bodies(data, free_joints, yaw, (x, y), inverse=False)
-    mujoco.mj_forward(model, data)
+    if forward:
+        mujoco.mj_forward(model, data)
 
 
 def _move_free_bodies(data: mujoco.MjData, free_joints, yaw_rad: float, shift_xy, inverse: bool) -> None:

@@ -20,6 +20,8 @@ import numpy as np
 #: Contact kinds, from the sensed object's point of view.
 KINDS = ("actuator", "mic", "hand", "object", "environment", "other")
 _ACTUATOR, _MIC = KINDS.index("actuator"), KINDS.index("mic")
+# as a plain int: comparing the option's int with the enum member costs ~10 us per test
+_ELLIPTIC = int(mujoco.mjtCone.mjCONE_ELLIPTIC)
 
 
 class SensorGrasp(NamedTuple):
@@ -207,6 +209,17 @@ class ContactStream:
                                      for i in range(model.ngeom)], dtype=object)
         self._f6 = np.zeros(6)
         self._kind_names = np.array(KINDS)
+        # Per sensed body, per geom pair (flat index ngeom * geom0 + geom1): 1 where one geom is
+        # the body's and the other the actuator fingertip's, 2 for the mic fingertip's, else 0
+        # (fingertip_forces_n).
+        pad = np.select([self._kind_of_geom == _ACTUATOR, self._kind_of_geom == _MIC], [1, 2], 0).astype(np.int8)
+        self._pad_code = []
+        for mine in self._geom_of_body:
+            code = np.zeros((model.ngeom, model.ngeom), np.int8)
+            code[mine] = pad
+            code[:, mine] = np.maximum(code[:, mine], pad[:, None])
+            self._pad_code.append(code.ravel())
+        self._pair_index = np.array([model.ngeom, 1])
 
     def read(self, data: mujoco.MjData) -> dict[str, ObjectContacts]:
         """Body name -> ``ObjectContacts`` for the current state of ``data`` (vectorized over
@@ -254,7 +267,7 @@ class ContactStream:
         building the contact list (a per-step ground truth needs only these sums; elliptic
         cones: the solver's normal rows).  The same forces added in the same order: equal bit
         for bit up to 7 contacts of a kind (numpy sums 8 and more pairwise), to rounding beyond."""
-        if self.model.opt.cone != mujoco.mjtCone.mjCONE_ELLIPTIC:
+        if self.model.opt.cone != _ELLIPTIC:
             c = self.read(data)[body]
             return np.array([c.total_normal_force_n(k) for k in KINDS])
         fn, kinds = self._normal_forces(data, body)
@@ -265,11 +278,20 @@ class ContactStream:
         for bit to ``read(data)[body].total_normal_force_n("actuator")`` and ``("mic")`` (the
         same forces summed by the same ``np.sum`` in the same order) without building the
         contact list: the test a grasp makes after every chunk of steps (``planar_grasp``)."""
-        if self.model.opt.cone != mujoco.mjtCone.mjCONE_ELLIPTIC:
+        if self.model.opt.cone != _ELLIPTIC:
             c = self.read(data)[body]
             return c.total_normal_force_n("actuator"), c.total_normal_force_n("mic")
-        fn, kinds = self._normal_forces(data, body)
-        return (float(np.sum(fn[kinds == _ACTUATOR])), float(np.sum(fn[kinds == _MIC])))
+        n = data.ncon
+        if not n or not data.nefc:
+            return 0.0, 0.0
+        con = data.contact
+        # the fingertips' contacts with the body in contact order (one lookup per contact)
+        code = self._pad_code[self.bodies.index(body)][con.geom[:n].dot(self._pair_index)]
+        if not code.any():                             # no fingertip touches it: empty sums
+            return 0.0, 0.0
+        adr = con.efc_address[:n]
+        efc = data.efc_force
+        return _pad_sum(efc, adr[code == 1]), _pad_sum(efc, adr[code == 2])
 
     def _normal_forces(self, data: mujoco.MjData, body: str) -> tuple[np.ndarray, np.ndarray]:
         """Elliptic cones: the normal force [N] (the solver's normal row, clipped at 0) of each
@@ -291,7 +313,7 @@ class ContactStream:
     def _contact_forces(self, data, con, n: int, rows: np.ndarray) -> np.ndarray:
         """Normal and two tangential force components (contact frame, acting on geom[1])."""
         out = np.zeros((rows.size, 3))
-        if self.model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC:
+        if self.model.opt.cone == _ELLIPTIC:
             # Elliptic cones: the solver's rows of a contact are its force components
             # (what mj_contactForce copies); contacts without rows carry no force.
             adr = con.efc_address[:n][rows]
@@ -313,6 +335,15 @@ class ContactStream:
         z3, z = np.zeros((0, 3)), np.zeros(0)
         e = np.zeros(0, dtype=object)
         return ObjectContacts(name, z3, z3.copy(), z, z3.copy(), z.copy(), z.copy(), np.zeros(0, dtype="<U11"), e, e)
+
+
+def _pad_sum(efc_force: np.ndarray, adr: np.ndarray) -> float:
+    """The normal rows' forces at ``adr`` clipped at 0 (-1: no rows, no force), summed as
+    ``np.sum`` does (``np.add.reduce`` without its Python wrapper)."""
+    fn = efc_force[adr]
+    fn[adr < 0] = 0.0
+    np.maximum(fn, 0.0, out=fn)
+    return float(np.add.reduce(fn, axis=None))
 
 
 def _body_id(model: mujoco.MjModel, name: str) -> int:

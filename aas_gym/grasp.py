@@ -29,6 +29,15 @@ SQUEEZE_TARGET_M = -0.03
 #: objects close the pads' lower part on them.
 PAD_CLEARANCE_M = 0.009
 TCP_JOINTS = ("hand_x", "hand_y", "hand_z", "hand_yaw")
+#: Whether the scripted physics (placement, settle, release, grasp) skips the MuJoCo work whose
+#: results nothing reads before the next ``mj_step`` recomputes them from the integration state
+#: (``mj_forward`` after a teleport, before a settle or after a replayed release; the whole
+#: forward where a grasp reads only poses: ``mj_kinematics``; a fingertip force sum computed
+#: twice), and replays a reset's settle and first release as one run
+#: (``aas_gym.canonical_settle.run_after_settle``).  The integration state, the observations
+#: and the infos come out bit for bit the same (``tests/test_lean_script.py``); False runs
+#: them as before (the reference).  Read at each call.
+LEAN_SCRIPT = True
 
 
 def model_id(model: mujoco.MjModel, kind, name: str, what: str) -> int:
@@ -127,8 +136,10 @@ class Hand:
             opening_m = float(np.clip(opening_m, 0.0, MAX_OPENING_M))
             data.ctrl[self.gripper_actuator] = SQUEEZE_TARGET_M if opening_m == 0.0 else opening_m
 
-    def teleport(self, data: mujoco.MjData, tcp, opening_m: float) -> None:
-        """Put the hand at ``tcp`` with the fingers at ``opening_m``, at rest, targets set there."""
+    def teleport(self, data: mujoco.MjData, tcp, opening_m: float, forward: bool = True) -> None:
+        """Put the hand at ``tcp`` with the fingers at ``opening_m``, at rest, targets set there;
+        ``forward=False`` leaves the derived quantities (poses, contacts) stale, for a caller
+        whose next call is ``mj_step``."""
         tcp = np.clip(np.asarray(tcp, float), self.tcp_low, self.tcp_high)
         opening_m = float(np.clip(opening_m, 0.0, MAX_OPENING_M))
         data.qpos[self.tcp_qpos] = tcp
@@ -136,7 +147,8 @@ class Hand:
         data.qpos[self.finger_qpos] = opening_m / 2
         data.qvel[self.finger_qvel] = 0.0
         self.command(data, tcp, opening_m)
-        mujoco.mj_forward(self.model, data)
+        if forward:
+            mujoco.mj_forward(self.model, data)
 
 
 def grasp_pose(model: mujoco.MjModel, data: mujoco.MjData, body: str, position_m: float = 0.0,
@@ -176,9 +188,8 @@ def grasp_pose(model: mujoco.MjModel, data: mujoco.MjData, body: str, position_m
 def _body_half_extents(model: mujoco.MjModel, bid: int) -> np.ndarray:
     """Half sizes of the axis-aligned box around the body's colliding geoms (body frame)."""
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-    for g in range(model.ngeom):
-        if model.geom_bodyid[g] != bid or (model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0):
-            continue
+    colliding = (model.geom_bodyid == bid) & ((model.geom_contype != 0) | (model.geom_conaffinity != 0))
+    for g in np.flatnonzero(colliding):
         # geom_aabb: centre and half sizes in the geom frame; rotate into the body frame.
         c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
         q = model.geom_quat[g]
@@ -207,7 +218,8 @@ def planar_grasp(model: mujoco.MjModel, data: mujoco.MjData, body: str, position
     """
     hand = hand or Hand(model)
     hand.set_grip_force(grip_force_n)
-    mujoco.mj_forward(model, data)  # poses of a fresh or edited state
+    lean = LEAN_SCRIPT
+    (mujoco.mj_kinematics if lean else mujoco.mj_forward)(model, data)  # poses of a fresh or edited state
     tcp, width = grasp_pose(model, data, body, position_m, height_offset_m, grasp)
     if grasp is not None:
         position_m = grasp.position_m
@@ -216,17 +228,17 @@ def planar_grasp(model: mujoco.MjModel, data: mujoco.MjData, body: str, position
             raise ValueError(f"{body!r} is {width * 1e3:.1f} mm wide across the grasp: more than the "
                              f"hand's {MAX_OPENING_M * 1e3:.0f} mm opening")
         clearance_m = (MAX_OPENING_M - width) / 2
-    hand.teleport(data, tcp, width + 2 * clearance_m)
+    hand.teleport(data, tcp, width + 2 * clearance_m, forward=not lean)   # the next call steps
     stream = stream or ContactStream(model, [body])
     dt = model.opt.timestep
     chunk = max(1, int(round(0.01 / dt)))
     hand.command(data, opening_m=0.0)
     t, settled, lifted = 0.0, False, lift_m <= 0
-    prev = None
+    prev = forces = None
     while t < max_time_s:
         mujoco.mj_step(model, data, nstep=chunk)
         t += chunk * dt
-        fa, fm = stream.fingertip_forces_n(data, body)
+        fa, fm = forces = stream.fingertip_forces_n(data, body)
         moving = np.max(np.abs(hand.finger_velocity(data))) > 1e-4 or np.max(np.abs(hand.tcp_velocity(data))) > 1e-3
         steady = prev is not None and abs(fa - prev) < 1e-3 * grip_force_n
         prev = fa
@@ -238,7 +250,8 @@ def planar_grasp(model: mujoco.MjModel, data: mujoco.MjData, body: str, position
                 continue
             settled = True
             break
-    fa, fm = stream.fingertip_forces_n(data, body)
+    # the loop's last sums are those of the state it left (no step since)
+    fa, fm = forces if lean and forces is not None else stream.fingertip_forces_n(data, body)
     return GraspResult(success=bool(fa > 0 and fm > 0), actuator_force_n=fa, mic_force_n=fm,
                        opening_m=hand.opening_m(data), grasp_position_m=float(position_m),
                        settle_time_s=t, settled=settled)

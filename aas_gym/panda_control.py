@@ -130,9 +130,10 @@ class PandaArm(Hand):
         data.ctrl[self.arm_actuators] = q
         self.target_q = q.copy()
 
-    def teleport(self, data: mujoco.MjData, tcp, opening_m: float) -> None:
+    def teleport(self, data: mujoco.MjData, tcp, opening_m: float, forward: bool = True) -> None:
         """Put the arm at rest with the TCP at ``tcp`` (inverse kinematics, from the rest
-        posture) and the fingers at ``opening_m``; targets set there."""
+        posture) and the fingers at ``opening_m``; targets set there; ``forward=False``: as
+        ``Hand.teleport``."""
         q = self.solve_ik(data, tcp, seed=PANDA_REST_Q)
         opening_m = float(np.clip(opening_m, 0.0, MAX_OPENING_M))
         data.qpos[self.arm_qpos] = q
@@ -142,7 +143,8 @@ class PandaArm(Hand):
         self.command_joints(data, q)
         self.target_tcp = np.asarray(tcp, float).copy()
         super().command(data, opening_m=opening_m)
-        mujoco.mj_forward(self.model, data)
+        if forward:
+            mujoco.mj_forward(self.model, data)
 
     def tcp_target(self, data: mujoco.MjData) -> np.ndarray:
         """The last commanded TCP (the current TCP before any command)."""

@@ -18,11 +18,13 @@ import numpy as np
 from aas_gym import has_display
 from aas_gym.canonical_settle import canonical_quat, run_after_settle, settle_placed
 from aas_gym.contacts import ContactStream
+from aas_gym import grasp as grasp_module
 from aas_gym.grasp import DEFAULT_GRIP_FORCE_N, Hand, planar_grasp, release
 from aas_gym.robots import DEFAULT_ROBOT, check_robot, robot_controller
 from aas_gym.contact_sensors import touch_sensor_name
 from aas_gym.envs.info import contacts_info
 from aas_gym.object_names import DEFAULT_OBJECT_NAMES
+from aas_gym import scenario
 from aas_gym.physics_memo import PhysicsMemo
 from aas_gym.scene import build_scene
 from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, place_objects, settle,
@@ -225,6 +227,10 @@ class AasEnv(AcousticEnvMixin, gym.Env):
     #: target and layout of the others instead of every reset.
     _settle_canonical = False
 
+    #: Settle each placement until its objects are at rest, at most the settle's duration
+    #: (``aas_gym.scenario.settle``): for scenes whose settle is not replayed.
+    _settle_until_rest = False
+
     #: The camera ``render`` uses unless ``camera_name`` says otherwise (``CAMERA_NAMES``).
     _default_camera = "closeup"
 
@@ -282,6 +288,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         self._variation = SensorVariation()
         self._stream: SimAcousticStream | None = None
         self._placement = None      # the canonical settle of this reset (AasEnv._grasp's first release)
+        self._at_rest = None        # the state a settle left at rest (AasEnv._grasp skips the first release)
         self._stream_corruption = None  # the stream's sensors.signals.CorruptedStream (acoustic.corruption)
         self._scenes: LRU[_Scene] = LRU(CACHE_SIZES["env.scenes"])
         self._renderer = None
@@ -423,12 +430,18 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         sc, m, d = self._scene, self._scene.model, self._scene.data
         mujoco.mj_resetData(m, d)
         sc.hand.set_grip_force(self.grip_force_n)
-        sc.hand.teleport(d, HOME_TCP, MAX_OPENING_M)
+        sc.hand.teleport(d, HOME_TCP, MAX_OPENING_M, forward=not grasp_module.LEAN_SCRIPT)  # a settle follows
         self._layout = place_objects(m, d, sc.objects, sc.free_joints, self.np_random, self.randomization,
                                      far_end_only=self._far_end_only)
-        self._placement = None
+        self._placement = self._at_rest = None
         if self._settle_canonical:
             self._placement = settle_placed(sc.memo, m, d, sc.free_joints, self._layout, settle_s, sc.canonical_quat)
+        elif self._settle_until_rest:      # aas_gym.scenario.SETTLE_UNTIL_REST; the key says which
+            rest = scenario.SETTLE_UNTIL_REST
+            steps = sc.memo.run(d, ("settle", settle_s, "until rest" if rest else "whole"),
+                                lambda: settle(m, d, settle_s, until_rest=True))
+            # at rest before the end: the first release (the hand far above) would only tremble them
+            self._at_rest = scenario.SceneState.of(m, d) if steps < scenario.settle_steps(m, settle_s) else None
         else:
             sc.memo.run(d, ("settle", settle_s), lambda: settle(m, d, settle_s))
 
@@ -467,7 +480,13 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         placement, self._placement = self._placement, None
         released = placement is not None and placement.is_current(self.model, self.data)
         if released:
-            run_after_settle(self._scene.memo, self.model, self.data, placement, ("release", 0.06), release_hand)
+            run_after_settle(self._scene.memo, self.model, self.data, placement, ("release", 0.06), release_hand,
+                             forward=False)   # the grasp reads its poses itself
+        # After a settle that stopped at rest (nothing ran since) the first release, the hand far
+        # above opening an open hand, would only tremble the objects: skipped.
+        at_rest, self._at_rest = self._at_rest, None
+        if not released and at_rest is not None and at_rest.is_current(self.model, self.data):
+            released = "at rest"
 
         def section():
             if not released:

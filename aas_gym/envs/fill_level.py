@@ -59,6 +59,8 @@ class FillLevelEnv(AasEnv):
     """
 
     _step_is_probe = True
+    #: Every fill is a new liquid mass, so no settle is replayed: each stops once at rest.
+    _settle_until_rest = True
     reset_options = ("object", "fill_fraction", "liquid_index")
     #: Grasp across the container, never a pinch of its wall.
     _min_grasp_width_m = 0.02
