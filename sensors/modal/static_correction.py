@@ -63,7 +63,7 @@ from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
 from .basis import check_points_m
 
-__all__ = ["GRAM_PRODUCTS", "MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
+__all__ = ["GRAM_PRODUCTS", "MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "SINGLE_ELASTIC_PROJECTION", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
            "RitzGeometry", "contact_flexibility", "nodal_at"]
 
 #: The most attachment vectors (constrained directions, up to 3 per contact) one contact set
@@ -81,6 +81,16 @@ REUSE_UNIT_LOADS = True
 #: and Psi is formed (n_dof x a) only when asked for; False: Psi formed explicitly (the
 #: reference).  Read at each call; the attachment-basis and spring-mode caches key on it.
 GRAM_PRODUCTS = True
+#: Whether a kept unit-load solve is made M-orthogonal to the kept elastic modes U in one pass
+#: once its rigid-body part is removed (twice) (True, fast), or R and U both twice as every
+#: other projection here (False, the reference).  The rigid part of (K + sigma M)^-1 e is about
+#: 1/sigma, ~1e3 times the result: removing it leaves rounding that a second, cheap (6 column)
+#: pass removes; the elastic part is of the result's own size (0.8-0.9 of it on the paper's
+#: objects), so one pass leaves it at rounding (|U^T M Y| 1e-15 of |Y|, 1e-18 with two; Y within
+#: 5e-14 of the reference).  It halves the reads of the n_dof x r mode matrices, which cost as
+#: much as the solve itself for a node or two at a time (24 of 55 ms per node at 22k dof and
+#: 102 modes).  Read when a node is solved: ``clear_all()`` after changing it.
+SINGLE_ELASTIC_PROJECTION = True
 
 
 @contextlib.contextmanager
@@ -160,6 +170,17 @@ class ContactFlexibility:
         for _ in range(2):                                           # twice: M-orthogonal to rounding
             X -= self.R @ (self.MR.T @ X)
             X -= self.U @ (self.MU.T @ X)
+        return X
+
+    def unit_load_projected(self, X: np.ndarray) -> np.ndarray:
+        """``X`` (unit-load solves) made M-orthogonal to the rigid-body and kept elastic modes
+        (in place): :meth:`_projected`, or with :data:`SINGLE_ELASTIC_PROJECTION` the rigid
+        part removed twice and the elastic part once."""
+        if not SINGLE_ELASTIC_PROJECTION:
+            return self._projected(X)
+        for _ in range(2):
+            X -= self.R @ (self.MR.T @ X)
+        X -= self.U @ (self.MU.T @ X)
         return X
 
     def geometry(self) -> "RitzGeometry":
@@ -294,12 +315,28 @@ class ContactFlexibility:
 
     def _basis(self, pts, dirs) -> "AttachmentBasis":
         if REUSE_UNIT_LOADS and GRAM_PRODUCTS and 0 < len(pts) <= MAX_ATTACHMENT_VECTORS:
-            p = check_points_m(pts)
-            tet, bary = self.model.locator.locate(p)
+            tet, bary = _located_once(self.model.locator, check_points_m(pts))
             comb = self._combination(shape_functions(bary, self.model.element), self.model.elements[tet], dirs)
             if comb is not None:
                 return self._implicit_basis(comb)
         return AttachmentBasis(*self._attachment(pts, dirs, None), self.M)
+
+
+def _located_once(locator, p: np.ndarray):
+    """``locator.locate(p)`` with each run of repeated rows located once: a spring's normal and
+    tangents share its point, so the located points are the springs' own, in their order, which
+    the spring modes' Ritz rows then find kept in the locator (one location per contact set, not
+    two).  A point's location does not depend on the batch it is in."""
+    if len(p) < 2:
+        return locator.locate(p)
+    new = np.empty(len(p), bool)
+    new[0] = True
+    np.any(p[1:] != p[:-1], axis=1, out=new[1:])
+    if new.all():
+        return locator.locate(p)
+    tet, bary = locator.locate(p[new])
+    run = np.cumsum(new) - 1
+    return tet[run], bary[run]
 
 
 class AttachmentBasis:
@@ -417,7 +454,7 @@ class UnitLoadStore:
             B = np.zeros((flex.n_dof, 3 * len(missing)), order="F")
             rows = (3 * np.asarray(missing)[:, None] + np.arange(3)).ravel()
             B[rows, np.arange(rows.size)] = 1.0
-            Y = flex._projected(np.asarray(flex.factor.solve(B)).reshape(flex.n_dof, -1))
+            Y = flex.unit_load_projected(np.asarray(flex.factor.solve(B)).reshape(flex.n_dof, -1))
             KU = Y.T @ flex.KU
             MY = flex.M @ Y
             # the free slots, lowest first (the LRU may have been emptied by clear_all)
