@@ -75,7 +75,7 @@ def test_spring_modes_with_either_projection_agree(bar, monkeypatch):
     clear_all()
 
 
-def test_a_contact_set_is_located_once_per_point(bar):
+def test_a_contact_set_islocated_once_per_point(bar):
     """Repeated runs of rows (a spring's three directions) located once give what locating
     every row gives, bit for bit, and the springs' own points are then kept in the locator."""
     clear_all()
@@ -85,13 +85,13 @@ def test_a_contact_set_is_located_once_per_point(bar):
     from sensors.mesh.locator import TetLocator
 
     fresh = TetLocator(bar.nodes_m, bar.elements)
-    tet, bary = static_correction._located_once(bar.locator, pts)
+    tet, bary = static_correction.located_once(bar.locator, pts)
     every_tet, every_bary = fresh.locate(pts)
     assert np.array_equal(tet, every_tet) and np.array_equal(bary, every_bary)
     hits = bar.locator._answers.hits
     bar.locator.locate(springs.copy())
     assert bar.locator._answers.hits == hits + 1
     # a single point and distinct points pass through unchanged
-    assert np.array_equal(static_correction._located_once(bar.locator, springs)[0], fresh.locate(springs)[0])
-    assert np.array_equal(static_correction._located_once(bar.locator, springs[:1])[0], fresh.locate(springs[:1])[0])
+    assert np.array_equal(static_correction.located_once(bar.locator, springs)[0], fresh.locate(springs)[0])
+    assert np.array_equal(static_correction.located_once(bar.locator, springs[:1])[0], fresh.locate(springs[:1])[0])
     del flex

@@ -64,7 +64,7 @@ from ..fem.eigen import rigid_body_modes
 from .basis import check_points_m
 
 __all__ = ["GRAM_PRODUCTS", "MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "SINGLE_ELASTIC_PROJECTION", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
-           "RitzGeometry", "contact_flexibility", "nodal_at"]
+           "RitzGeometry", "contact_flexibility", "located_once", "nodal_at"]
 
 #: The most attachment vectors (constrained directions, up to 3 per contact) one contact set
 #: may add: 20 contacts with normal and tangential springs.  Each costs one solve with the
@@ -313,14 +313,14 @@ class ContactFlexibility:
 
     def _basis(self, pts, dirs) -> "AttachmentBasis":
         if REUSE_UNIT_LOADS and GRAM_PRODUCTS and 0 < len(pts) <= MAX_ATTACHMENT_VECTORS:
-            tet, bary = _located_once(self.model.locator, check_points_m(pts))
+            tet, bary = located_once(self.model.locator, check_points_m(pts))
             comb = self._combination(shape_functions(bary, self.model.element), self.model.elements[tet], dirs)
             if comb is not None:
                 return self._implicit_basis(comb)
         return AttachmentBasis(*self._attachment(pts, dirs, None), self.M)
 
 
-def _located_once(locator, p: np.ndarray):
+def located_once(locator, p: np.ndarray):
     """``locator.locate(p)`` with each run of repeated rows located once: a spring's normal and
     tangents share its point, so the located points are the springs' own, in their order, which
     the spring modes' Ritz rows then find kept in the locator (one location per contact set, not
