@@ -63,8 +63,8 @@ from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
 from .basis import check_points_m
 
-__all__ = ["GRAM_PRODUCTS", "MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
-           "RitzGeometry", "contact_flexibility", "nodal_at"]
+__all__ = ["GRAM_PRODUCTS", "MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "SINGLE_ELASTIC_PROJECTION", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
+           "RitzGeometry", "contact_flexibility", "located_once", "nodal_at"]
 
 #: The most attachment vectors (constrained directions, up to 3 per contact) one contact set
 #: may add: 20 contacts with normal and tangential springs.  Each costs one solve with the
@@ -81,6 +81,16 @@ REUSE_UNIT_LOADS = True
 #: and Psi is formed (n_dof x a) only when asked for; False: Psi formed explicitly (the
 #: reference).  Read at each call; the attachment-basis and spring-mode caches key on it.
 GRAM_PRODUCTS = True
+#: Whether a kept unit-load solve is made M-orthogonal to the kept elastic modes U in one pass
+#: once its rigid-body part is removed (twice) (True, fast), or R and U both twice as every
+#: other projection here (False, the reference).  The rigid part of (K + sigma M)^-1 e is about
+#: 1/sigma, ~1e3 times the result: removing it leaves rounding that a second, cheap (6 column)
+#: pass removes; the elastic part is of the result's own size (0.8-0.9 of it on the paper's
+#: objects), so one pass leaves it at rounding (|U^T M Y| 1e-15 of |Y|, 1e-18 with two; Y within
+#: 5e-14 of the reference).  It halves the reads of the n_dof x r mode matrices, which cost as
+#: much as the solve itself for a node or two at a time (24 of 55 ms per node at 22k dof and
+#: 102 modes).  Read when a node is solved: ``clear_all()`` after changing it.
+SINGLE_ELASTIC_PROJECTION = True
 
 
 @contextlib.contextmanager
@@ -105,8 +115,6 @@ _DEPENDENT = 1e-10
 # zeros there; a contact point moved by a rigid motion lands ~1e-13 m off its face, a weight
 # of ~1e-11): the reused path leaves those nodes out (a load change below 1e-9 relative).
 _NEGLIGIBLE_WEIGHT = 1e-9
-# Lower nodes per block of the unit-load store's node-pair products (UnitLoadStore.products).
-_PRODUCT_BLOCK = 4
 
 _CACHE: LRU = LRU(CACHE_SIZES["modal.flexibility"])
 
@@ -160,6 +168,17 @@ class ContactFlexibility:
         for _ in range(2):                                           # twice: M-orthogonal to rounding
             X -= self.R @ (self.MR.T @ X)
             X -= self.U @ (self.MU.T @ X)
+        return X
+
+    def unit_load_projected(self, X: np.ndarray) -> np.ndarray:
+        """``X`` (unit-load solves) made M-orthogonal to the rigid-body and kept elastic modes
+        (in place): :meth:`_projected`, or with :data:`SINGLE_ELASTIC_PROJECTION` the rigid
+        part removed twice and the elastic part once."""
+        if not SINGLE_ELASTIC_PROJECTION:
+            return self._projected(X)
+        for _ in range(2):
+            X -= self.R @ (self.MR.T @ X)
+        X -= self.U @ (self.MU.T @ X)
         return X
 
     def geometry(self) -> "RitzGeometry":
@@ -294,12 +313,28 @@ class ContactFlexibility:
 
     def _basis(self, pts, dirs) -> "AttachmentBasis":
         if REUSE_UNIT_LOADS and GRAM_PRODUCTS and 0 < len(pts) <= MAX_ATTACHMENT_VECTORS:
-            p = check_points_m(pts)
-            tet, bary = self.model.locator.locate(p)
+            tet, bary = located_once(self.model.locator, check_points_m(pts))
             comb = self._combination(shape_functions(bary, self.model.element), self.model.elements[tet], dirs)
             if comb is not None:
                 return self._implicit_basis(comb)
         return AttachmentBasis(*self._attachment(pts, dirs, None), self.M)
+
+
+def located_once(locator, p: np.ndarray):
+    """``locator.locate(p)`` with each run of repeated rows located once: a spring's normal and
+    tangents share its point, so the located points are the springs' own, in their order, which
+    the spring modes' Ritz rows then find kept in the locator (one location per contact set, not
+    two).  A point's location does not depend on the batch it is in."""
+    if len(p) < 2:
+        return locator.locate(p)
+    new = np.empty(len(p), bool)
+    new[0] = True
+    np.any(p[1:] != p[:-1], axis=1, out=new[1:])
+    if new.all():
+        return locator.locate(p)
+    tet, bary = locator.locate(p[new])
+    run = np.cumsum(new) - 1
+    return tet[run], bary[run]
 
 
 class AttachmentBasis:
@@ -401,7 +436,6 @@ class UnitLoadStore:
         self.known = np.zeros((self.capacity, self.capacity), bool)    # slot pairs whose gram is made
         self.relief_gram = np.zeros((3 * self.capacity, 6))
         self.slot_node = np.full(self.capacity, -1)      # the node each slot holds (-1: none)
-        self._pad = np.zeros((flex.n_dof, 3 * _PRODUCT_BLOCK), order="F")
 
     def columns(self, nodes: np.ndarray) -> np.ndarray:
         """The store columns (3 per node, in order) of ``nodes`` (distinct, at most
@@ -417,7 +451,7 @@ class UnitLoadStore:
             B = np.zeros((flex.n_dof, 3 * len(missing)), order="F")
             rows = (3 * np.asarray(missing)[:, None] + np.arange(3)).ravel()
             B[rows, np.arange(rows.size)] = 1.0
-            Y = flex._projected(np.asarray(flex.factor.solve(B)).reshape(flex.n_dof, -1))
+            Y = flex.unit_load_projected(np.asarray(flex.factor.solve(B)).reshape(flex.n_dof, -1))
             KU = Y.T @ flex.KU
             MY = flex.M @ Y
             # the free slots, lowest first (the LRU may have been emptied by clear_all)
@@ -441,31 +475,25 @@ class UnitLoadStore:
     def products(self, columns_a: np.ndarray, columns_b: np.ndarray) -> np.ndarray:
         """``gram[columns_a, columns_b]`` (Y^T M Y between kept columns, from :meth:`columns`),
         making the node pairs not made yet.  Each pair is made one way (the lower node's Y
-        times the higher node's M Y) in a product of fixed shape (up to :data:`_PRODUCT_BLOCK`
-        lower nodes, zero-padded, against one higher node): BLAS sums it in the same order
-        whatever else the store holds, so results do not depend on history."""
+        times the higher node's M Y) in a product of one fixed shape, (3, n_dof) by (n_dof, 3)
+        on the two slots' own columns: BLAS sums it in the same order whatever else the store
+        holds, so results do not depend on history.  The slots' columns are contiguous (the
+        arrays are Fortran-ordered), so nothing is copied: a pair reads 6 columns, where
+        padded blocks of four lower nodes copied 12 columns per higher node (6.3 of 23 s of
+        ObjectRecognition-v0's first 300 probes went to those copies and products)."""
         sa, sb = np.unique(columns_a // 3), np.unique(columns_b // 3)
         need = ~self.known[np.ix_(sa, sb)]
         if need.any():
             node = self.slot_node
-            by_higher: dict = {}
+            Y, MY, gram, known = self.Y, self.MY, self.gram, self.known
             for i, j in zip(*np.nonzero(need)):
-                lo, hi = (sa[i], sb[j]) if node[sa[i]] <= node[sb[j]] else (sb[j], sa[i])
-                by_higher.setdefault(int(hi), set()).add(int(lo))
-            n = _PRODUCT_BLOCK
-            for hi, lows in by_higher.items():
-                lows = sorted(lows)
-                hcols = slice(3 * hi, 3 * hi + 3)
-                for g in range(0, len(lows), n):
-                    group = np.asarray(lows[g:g + n])
-                    cols = (3 * group[:, None] + np.arange(3)).ravel()
-                    Ylow = self._pad                                      # (n_dof, 3 n), zero past the group
-                    Ylow[:, :cols.size] = self.Y[:, cols]
-                    Ylow[:, cols.size:] = 0.0
-                    P = (Ylow.T @ self.MY[:, hcols])[:cols.size]         # Y_lo^T M Y_hi
-                    self.gram[cols, hcols] = P
-                    self.gram[hcols, cols] = P.T
-                    self.known[group, hi] = self.known[hi, group] = True
+                lo, hi = (int(sa[i]), int(sb[j])) if node[sa[i]] <= node[sb[j]] else (int(sb[j]), int(sa[i]))
+                if known[lo, hi]:                 # the same pair asked for both ways round
+                    continue
+                P = Y[:, 3 * lo:3 * lo + 3].T @ MY[:, 3 * hi:3 * hi + 3]       # Y_lo^T M Y_hi
+                gram[3 * lo:3 * lo + 3, 3 * hi:3 * hi + 3] = P
+                gram[3 * hi:3 * hi + 3, 3 * lo:3 * lo + 3] = P.T
+                known[lo, hi] = known[hi, lo] = True
         return self.gram[np.ix_(columns_a, columns_b)]
 
 
