@@ -260,12 +260,16 @@ def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol,
         def op(X, fact=fact, sigma=sigma):
             """(Z, K Z): Z = P (K - sigma M)^-1 X, P the M-orthogonal projection off the rigid-body
             modes. K Z = X + sigma M W - (K R) c with W the solve and c = (M R)^T W: one product
-            with M (a third of K's entries) instead of one with K."""
+            with M (a third of K's entries) instead of one with K, exact where the solve is
+            (``fact.exact_solves``); else the product with K."""
             info["solves"] += 1
             info["solved_vectors"] += X.shape[1]
             W = fact.solve(X)
             c = MR.T @ W
-            return W - R @ c, X + sigma * (M @ W) - KR @ c
+            Z = W - R @ c
+            if not fact.exact_solves:  # the derived K Z is off by the solve's residual
+                return Z, K @ Z
+            return Z, X + sigma * (M @ W) - KR @ c
 
         block = krylov_block(n_below)
         try:
