@@ -313,6 +313,25 @@ class EigenPart:
     def periodic_vector(self, v, P: int):
         return v / (1.0 - np.exp(self.lam * self.T * P))
 
+    def periodic_start(self, u_period: np.ndarray) -> np.ndarray:
+        """Coordinates at phase 0 of the periodic steady state under the piecewise-linear
+        force that repeats ``u_period``: ``periodic_vector(propagate(None, u + u[:1]), P)``,
+        the blocked sums taking the powers of a by products (``_powers``, rounding growing
+        like log2 of the block length) instead of one complex exponential per mode and
+        power, which cost more than the sums for a few dozen modes."""
+        u = np.asarray(u_period, dtype=float)
+        P = len(u)
+        Bk, M, X = _blocked_steps(np.concatenate([u, u[:1]]))
+        K = len(self.a)
+        q = _powers(self.a, Bk)[:, ::-1]                                        # (K, Bk): a^(B-1-j)
+        Q = np.empty((Bk, 2 * K))                                               # real, imaginary parts
+        Q[:, :K] = q.real.T
+        Q[:, K:] = q.imag.T
+        inner = (X.reshape(2 * M, Bk) @ Q).reshape(2, M, 2 * K)                 # one real product
+        outer = _powers(np.exp(self.lam * (self.T * Bk)), M)[:, ::-1].T        # (M, K): a^((M-1-m) B)
+        S = np.einsum("smk,mk->sk", inner[:, :, :K] + 1j * inner[:, :, K:], outer)
+        return self.periodic_vector(self.G0 * S[0] + self.G1 * S[1], P)
+
     # continuous time (band-limited inputs) ----------------------------------------------
     def frequency_response(self, omega: np.ndarray) -> np.ndarray:
         """Cout (j w - A)^-1 B + D at angular frequencies ``omega`` [rad/s], both members of a

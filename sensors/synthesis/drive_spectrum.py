@@ -1,0 +1,176 @@
+"""The fingertip drive's contact force under the looped excitation, for closed-form features.
+
+A recording from rest drives the object with the first-order-hold run of the fingertip drive's
+discrete system (``FingertipModel.discretised``) over the whole recording: its sampled
+periodic steady state (one period) plus its transient from rest, a sum of the drive's
+decaying modes (:class:`sensors.synthesis.window_spectra.Exponentials`).  A settled grasp is
+driven by the drive's periodic steady state as ``FingertipDrive.settle`` gives it (per
+harmonic with the band-limited drive).  :func:`drive_spectrum` gives both, and the lowest
+dynamic contact force either may reach (the separation check).
+
+Two evaluations of the run from rest, the same numbers to rounding:
+
+- the reference (``CLOSED_FORM_DRIVE = False``): ``SteadyState`` of the actuator and the
+  microphone side (period-aliased impulse responses, two FFTs each), the state at phase 0 by
+  ``DiscreteSystem.periodic_state`` and its modal coordinates by the inverse eigenvectors;
+- the closed form (True, the default): the drive has four complex modes; the state at phase 0
+  in modal coordinates, z0 = z[P] / (1 - a^P) with z[P] one period from rest
+  (``EigenPart.periodic_start``), and one compiled pass from z0 gives both sides' steady
+  periods at once; the
+  steady period's DFT at the feature bins, which the window spectra need, is the discrete
+  transfer function there, U_m (D + sum_k Re-pair of c_k (G0_k w + G1_k) / (1 - a_k w)),
+  instead of an FFT of the period.  About a third of the reference's cost per new
+  fingertip model (a randomized object mass); ``tests/test_closed_form_drive.py``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._infra.jit import jitted
+from .._infra.lru import CACHE_SIZES, LRU
+from .fingertip import FingertipModel
+from .lti import EigenPart, SteadyState
+from .window_spectra import Exponentials, bin_phasors, closed_form_supported, periodic_transient
+
+__all__ = ["CLOSED_FORM_DRIVE", "DriveSpectrum", "drive_spectrum", "exciter_period"]
+
+#: :func:`drive_spectrum` from rest: True evaluates the drive's steady period, its state at
+#: phase 0 and its spectrum at the feature bins in closed form (two compiled passes over one
+#: period), False through ``SteadyState`` and ``periodic_state`` (the reference; the same
+#: numbers to rounding, ``tests/test_closed_form_drive.py``).  Read at each call.
+CLOSED_FORM_DRIVE = True
+
+
+@dataclass(frozen=True)
+class DriveSpectrum:
+    """One fingertip model under the looped excitation: the contact force's steady ``period``
+    [N] and ``transient`` from rest, the lowest contact force either may reach (separation
+    check), and the period's DFT at the feature bins where known (``bin_spectrum``, else
+    ``None``: the window spectra transform the period)."""
+
+    period: np.ndarray
+    transient: Exponentials
+    lowest_dynamic_n: float          # min over the recording of both contacts' dynamic force (bound)
+    bin_spectrum: np.ndarray | None = None
+
+
+#: The exciter force period the drive runs under and its ``np.fft.rfft``, per (excitation,
+#: band-limited, actuator force): a new object mass (a randomized density) changes the drive's
+#: systems, never its input, so every new drive spectrum shares these (the same numbers).
+_EXCITER_PERIODS: LRU = LRU(CACHE_SIZES["synthesis.exciter_periods"])
+
+
+def exciter_period(stream, actuator_force_n: float, period: np.ndarray):
+    """``(force period [N], its rfft)`` of the exciter (read-only), kept per excitation."""
+    def build():
+        fe = actuator_force_n * period
+        spectrum = np.fft.rfft(fe)
+        fe.setflags(write=False)
+        spectrum.setflags(write=False)
+        return fe, spectrum
+
+    key = (stream.excitation, stream.drive.bandlimited, float(actuator_force_n))
+    return _EXCITER_PERIODS.get_or_build(key, build)
+
+
+def drive_spectrum(stream, tip: FingertipModel, from_rest: bool, bins: np.ndarray | None = None) -> DriveSpectrum | None:
+    """The drive's contact force as the time-domain chain computes it (``stream``: an
+    ``AcousticStream``, ``tip``: the grasp's fingertip model with grip force 0): settled, its
+    periodic steady state (``FingertipDrive.settle``); from rest, one first-order-hold run
+    over the whole recording (``FingertipDrive.forces``), i.e. the discrete system's periodic
+    steady state under the (prefiltered) exciter samples plus its transient from rest.
+    ``bins``: the feature bins whose spectrum to give (closed form only).  ``None`` where the
+    drive is not in complex modes (the time-domain chain then runs)."""
+    sy = stream.drive.systems(tip)
+    if not from_rest:
+        act, mic = sy.steady()
+        return DriveSpectrum(act.output, Exponentials.none(), float(min(act.output.min(), mic.output.min())))
+    if not (closed_form_supported(sy.drive.act) and closed_form_supported(sy.drive.mic)):
+        return None
+    fe, fe_spectrum = exciter_period(stream, tip.actuator_force_n, sy.period)
+    if CLOSED_FORM_DRIVE and len(sy.drive.act.parts) == 1 and len(sy.drive.mic.parts) == 1:
+        return _closed_form(sy.drive.act.parts[0], sy.drive.mic.parts[0], fe, fe_spectrum, bins)
+    act = SteadyState(sy.drive.act, fe, input_spectrum=fe_spectrum)       # sampled (FOH) steady states
+    mic = SteadyState(sy.drive.mic, fe, input_spectrum=fe_spectrum)
+    x0 = sy.drive.act.periodic_state(fe)
+    transient = periodic_transient(sy.drive.act, x0)
+    mic_tr = periodic_transient(sy.drive.mic, x0)
+    lowest = min(act.output.min() - transient.bound(), mic.output.min() - mic_tr.bound())
+    return DriveSpectrum(act.output, transient, float(lowest))
+
+
+def _closed_form(act: EigenPart, mic: EigenPart, fe: np.ndarray, fe_spectrum: np.ndarray,
+                 bins: np.ndarray | None) -> DriveSpectrum:
+    """The run from rest of one complex-mode part observed at two outputs (one state
+    equation: ``FingertipModel.discretised``), from two passes over the period."""
+    z0 = act.periodic_start(fe)                               # the steady state at phase 0
+    rows = np.stack([act.co, mic.co])
+    run = jitted(globals(), "_steady_outputs", cache=True)
+    out = run(act.a, act.G0, act.G1, z0, rows, np.array([act.D, mic.D]), np.ascontiguousarray(fe))
+    transient, mic_tr = (_transient(p, z0) for p in (act, mic))
+    lowest = min(out[0].min() - transient.bound(), out[1].min() - mic_tr.bound())
+    period = out[0]
+    period.setflags(write=False)
+    spectrum = None
+    if bins is not None:
+        m = np.asarray(bins, dtype=int)
+        w = bin_phasors(m, len(fe))
+        spectrum = fe_spectrum[m] * _transfer(act, w)
+    return DriveSpectrum(period, transient, float(lowest), spectrum)
+
+
+def _transient(part: EigenPart, z0: np.ndarray) -> Exponentials:
+    """The output transient from rest of a part whose periodic steady state passes phase 0 in
+    the coordinates ``z0`` (``periodic_transient`` without the change of coordinates)."""
+    c = -part.co * z0
+    s = part.lam * part.T
+    return Exponentials(np.concatenate([c / 2, np.conj(c) / 2]), np.concatenate([s, np.conj(s)]))
+
+
+def _transfer(part: EigenPart, w: np.ndarray) -> np.ndarray:
+    """The sampled (first-order-hold) transfer function of a complex-mode part at the DFT
+    phasors ``w``: an input period's DFT times this is its steady output period's."""
+    a, G0, G1, co = part.a[:, None], part.G0[:, None], part.G1[:, None], part.co[:, None]
+    at_w = co * (G0 * w + G1) / (1.0 - a * w)
+    wc = np.conj(w)
+    at_wc = co * (G0 * wc + G1) / (1.0 - a * wc)
+    return part.D + 0.5 * (at_w.sum(axis=0) + np.conj(at_wc.sum(axis=0)))
+
+
+# compiled by numba on first use (sensors._infra.jit)
+def _steady_outputs(a, G0, G1, z0, rows, D, u):
+    """The outputs y_r[n] = Re(rows_r . z[n]) + D_r u[n], n < P, (R, P) of a complex-mode
+    system z[n+1] = a z[n] + G0 u[n] + G1 u[n+1] started at ``z0`` under the P-periodic input
+    ``u``.  Each step waits for the last: two modes at a time in scalar registers keep that
+    wait short (an odd last mode is paired with itself, weight 0)."""
+    K = a.shape[0]
+    P = u.shape[0]
+    R = rows.shape[0]
+    out = np.empty((R, P))
+    for r in range(R):
+        for n in range(P):
+            out[r, n] = D[r] * u[n]
+    for k in range(0, K, 2):
+        j = k + 1 if k + 1 < K else k
+        weight_j = 1.0 if j != k else 0.0
+        ar, ai, br, bi = a[k].real, a[k].imag, a[j].real, a[j].imag
+        g0r, g0i, g1r, g1i = G0[k].real, G0[k].imag, G1[k].real, G1[k].imag
+        h0r, h0i, h1r, h1i = G0[j].real, G0[j].imag, G1[j].real, G1[j].imag
+        zr, zi, yr, yi = z0[k].real, z0[k].imag, z0[j].real, z0[j].imag
+        for n in range(P):
+            for r in range(R):
+                out[r, n] += (rows[r, k].real * zr - rows[r, k].imag * zi) + \
+                    weight_j * (rows[r, j].real * yr - rows[r, j].imag * yi)
+            u0 = u[n]
+            u1 = u[n + 1] if n + 1 < P else u[0]
+            # the input terms first: the chain from one step to the next is one product and two sums
+            t = (g0r * u0 + g1r * u1) + (ar * zr - ai * zi)
+            zi = (g0i * u0 + g1i * u1) + (ar * zi + ai * zr)
+            zr = t
+            t = (h0r * u0 + h1r * u1) + (br * yr - bi * yi)
+            yi = (h0i * u0 + h1i * u1) + (br * yi + bi * yr)
+            yr = t
+    return out
