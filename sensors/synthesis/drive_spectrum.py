@@ -13,10 +13,10 @@ Two evaluations of the run from rest, the same numbers to rounding:
 - the reference (``CLOSED_FORM_DRIVE = False``): ``SteadyState`` of the actuator and the
   microphone side (period-aliased impulse responses, two FFTs each), the state at phase 0 by
   ``DiscreteSystem.periodic_state`` and its modal coordinates by the inverse eigenvectors;
-- the closed form (True, the default): the drive has four complex modes; the state at phase 0
-  in modal coordinates, z0 = z[P] / (1 - a^P) with z[P] one period from rest
-  (``EigenPart.periodic_start``), and one compiled pass from z0 gives both sides' steady
-  periods at once; the
+- the closed form (True, the default): the drive in complex modes (``FingertipModel.modes``:
+  one lean eigen-solve of the 8 x 8 state matrix, four modes); one compiled pass
+  over the period from rest gives the state at phase 0 in modal coordinates,
+  z0 = z[P] / (1 - a^P), and a second from z0 both sides' steady periods at once; the
   steady period's DFT at the feature bins, which the window spectra need, is the discrete
   transfer function there, U_m (D + sum_k Re-pair of c_k (G0_k w + G1_k) / (1 - a_k w)),
   instead of an FFT of the period.  About a third of the reference's cost per new
@@ -88,11 +88,12 @@ def drive_spectrum(stream, tip: FingertipModel, from_rest: bool, bins: np.ndarra
     if not from_rest:
         act, mic = sy.steady()
         return DriveSpectrum(act.output, Exponentials.none(), float(min(act.output.min(), mic.output.min())))
+    fe, fe_spectrum = exciter_period(stream, tip.actuator_force_n, sy.period)
+    modes = tip.modes(stream.excitation.sample_rate_hz) if CLOSED_FORM_DRIVE else None
+    if modes is not None:
+        return _closed_form(*modes, fe, fe_spectrum, bins)
     if not (closed_form_supported(sy.drive.act) and closed_form_supported(sy.drive.mic)):
         return None
-    fe, fe_spectrum = exciter_period(stream, tip.actuator_force_n, sy.period)
-    if CLOSED_FORM_DRIVE and len(sy.drive.act.parts) == 1 and len(sy.drive.mic.parts) == 1:
-        return _closed_form(sy.drive.act.parts[0], sy.drive.mic.parts[0], fe, fe_spectrum, bins)
     act = SteadyState(sy.drive.act, fe, input_spectrum=fe_spectrum)       # sampled (FOH) steady states
     mic = SteadyState(sy.drive.mic, fe, input_spectrum=fe_spectrum)
     x0 = sy.drive.act.periodic_state(fe)
@@ -105,21 +106,20 @@ def drive_spectrum(stream, tip: FingertipModel, from_rest: bool, bins: np.ndarra
 def _closed_form(act: EigenPart, mic: EigenPart, fe: np.ndarray, fe_spectrum: np.ndarray,
                  bins: np.ndarray | None) -> DriveSpectrum:
     """The run from rest of one complex-mode part observed at two outputs (one state
-    equation: ``FingertipModel.discretised``), from two passes over the period."""
-    z0 = act.periodic_start(fe)                               # the steady state at phase 0
-    rows = np.stack([act.co, mic.co])
-    run = jitted(globals(), "_steady_outputs", cache=True)
-    out = run(act.a, act.G0, act.G1, z0, rows, np.array([act.D, mic.D]), np.ascontiguousarray(fe))
+    equation: ``FingertipModel.modes``): two compiled passes over the period."""
+    run = jitted(globals(), "_periodic_run", cache=True)
+    a_P = np.exp(act.lam * act.T * len(fe))                   # as EigenPart.periodic_vector
+    z0, act_period, mic_period = run(act.a, a_P, act.G0, act.G1, act.co, mic.co, act.D, mic.D,
+                                     np.ascontiguousarray(fe))
     transient, mic_tr = (_transient(p, z0) for p in (act, mic))
-    lowest = min(out[0].min() - transient.bound(), out[1].min() - mic_tr.bound())
-    period = out[0]
-    period.setflags(write=False)
+    lowest = min(act_period.min() - transient.bound(), mic_period.min() - mic_tr.bound())
+    act_period.setflags(write=False)
     spectrum = None
     if bins is not None:
         m = np.asarray(bins, dtype=int)
         w = bin_phasors(m, len(fe))
         spectrum = fe_spectrum[m] * _transfer(act, w)
-    return DriveSpectrum(period, transient, float(lowest), spectrum)
+    return DriveSpectrum(act_period, transient, float(lowest), spectrum)
 
 
 def _transient(part: EigenPart, z0: np.ndarray) -> Exponentials:
@@ -141,36 +141,55 @@ def _transfer(part: EigenPart, w: np.ndarray) -> np.ndarray:
 
 
 # compiled by numba on first use (sensors._infra.jit)
-def _steady_outputs(a, G0, G1, z0, rows, D, u):
-    """The outputs y_r[n] = Re(rows_r . z[n]) + D_r u[n], n < P, (R, P) of a complex-mode
-    system z[n+1] = a z[n] + G0 u[n] + G1 u[n+1] started at ``z0`` under the P-periodic input
-    ``u``.  Each step waits for the last: two modes at a time in scalar registers keep that
-    wait short (an odd last mode is paired with itself, weight 0)."""
+def _periodic_run(a, a_P, G0, G1, co_act, co_mic, D_act, D_mic, u):
+    """A complex-mode system z[n+1] = a z[n] + G0 u[n] + G1 u[n+1] under the P-periodic input
+    ``u``: the state at phase 0 of its periodic steady state, z0 = z[P] / (1 - a^P) with z[P]
+    one period from rest, and from there one period of both outputs y[n] = Re(co . z[n]) +
+    D u[n] (actuator and microphone side).  Each step waits for the last: two modes at a time,
+    everything in scalar registers, keep that wait short (an odd last mode is paired with
+    itself, weight 0)."""
     K = a.shape[0]
     P = u.shape[0]
-    R = rows.shape[0]
-    out = np.empty((R, P))
-    for r in range(R):
-        for n in range(P):
-            out[r, n] = D[r] * u[n]
+    ext = np.empty(P + 1)
+    ext[:P] = u
+    ext[P] = u[0]
+    z0 = np.zeros(K, dtype=np.complex128)
+    act = D_act * u
+    mic = D_mic * u
     for k in range(0, K, 2):
         j = k + 1 if k + 1 < K else k
-        weight_j = 1.0 if j != k else 0.0
+        wj = 1.0 if j != k else 0.0
         ar, ai, br, bi = a[k].real, a[k].imag, a[j].real, a[j].imag
         g0r, g0i, g1r, g1i = G0[k].real, G0[k].imag, G1[k].real, G1[k].imag
         h0r, h0i, h1r, h1i = G0[j].real, G0[j].imag, G1[j].real, G1[j].imag
-        zr, zi, yr, yi = z0[k].real, z0[k].imag, z0[j].real, z0[j].imag
-        for n in range(P):
-            for r in range(R):
-                out[r, n] += (rows[r, k].real * zr - rows[r, k].imag * zi) + \
-                    weight_j * (rows[r, j].real * yr - rows[r, j].imag * yi)
-            u0 = u[n]
-            u1 = u[n + 1] if n + 1 < P else u[0]
-            # the input terms first: the chain from one step to the next is one product and two sums
+        zr, zi, yr, yi = 0.0, 0.0, 0.0, 0.0
+        for n in range(P):                       # from rest over one period
+            u0 = ext[n]
+            u1 = ext[n + 1]
+            # the input terms first: one product and two sums from one step to the next
             t = (g0r * u0 + g1r * u1) + (ar * zr - ai * zi)
             zi = (g0i * u0 + g1i * u1) + (ar * zi + ai * zr)
             zr = t
             t = (h0r * u0 + h1r * u1) + (br * yr - bi * yi)
             yi = (h0i * u0 + h1i * u1) + (br * yi + bi * yr)
             yr = t
-    return out
+        zk = complex(zr, zi) / (1.0 - a_P[k])
+        zj = complex(yr, yi) / (1.0 - a_P[j])
+        z0[k] = zk
+        z0[j] = zj
+        c0r, c0i, c1r, c1i = co_act[k].real, co_act[k].imag, co_mic[k].real, co_mic[k].imag
+        d0r, d0i = wj * co_act[j].real, wj * co_act[j].imag
+        d1r, d1i = wj * co_mic[j].real, wj * co_mic[j].imag
+        zr, zi, yr, yi = zk.real, zk.imag, zj.real, zj.imag
+        for n in range(P):                       # the steady period from z0, with the outputs
+            act[n] += (c0r * zr - c0i * zi) + (d0r * yr - d0i * yi)
+            mic[n] += (c1r * zr - c1i * zi) + (d1r * yr - d1i * yi)
+            u0 = ext[n]
+            u1 = ext[n + 1]
+            t = (g0r * u0 + g1r * u1) + (ar * zr - ai * zi)
+            zi = (g0i * u0 + g1i * u1) + (ar * zi + ai * zr)
+            zr = t
+            t = (h0r * u0 + h1r * u1) + (br * yr - bi * yi)
+            yi = (h0i * u0 + h1i * u1) + (br * yi + bi * yr)
+            yr = t
+    return z0, act, mic

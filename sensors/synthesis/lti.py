@@ -52,13 +52,13 @@ import copy
 
 import numpy as np
 
-__all__ = ["DiscreteSystem", "EigenPart", "DensePart", "SteadyState", "SETTLE_E_FOLDS", "lti_system", "lti_parts",
+__all__ = ["DiscreteSystem", "EigenPart", "DensePart", "SteadyState", "SETTLE_E_FOLDS", "MAX_EIGVEC_COND", "lti_system", "lti_parts",
            "force_signal", "hold_gain", "bandlimited_samples", "one_blas_thread", "scipy_linalg",
            "DIRECT_CONVOLUTION_PRODUCTS"]
 
 _HOLDS = ("foh", "zoh")
-# cond(V) above this: the complex-mode sums lose more than ~1e-8 relative -> dense fallback.
-_MAX_EIGVEC_COND = 1e8
+#: cond(V) above this: the complex-mode sums lose more than ~1e-8 relative -> dense fallback.
+MAX_EIGVEC_COND = 1e8
 # Impulse responses are cut once every term is below this fraction of the terms' sum.
 _DECAY_TOL = 1e-17
 
@@ -707,7 +707,7 @@ def _lti_parts_one_thread(A, B, Cout, D, T, hold, passive=False):
     lu, piv = sla.lu_factor(V, check_finite=False)
     gecon = sla.get_lapack_funcs("gecon", (lu,))
     rcond, _ = gecon(lu, np.linalg.norm(V, 1), norm="1")
-    if not np.isfinite(rcond) or rcond * _MAX_EIGVEC_COND < 1.0:
+    if not np.isfinite(rcond) or rcond * MAX_EIGVEC_COND < 1.0:
         return [DensePart(idx, A, B, Cout, D, T, hold)]
     keep = lam.imag >= 0
     # only V^-1 B is needed for the response; the full inverse (state mapping) is lazy
