@@ -180,9 +180,11 @@ class FingertipModel:
         """The linear model in complex modes at ``sample_rate_hz`` (first-order hold), observed
         at the actuator and at the microphone contact: the parts of :meth:`discretised`'s two
         systems, from numpy's eigen-solve of the 8 x 8 state matrix and the input gains by one
-        solve (no condition estimate, BLAS thread limit or lazy inverse: a third of the cost;
-        the same numbers to rounding).  ``None`` where the eigenvectors are ill-conditioned
-        (:meth:`discretised` then takes its dense form)."""
+        solve (without ``lti_parts``' BLAS thread limit, LU factors kept for a lazy inverse
+        and scipy's checks: a third of the cost; the same numbers to rounding).  ``None``
+        where the eigenvectors are ill-conditioned (1-norm condition number above
+        ``MAX_EIGVEC_COND``: :meth:`discretised` then takes its dense form).  The parts map
+        no state back (no inverse): they serve periodic runs from rest."""
         A, B, C = self.state_space()
         lam, V = np.linalg.eig(A)
         V = V / np.linalg.norm(V, axis=0)
