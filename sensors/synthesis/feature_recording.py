@@ -9,7 +9,8 @@ the one of :func:`sensors.synthesis.recording.simulate_recording`, term by term:
   system over the whole recording (on the exciter samples, prefiltered by 1 / sinc^4 with the
   band-limited drive), i.e. that system's sampled periodic steady state (one period) plus its
   transient from rest, a sum of the drive's decaying modes; settled, the drive's periodic
-  steady state as ``FingertipDrive.settle`` gives it (per harmonic with the band-limited drive);
+  steady state as ``FingertipDrive.settle`` gives it (per harmonic with the band-limited drive)
+  (:mod:`sensors.synthesis.drive_spectrum`);
 - the object at the microphone: from rest, the modal system's window spectra under that force
   (steady state, particular solutions and each mode's onset); settled, its steady state per
   bin (the band-limited drive: per harmonic from the continuous-time transfer function, as
