@@ -19,8 +19,8 @@ Two evaluations of the run from rest, the same numbers to rounding:
   z0 = z[P] / (1 - a^P), and a second from z0 both sides' steady periods at once; the
   steady period's DFT at the feature bins, which the window spectra need, is the discrete
   transfer function there, U_m (D + sum_k Re-pair of c_k (G0_k w + G1_k) / (1 - a_k w)),
-  instead of an FFT of the period.  About a third of the reference's cost per new
-  fingertip model (a randomized object mass); ``tests/test_closed_form_drive.py``.
+  instead of an FFT of the period.  Per new fingertip model (a randomized object mass) about
+  1 ms against 2.6-2.8 ms on GraspPosition-v0's probes; ``tests/test_closed_form_drive.py``.
 """
 
 from __future__ import annotations
