@@ -9,7 +9,8 @@ the one of :func:`sensors.synthesis.recording.simulate_recording`, term by term:
   system over the whole recording (on the exciter samples, prefiltered by 1 / sinc^4 with the
   band-limited drive), i.e. that system's sampled periodic steady state (one period) plus its
   transient from rest, a sum of the drive's decaying modes; settled, the drive's periodic
-  steady state as ``FingertipDrive.settle`` gives it (per harmonic with the band-limited drive);
+  steady state as ``FingertipDrive.settle`` gives it (per harmonic with the band-limited drive)
+  (:mod:`sensors.synthesis.drive_spectrum`);
 - the object at the microphone: from rest, the modal system's window spectra under that force
   (steady state, particular solutions and each mode's onset); settled, its steady state per
   bin (the band-limited drive: per harmonic from the continuous-time transfer function, as
@@ -39,14 +40,13 @@ from ..signals.excitation import Excitation
 from ..signals.features import feature_frequencies_hz
 from ..signals.leak import LeakRecording
 from .caches import IdentityKey, SynthesisCache
+from . import drive_spectrum as _drive
 from .fingertip import FingertipModel
 from .grasp_state import GraspState
 from .microphone import mic_gain
 from .recording import simulate_recording
-from .lti import SteadyState
 from .stream import AcousticStream
-from .window_spectra import (Exponentials, bandlimited_steady_spectra, closed_form_supported, periodic_transient,
-                             window_spectra)
+from .window_spectra import bandlimited_steady_spectra, window_spectra
 
 __all__ = ["FeatureObservation", "simulate_features"]
 
@@ -89,57 +89,6 @@ def _feature_bins(excitation: Excitation) -> np.ndarray | None:
         return (np.round(bins).astype(int) if whole else None,)
 
     return _BINS.get_or_build((excitation.sample_rate_hz, excitation.period_s), build)[0]
-
-
-@dataclass(frozen=True)
-class _DriveSpectrum:
-    """One fingertip model under the looped excitation: the contact force's steady period and
-    transient from rest, and the lowest contact force either may reach (separation check)."""
-
-    period: np.ndarray
-    transient: Exponentials
-    lowest_dynamic_n: float          # min over the recording of both contacts' dynamic force (bound)
-
-
-#: The exciter force period the drive runs under and its ``np.fft.rfft``, per (excitation,
-#: band-limited, actuator force): a new object mass (a randomized density) changes the drive's
-#: systems, never its input, so every new drive spectrum shares these (the same numbers).
-_EXCITER_PERIODS: LRU = LRU(CACHE_SIZES["synthesis.exciter_periods"])
-
-
-def _exciter_period(stream: AcousticStream, actuator_force_n: float, period: np.ndarray):
-    """``(force period [N], its rfft)`` of the exciter (read-only), kept per excitation."""
-    def build():
-        fe = actuator_force_n * period
-        spectrum = np.fft.rfft(fe)
-        fe.setflags(write=False)
-        spectrum.setflags(write=False)
-        return fe, spectrum
-
-    key = (stream.excitation, stream.drive.bandlimited, float(actuator_force_n))
-    return _EXCITER_PERIODS.get_or_build(key, build)
-
-
-def _drive_spectrum(stream: AcousticStream, tip: FingertipModel, from_rest: bool) -> _DriveSpectrum | None:
-    """The drive's contact force as the time-domain chain computes it: settled, its periodic
-    steady state (``FingertipDrive.settle``; per harmonic with the band-limited drive); from
-    rest, one first-order-hold run over the whole recording (``FingertipDrive.forces``), i.e.
-    the discrete system's periodic steady state under the (prefiltered) exciter samples plus
-    its transient from rest, a sum of its modes."""
-    sy = stream.drive.systems(tip)
-    if not from_rest:
-        act, mic = sy.steady()
-        return _DriveSpectrum(act.output, Exponentials.none(), float(min(act.output.min(), mic.output.min())))
-    if not (closed_form_supported(sy.drive.act) and closed_form_supported(sy.drive.mic)):
-        return None
-    fe, fe_spectrum = _exciter_period(stream, tip.actuator_force_n, sy.period)
-    act = SteadyState(sy.drive.act, fe, input_spectrum=fe_spectrum)       # sampled (FOH) steady states
-    mic = SteadyState(sy.drive.mic, fe, input_spectrum=fe_spectrum)
-    x0 = sy.drive.act.periodic_state(fe)
-    transient = periodic_transient(sy.drive.act, x0)
-    mic_tr = periodic_transient(sy.drive.mic, x0)
-    lowest = min(act.output.min() - transient.bound(), mic.output.min() - mic_tr.bound())
-    return _DriveSpectrum(act.output, transient, float(lowest))
 
 
 def _window_amplitudes(spectra: np.ndarray, P: int) -> np.ndarray:
@@ -210,7 +159,7 @@ def _object_spectra(grasp: GraspState, excitation: Excitation, fingertip, output
     grasps = cache.window_spectra.get_or_build(IdentityKey(grasp.model),
                                                lambda: LRU(CACHE_SIZES["synthesis.grasp_spectra"]))
     key = (table.shape, table.tobytes(), fingertip, excitation, output, method, n_windows, bool(steady_state),
-           bins.tobytes(), contact_model, bandlimited)
+           bins.tobytes(), contact_model, bandlimited, bool(_drive.CLOSED_FORM_DRIVE))
     grip = grasp.actuator.force_n
     hit = grasps.get(key)
     if hit is None:
@@ -230,12 +179,14 @@ def _build_spectra(grasp, excitation, fingertip, output, method, steady_state, c
     stream = AcousticStream(excitation, fingertip, output=output, method=method, cache=cache, carry_state=False,
                             contact_model=contact_model, bandlimited=bandlimited)
     system, tip = stream.grasp_systems(grasp)
-    drive = cache.drive_spectra.get_or_build((tip, excitation, bool(steady_state), bandlimited),
-                                             lambda: _drive_spectrum(stream, tip, not steady_state))
+    closed_form_drive = bool(_drive.CLOSED_FORM_DRIVE)
+    drive = cache.drive_spectra.get_or_build((tip, excitation, bool(steady_state), bandlimited, closed_form_drive),
+                                             lambda: _drive.drive_spectrum(stream, tip, not steady_state, bins))
     if drive is None:
         return None, None, tip
     if steady_state and bandlimited:          # the settled chain's steady state is per harmonic
         spectra = bandlimited_steady_spectra(system, drive.period, bins, n_windows)
     else:
-        spectra = window_spectra(system, drive.period, drive.transient, bins, n_windows, from_rest=not steady_state)
+        spectra = window_spectra(system, drive.period, drive.transient, bins, n_windows, from_rest=not steady_state,
+                                 input_spectrum=drive.bin_spectrum)
     return spectra, drive, tip

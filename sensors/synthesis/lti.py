@@ -52,13 +52,13 @@ import copy
 
 import numpy as np
 
-__all__ = ["DiscreteSystem", "EigenPart", "DensePart", "SteadyState", "SETTLE_E_FOLDS", "lti_system", "lti_parts",
+__all__ = ["DiscreteSystem", "EigenPart", "DensePart", "SteadyState", "SETTLE_E_FOLDS", "MAX_EIGVEC_COND", "lti_system", "lti_parts",
            "force_signal", "hold_gain", "bandlimited_samples", "one_blas_thread", "scipy_linalg",
            "DIRECT_CONVOLUTION_PRODUCTS"]
 
 _HOLDS = ("foh", "zoh")
-# cond(V) above this: the complex-mode sums lose more than ~1e-8 relative -> dense fallback.
-_MAX_EIGVEC_COND = 1e8
+#: cond(V) above this: the complex-mode sums lose more than ~1e-8 relative -> dense fallback.
+MAX_EIGVEC_COND = 1e8
 # Impulse responses are cut once every term is below this fraction of the terms' sum.
 _DECAY_TOL = 1e-17
 
@@ -312,6 +312,25 @@ class EigenPart:
 
     def periodic_vector(self, v, P: int):
         return v / (1.0 - np.exp(self.lam * self.T * P))
+
+    def periodic_start(self, u_period: np.ndarray) -> np.ndarray:
+        """Coordinates at phase 0 of the periodic steady state under the piecewise-linear
+        force that repeats ``u_period``: ``periodic_vector(propagate(None, u + u[:1]), P)``,
+        the blocked sums taking the powers of a by products (``_powers``, rounding growing
+        like log2 of the block length) instead of one complex exponential per mode and
+        power, which cost more than the sums for a few dozen modes."""
+        u = np.asarray(u_period, dtype=float)
+        P = len(u)
+        Bk, M, X = _blocked_steps(np.concatenate([u, u[:1]]))
+        K = len(self.a)
+        q = _powers(self.a, Bk)[:, ::-1]                                        # (K, Bk): a^(B-1-j)
+        Q = np.empty((Bk, 2 * K))                                               # real, imaginary parts
+        Q[:, :K] = q.real.T
+        Q[:, K:] = q.imag.T
+        inner = (X.reshape(2 * M, Bk) @ Q).reshape(2, M, 2 * K)                 # one real product
+        outer = _powers(np.exp(self.lam * (self.T * Bk)), M)[:, ::-1].T        # (M, K): a^((M-1-m) B)
+        S = np.einsum("smk,mk->sk", inner[:, :, :K] + 1j * inner[:, :, K:], outer)
+        return self.periodic_vector(self.G0 * S[0] + self.G1 * S[1], P)
 
     # continuous time (band-limited inputs) ----------------------------------------------
     def frequency_response(self, omega: np.ndarray) -> np.ndarray:
@@ -688,7 +707,7 @@ def _lti_parts_one_thread(A, B, Cout, D, T, hold, passive=False):
     lu, piv = sla.lu_factor(V, check_finite=False)
     gecon = sla.get_lapack_funcs("gecon", (lu,))
     rcond, _ = gecon(lu, np.linalg.norm(V, 1), norm="1")
-    if not np.isfinite(rcond) or rcond * _MAX_EIGVEC_COND < 1.0:
+    if not np.isfinite(rcond) or rcond * MAX_EIGVEC_COND < 1.0:
         return [DensePart(idx, A, B, Cout, D, T, hold)]
     keep = lam.imag >= 0
     # only V^-1 B is needed for the response; the full inverse (state mapping) is lazy

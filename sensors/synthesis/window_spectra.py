@@ -18,6 +18,11 @@ exponential r^n contributes r^(kP) (1 - r^P) / (1 - r w).  Nothing here depends 
 system was built (poles, input and output vectors of each part only): any modal system of
 ``ModalSystem.build`` made of complex-mode parts qualifies (:func:`closed_form_supported`).
 
+Evaluated per part with the output row first (``FACTORED_WINDOWS``): every term of a mode's
+window spectrum at a bin is a coefficient over (1 - a w) (the steady state's (G0 w + G1) U_ss,
+the decay's -start r^(kP) (1 - r^P), r = a), so the output's is one product of the
+coefficient rows with the reciprocals 1 / (1 - a w), and likewise at conj(w).
+
 A system settled under the band-limited signal of its input samples (``SteadyState(...,
 bandlimited=True)``) has the steady state of each harmonic from the continuous-time transfer
 function instead: :func:`bandlimited_steady_spectra`.
@@ -32,6 +37,12 @@ import numpy as np
 from .lti import DiscreteSystem, EigenPart, hold_gain
 
 __all__ = ["Exponentials", "bandlimited_steady_spectra", "bin_phasors", "closed_form_supported", "periodic_transient", "window_spectra"]
+
+#: :func:`window_spectra`: True takes each part's output row first (one reciprocal per mode and
+#: bin, one product per window), False sums each mode's coordinate spectra per window and then
+#: the output (the reference; the same sums to rounding, ``tests/test_closed_form_drive.py``).
+#: Read at each call.
+FACTORED_WINDOWS = True
 
 # |1 - a w| or |e^s - a| below this: a pole sits on a bin or two poles coincide; the closed
 # form would divide by (nearly) zero, and the caller takes the time-domain chain instead.
@@ -105,25 +116,36 @@ def _window_geometric(log_pole: np.ndarray, w: np.ndarray, k: int, P: int) -> np
 
 
 def window_spectra(system: DiscreteSystem, input_period: np.ndarray, input_transient: Exponentials,
-                   bins: np.ndarray, n_windows: int, from_rest: bool = True) -> np.ndarray | None:
+                   bins: np.ndarray, n_windows: int, from_rest: bool = True,
+                   input_spectrum: np.ndarray | None = None) -> np.ndarray | None:
     """The DFT of the output over windows k = 0 .. n_windows - 1 at ``bins`` (complex,
     ``(n_windows, len(bins))``, unscaled: sum over the window of y[n] w^(n - kP)).
 
     The input is ``input_period`` (P samples, repeated) plus ``input_transient``; the system
     starts from rest (``from_rest``) or in its periodic steady state (then the transient must
     be empty).  ``None`` where the closed form does not apply (a dense part, a pole on a bin,
-    a system pole on a transient pole): use the time-domain chain.
+    a system pole on a transient pole): use the time-domain chain.  ``input_spectrum``: the
+    input period's DFT at ``bins`` if the caller has it (else ``np.fft.rfft`` of the period).
+    ``FACTORED_WINDOWS`` selects the evaluation (module docstring).
     """
     if not closed_form_supported(system):
         return None
     u = np.asarray(input_period, dtype=float)
     P = len(u)
     w = bin_phasors(bins, P)
-    wc = np.conj(w)
-    spec = np.fft.rfft(u)[np.asarray(bins, dtype=int)]          # U_ss(w); U_ss(conj w) = conj
-    gam, sl = input_transient.gain, input_transient.log_pole
+    spec = np.fft.rfft(u)[np.asarray(bins, dtype=int)] if input_spectrum is None else input_spectrum  # U_ss(w)
+    gam = input_transient.gain
     if not from_rest and gam.size:
         raise ValueError("a system in periodic steady state has an input without transient")
+    evaluate = _factored if FACTORED_WINDOWS else _per_window
+    return evaluate(system, u, input_transient, w, spec, n_windows, from_rest)
+
+
+def _per_window(system, u, input_transient, w, spec, n_windows, from_rest):
+    """The reference: each mode's coordinate spectra per window, then the output row."""
+    P = len(u)
+    wc = np.conj(w)
+    gam, sl = input_transient.gain, input_transient.log_pole
     out = np.zeros((n_windows, len(w)), complex)
     geo_in = [(_window_geometric(sl, w, k, P), _window_geometric(sl, wc, k, P)) for k in range(n_windows)]
     D_total = 0.0
@@ -158,4 +180,57 @@ def window_spectra(system: DiscreteSystem, input_period: np.ndarray, input_trans
     if D_total != 0.0:
         for k in range(n_windows):
             out[k] += D_total * (spec + (gam @ geo_in[k][0] if gam.size else 0.0))
+    return out
+
+
+def _factored(system, u, input_transient, w, spec, n_windows, from_rest):
+    """The same sums with the output row taken first: every term of a part's coordinate
+    spectra at a bin is a mode's coefficient over (1 - a w), so one reciprocal per mode and
+    bin (and per conjugate bin) and one matrix product per window replace the per-window
+    mode-by-bin temporaries."""
+    P = len(u)
+    wc = np.conj(w)
+    gam, sl = input_transient.gain, input_transient.log_pole
+    W = int(n_windows)
+    out = np.zeros((W, len(w)), complex)
+    if gam.size:
+        geo_in = np.stack([_window_geometric(sl, w, k, P) for k in range(W)])         # (W, L, M)
+        geo_inc = np.stack([_window_geometric(sl, wc, k, P) for k in range(W)])
+    D_total = 0.0
+    for p in system.parts:
+        a, co = p.a, p.co
+        den, denc = 1.0 - a[:, None] * w[None, :], 1.0 - a[:, None] * wc[None, :]
+        if min(np.abs(den).min(initial=np.inf), np.abs(denc).min(initial=np.inf)) < _MIN_DENOMINATOR:
+            return None
+        inv, invc = 1.0 / den, 1.0 / denc                                    # (K, M)
+        rows = [co * p.G0, co * p.G1]
+        if from_rest:
+            z0 = p.periodic_start(u)                                         # steady state at phase 0
+            start = z0                                                # the mode's own decay
+            if gam.size:
+                gap = np.exp(sl)[None, :] - a[:, None]                       # (K, L)
+                if np.abs(gap).min() < _MIN_DENOMINATOR:
+                    return None
+                Kc = gam[None, :] * (p.G0[:, None] + p.G1[:, None] * np.exp(sl)[None, :]) / gap
+                start = start + Kc.sum(axis=1)
+            log_a = p.lam * p.T
+            decay = -np.expm1(log_a * P)
+            rows += [co * start * (np.exp(log_a * (k * P)) * decay) for k in range(W)]
+        rows = np.stack(rows)
+        R, Rc = rows @ inv, rows @ invc                                      # (2 + W, M)
+        steady = spec * (w * R[0] + R[1])                                    # co . z_ss at w
+        steady_c = np.conj(spec) * (wc * Rc[0] + Rc[1])                      # ... at conj(w)
+        if not from_rest:
+            out += 0.5 * (steady + np.conj(steady_c))
+        else:
+            forced = (co @ Kc) if gam.size else None                         # particular solutions
+            for k in range(W):
+                Z, Zc = steady - R[2 + k], steady_c - Rc[2 + k]
+                if forced is not None:
+                    Z, Zc = Z + forced @ geo_in[k], Zc + forced @ geo_inc[k]
+                out[k] += 0.5 * (Z + np.conj(Zc))
+        D_total += p.D
+    if D_total != 0.0:
+        for k in range(W):
+            out[k] += D_total * (spec + (gam @ geo_in[k] if gam.size else 0.0))
     return out
