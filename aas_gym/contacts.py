@@ -291,7 +291,9 @@ class ContactStream:
             return 0.0, 0.0
         adr = con.efc_address[:n]
         efc = data.efc_force
-        return _pad_sum(efc, adr[code == 1]), _pad_sum(efc, adr[code == 2])
+        # summed as np.sum does (np.add.reduce without its Python wrapper)
+        return (float(np.add.reduce(_normal_row_forces(efc, adr[code == 1]), axis=None)),
+                float(np.add.reduce(_normal_row_forces(efc, adr[code == 2]), axis=None)))
 
     def _normal_forces(self, data: mujoco.MjData, body: str) -> tuple[np.ndarray, np.ndarray]:
         """Elliptic cones: the normal force [N] (the solver's normal row, clipped at 0) of each
@@ -304,11 +306,7 @@ class ContactStream:
         # Per-geom tables (is it body i's; the kind its body is to the sensed objects): two
         # lookups per contact instead of four, about half the per-step cost.
         rows, sides = self._geom_of_body[self.bodies.index(body)][geom].nonzero()
-        adr = con.efc_address[:n][rows]
-        fn = data.efc_force[adr]
-        fn[adr < 0] = 0.0                                                     # -1: no rows, no force
-        np.maximum(fn, 0.0, out=fn)
-        return fn, self._kind_of_geom[geom[rows, 1 - sides]]
+        return _normal_row_forces(data.efc_force, con.efc_address[:n][rows]), self._kind_of_geom[geom[rows, 1 - sides]]
 
     def _contact_forces(self, data, con, n: int, rows: np.ndarray) -> np.ndarray:
         """Normal and two tangential force components (contact frame, acting on geom[1])."""
@@ -337,13 +335,13 @@ class ContactStream:
         return ObjectContacts(name, z3, z3.copy(), z, z3.copy(), z.copy(), z.copy(), np.zeros(0, dtype="<U11"), e, e)
 
 
-def _pad_sum(efc_force: np.ndarray, adr: np.ndarray) -> float:
-    """The normal rows' forces at ``adr`` clipped at 0 (-1: no rows, no force), summed as
-    ``np.sum`` does (``np.add.reduce`` without its Python wrapper)."""
+def _normal_row_forces(efc_force: np.ndarray, adr: np.ndarray) -> np.ndarray:
+    """Elliptic cones: the normal rows' forces [N] at the contacts' ``efc_address`` values
+    ``adr``, clipped at 0 (-1: a contact without rows carries no force)."""
     fn = efc_force[adr]
     fn[adr < 0] = 0.0
     np.maximum(fn, 0.0, out=fn)
-    return float(np.add.reduce(fn, axis=None))
+    return fn
 
 
 def _body_id(model: mujoco.MjModel, name: str) -> int:
