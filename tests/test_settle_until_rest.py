@@ -21,24 +21,15 @@ import pytest
 import aas_gym  # noqa: F401  (registers the envs)
 from aas_gym import scenario
 from aas_gym.envs import base
+from grasp_snapshot import grasped_state
 from sensors.task import HOME_TCP, MAX_OPENING_M
 
 SEEDS = range(7)
 
 
 def _grasped(u, seed):
-    """Reset (FillLevel-v0 grasps in it): poses, the target's contacts, fingertip forces,
-    closed-form features."""
-    _, info = u.reset(seed=seed)
-    sc, d = u._scene, u.data
-    c = sc.stream.read(d)[sc.bodies[0]]
-    features = u.sensor.sense(u.excitation, u.duration_s, variation=u._variation, rng=np.random.default_rng(0),
-                              waveform=False).features()
-    return {"objects": np.concatenate([d.qpos[a:a + 7] for a, _ in sc.free_joints]),
-            "hand": np.concatenate([d.qpos[sc.hand.tcp_qpos], d.qpos[sc.hand.finger_qpos]]),
-            "points": c.positions_m, "kinds": c.kinds.tolist(),
-            "forces": np.array([c.total_normal_force_n("actuator"), c.total_normal_force_n("mic")]),
-            "features": features, "success": info["grasp_success"], "fill": info["fill_fraction"]}
+    """Reset (FillLevel-v0 grasps in it) and what it left grasped, with the fill."""
+    return grasped_state(u, seed, ("fill_fraction",))
 
 
 def _feature_error(a, b) -> float:
@@ -69,7 +60,7 @@ def test_the_settle_stops_at_rest_within_the_whole_settles_own_sensitivity(monke
         b = _grasped(reference, seed)
         monkeypatch.setattr(base, "settle", settled_longer)
         c = _grasped(longer, seed)
-        assert a["fill"] == b["fill"] and a["success"] and b["success"]
+        assert a["fill_fraction"] == b["fill_fraction"] and a["success"] and b["success"]
         for key in ("objects", "hand"):
             np.testing.assert_allclose(a[key], b[key], rtol=0, atol=1e-9)
         assert a["kinds"] == b["kinds"]
