@@ -163,23 +163,20 @@ class ContactFlexibility:
         self.unit_loads = UnitLoadStore(self)
         self._bases: LRU = LRU(CACHE_SIZES["modal.attachment_bases"])
 
-    def _projected(self, X: np.ndarray) -> np.ndarray:
-        """``X`` made M-orthogonal to the rigid-body and kept elastic modes (in place)."""
-        for _ in range(2):                                           # twice: M-orthogonal to rounding
+    def _projected(self, X: np.ndarray, elastic_passes: int = 2) -> np.ndarray:
+        """``X`` made M-orthogonal to the rigid-body and kept elastic modes (in place): each
+        removed twice (M-orthogonal to rounding), or with ``elastic_passes=1`` the elastic
+        modes once, after the rigid-body modes' two passes."""
+        for i in range(2):
             X -= self.R @ (self.MR.T @ X)
-            X -= self.U @ (self.MU.T @ X)
+            if elastic_passes == 2 or i == 1:
+                X -= self.U @ (self.MU.T @ X)
         return X
 
     def unit_load_projected(self, X: np.ndarray) -> np.ndarray:
-        """``X`` (unit-load solves) made M-orthogonal to the rigid-body and kept elastic modes
-        (in place): :meth:`_projected`, or with :data:`SINGLE_ELASTIC_PROJECTION` the rigid
-        part removed twice and the elastic part once."""
-        if not SINGLE_ELASTIC_PROJECTION:
-            return self._projected(X)
-        for _ in range(2):
-            X -= self.R @ (self.MR.T @ X)
-        X -= self.U @ (self.MU.T @ X)
-        return X
+        """``X`` (unit-load solves) projected as :meth:`_projected` does, with one elastic pass
+        under :data:`SINGLE_ELASTIC_PROJECTION`."""
+        return self._projected(X, 1 if SINGLE_ELASTIC_PROJECTION else 2)
 
     def geometry(self) -> "RitzGeometry":
         """What the coupled modes keep of this (the mesh model, rigid-body modes and M): not
