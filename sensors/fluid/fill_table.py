@@ -183,12 +183,12 @@ class FillTable:
     """
 
     def __init__(self, liquid, segments: list[_Segment], element_height_m: float, depth_m: float,
-                 grid_error: float, film: _Segment | None = None):
+                 grid_error: float, film: _Segment):
         self.liquid = liquid
         #: The segments by layer count (2, 3, ...), from ``FIRST_HEIGHT_FRACTION`` of an element height up.
         self.segments = segments
         #: The films below the first segment, down to ``FILM_HEIGHT_FRACTION`` of an element height
-        #: (None: a table of older code, whose films take the exact solve).
+        #: (a table's cache key hashes this code: no table without one loads).
         self.film = film
         #: The cavity's depth [m] (the highest fill).
         self.depth_m = float(depth_m)
@@ -199,8 +199,8 @@ class FillTable:
 
     @property
     def all_segments(self) -> list[_Segment]:
-        """The film segment (if any) and the layer segments, from the lowest heights up."""
-        return ([] if self.film is None else [self.film]) + list(self.segments)
+        """The film segment and the layer segments, from the lowest heights up."""
+        return [self.film, *self.segments]
 
     @property
     def min_height_m(self) -> float:
@@ -224,7 +224,7 @@ class FillTable:
         return [(float(s.heights_m[0]), float(s.heights_m[-1])) for s in self.all_segments if len(s.ma) == 0]
 
     def _segment(self, height_m: float) -> _Segment:
-        if self.film is not None and height_m < self.segments[0].heights_m[0]:
+        if height_m < self.segments[0].heights_m[0]:
             return self.film
         k = max(2, math.ceil(height_m / self.element_height_m - 1e-9))
         return self.segments[min(k - 2, len(self.segments) - 1)]
@@ -428,7 +428,6 @@ def fill_table(container, liquid, *, max_solves: int = MAX_TABLE_SOLVES, progres
         while f"s{i}_heights_m" in hit:
             segments.append(segment(f"s{i}_"))
             i += 1
-        film = segment("film_") if "film_heights_m" in hit else None
-        return FillTable(liquid, segments, h_el, container.cavity.depth_m, float(hit["grid_error"]), film)
+        return FillTable(liquid, segments, h_el, container.cavity.depth_m, float(hit["grid_error"]), segment("film_"))
 
     return container.fill_tables.get_or_build((liquid.density_kg_m3, liquid.speed_of_sound_m_per_s), load)
