@@ -142,13 +142,14 @@ def test_pardiso_is_the_same_bit_for_bit_whatever_mkl_threads_say():
     A = (K - (2 * math.pi * 11000.0) ** 2 * M).tocsr()
     B = np.random.default_rng(2).standard_normal((A.shape[0], 3))
     lib = mkl_library()
+    previous = lib.MKL_Get_Max_Threads()
     solutions = []
     try:
         for threads in (1, 2, 1):
             lib.MKL_Set_Num_Threads(threads)
             solutions.append(factorize(A, "pardiso").solve(B))
     finally:
-        lib.MKL_Set_Num_Threads(1)
+        lib.MKL_Set_Num_Threads(previous)   # the worker's own setting for the tests after this one
     assert np.array_equal(solutions[0], solutions[1]) and np.array_equal(solutions[0], solutions[2])
     np.testing.assert_allclose(A @ solutions[0], B, atol=1e-9 * np.abs(B).max())
 
