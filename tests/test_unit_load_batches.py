@@ -3,8 +3,8 @@
 ``UnitLoadStore.columns`` solves the missing nodes of a contact set in one call, so how many
 nodes a call solves depends on what the store already held.  MKL's PARDISO takes another
 path for 3 right-hand sides (one node) than for 4 or more, and BLAS another for a projection
-of 1-2 nodes than of 3 or more: both round differently (1e-19 of a 1e-3 solve measured on the
-paper's aluminium tube).  A probe's features would then depend on the probes before it, and a
+of 1-2 nodes than of 3 or more: both round differently (a kept solve 1.5e-12 apart, measured
+on the paper's aluminium tube).  A probe's features would then depend on the probes before it, and a
 dataset shard on what ran before in its process.  The store pads every call to a width where
 each column's result is that column's alone (``static_correction.MIN_SOLVE_COLUMNS``, ``MIN_PROJECTED_COLUMNS``).
 

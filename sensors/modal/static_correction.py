@@ -95,10 +95,12 @@ SINGLE_ELASTIC_PROJECTION = True
 #: columns pad a call for fewer nodes).  A node's solve must be the same bytes whichever call
 #: solved it (how many nodes a call solves depends on what the store held), and narrow calls
 #: round otherwise: MKL's PARDISO solves 3 right-hand sides (one node) on another path than 4
-#: or more, and the projection's BLAS products of 3-6 columns differ from 9 or more (rounding:
-#: 1e-16 of the solve).  From these widths on, each column's bytes are its own whatever its
+#: or more (2e-15 of the solve), and the projection's BLAS products of 3-6 columns differ from
+#: 9 or more; after the projection (whose rigid part cancels ~1e3 times the result) a kept
+#: solve differed by 1.5e-12 (aluminium tube).  From these widths on, each column's bytes are its own whatever its
 #: neighbours (measured to 192 solve and 48 projected columns; ``tests/test_unit_load_batches.py``).
-#: The padding costs a one-node call one more solve column (~1.4x its solve, aluminium tube).
+#: The padding costs a one-node call one more solve column: 1.22x its solve (16.1 -> 19.7 ms,
+#: aluminium tube, 22k dof), 1.08x on the wood bar.
 MIN_SOLVE_COLUMNS = 4
 MIN_PROJECTED_COLUMNS = 9
 
