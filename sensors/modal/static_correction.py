@@ -63,7 +63,7 @@ from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
 from .basis import check_points_m
 
-__all__ = ["GRAM_PRODUCTS", "MAX_ATTACHMENT_VECTORS", "REUSE_UNIT_LOADS", "SINGLE_ELASTIC_PROJECTION", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
+__all__ = ["GRAM_PRODUCTS", "MAX_ATTACHMENT_VECTORS", "MIN_PROJECTED_COLUMNS", "MIN_SOLVE_COLUMNS", "REUSE_UNIT_LOADS", "SINGLE_ELASTIC_PROJECTION", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
            "RitzGeometry", "contact_flexibility", "located_once", "nodal_at"]
 
 #: The most attachment vectors (constrained directions, up to 3 per contact) one contact set
@@ -91,6 +91,18 @@ GRAM_PRODUCTS = True
 #: much as the solve itself for a node or two at a time (24 of 55 ms per node at 22k dof and
 #: 102 modes).  Read when a node is solved: ``clear_all()`` after changing it.
 SINGLE_ELASTIC_PROJECTION = True
+#: The fewest columns a call of :meth:`UnitLoadStore.columns` solves, and projects (zero
+#: columns pad a call for fewer nodes).  A node's solve must be the same bytes whichever call
+#: solved it (how many nodes a call solves depends on what the store held), and narrow calls
+#: round otherwise: MKL's PARDISO solves 3 right-hand sides (one node) on another path than 4
+#: or more (2e-15 of the solve), and the projection's BLAS products of 3-6 columns differ from
+#: 9 or more; after the projection (whose rigid part cancels ~1e3 times the result) a kept
+#: solve differed by 1.5e-12 (aluminium tube).  From these widths on, each column's bytes are its own whatever its
+#: neighbours (measured to 192 solve and 48 projected columns; ``tests/test_unit_load_batches.py``).
+#: The padding costs a one-node call one more solve column: 1.22x its solve (16.1 -> 19.7 ms,
+#: aluminium tube, 22k dof), 1.08x on the wood bar.
+MIN_SOLVE_COLUMNS = 4
+MIN_PROJECTED_COLUMNS = 9
 
 
 @contextlib.contextmanager
@@ -445,10 +457,14 @@ class UnitLoadStore:
         missing = [n for n in nodes.tolist() if n not in slot]
         if missing:
             flex = self.flex
-            B = np.zeros((flex.n_dof, 3 * len(missing)), order="F")
+            # zero columns pad a narrow call: each column's bytes are then its own (MIN_SOLVE_COLUMNS)
+            m = 3 * len(missing)
+            B = np.zeros((flex.n_dof, max(m, MIN_SOLVE_COLUMNS)), order="F")
             rows = (3 * np.asarray(missing)[:, None] + np.arange(3)).ravel()
-            B[rows, np.arange(rows.size)] = 1.0
-            Y = flex.unit_load_projected(np.asarray(flex.factor.solve(B)).reshape(flex.n_dof, -1))
+            B[rows, np.arange(m)] = 1.0
+            X = np.zeros((flex.n_dof, max(m, MIN_PROJECTED_COLUMNS)), order="F")
+            X[:, :B.shape[1]] = np.asarray(flex.factor.solve(B)).reshape(flex.n_dof, -1)
+            Y = flex.unit_load_projected(X)
             KU = Y.T @ flex.KU
             MY = flex.M @ Y
             # the free slots, lowest first (the LRU may have been emptied by clear_all)
