@@ -57,7 +57,13 @@ from .microphone import Microphone
 from .modal_system import CONTACT_MODELS, ModalSystem, transfer_state
 from .passive import LoadRead, LoadSolver, PassiveSound, project_reads
 
-__all__ = ["AcousticStream"]
+__all__ = ["AcousticStream", "MERGED_LOAD_RAMP"]
+
+#: A span whose passive load changes is two pieces (the sharp part's ramp over the rise time,
+#: then the rest).  True: one drive convolution over the span, the ramp's end entering as a
+#: state jump (``AcousticStream._evolve_ramp``); False: each piece synthesized from the
+#: previous one's end state (the reference path).  Equal to rounding; read at each span.
+MERGED_LOAD_RAMP = True
 
 
 @dataclass
@@ -515,6 +521,10 @@ class AcousticStream:
             k = self.passive.rise_samples(self.sample_rate_hz, n)
             mid = old + sharp + (new - old - sharp) * (k / n)
             pieces = [(0, k, old, mid)] + ([(k, n, mid, new)] if k < n else [])
+        if len(pieces) == 2 and MERGED_LOAD_RAMP:
+            self._evolve_ramp(st, sysm, solver, u, n, x, pieces, out, keep)
+            st.eq = self._equilibrium(sysm, load)
+            return
         for i, (a, b, p0, p1) in enumerate(pieces):
             alpha, beta = solver.particular(p0, p1, (b - a) * T if p1 is not p0 else 0.0)
             if out is not None:
@@ -527,6 +537,29 @@ class AcousticStream:
                 st.x, st.end = None, (sysm, u[a:], x - alpha, end) if keep else None
         # the static state under the load from here on (its ramp's particular solution is not)
         st.eq = alpha if change is None else self._equilibrium(sysm, load)
+
+    def _evolve_ramp(self, st: _ObjectState, sysm: ModalSystem, solver: LoadSolver, u: np.ndarray, n: int,
+                     x: np.ndarray, pieces, out, keep: bool) -> None:
+        """``_evolve``'s two pieces (the ramp, then the rest) with one drive convolution over
+        the whole span: by linearity the second piece's start state is the first's exact
+        continuation plus the jump j = alpha0 + beta0 k T - alpha1 between the pieces'
+        particular solutions, so the response is that of the whole span from x - alpha0
+        with the free response of j added from sample k (``DiscreteSystem.response``'s
+        ``jumps``), and the end state that of the whole span plus j propagated freely over
+        n - k samples.  Equal to the two-piece reference to rounding
+        (tests/test_passive_sound.py)."""
+        T = 1.0 / self.sample_rate_hz
+        (_, k, p0, p1), (_, _, q0, q1) = pieces
+        a0, b0 = solver.particular(p0, p1, k * T)
+        a1, b1 = solver.particular(q0, q1, (n - k) * T)
+        jump = a0 + b0 * (k * T) - a1
+        x0 = x - a0
+        if out is not None:
+            out[:] = sysm.response(u[:n], x0, ((k, jump),))
+            out[:k] += sysm.output(a0) + sysm.output(b0) * (np.arange(k) * T)
+            out[k:] += sysm.output(a1) + sysm.output(b1) * (np.arange(n - k) * T)
+        end = sysm.free_state(jump, n - k) + a1 + b1 * ((n - k) * T)
+        st.x, st.end = None, (sysm, u, x0, end) if keep else None
 
     # -- passive sound ---------------------------------------------------------------------
     def _load_change(self, st: _ObjectState, g: GraspState):
