@@ -15,7 +15,7 @@ import scipy.signal as ss
 import sensors
 from sensors import Contact, Excitation, FingertipModel, GraspState
 from sensors.synthesis.microphone import mic_gain
-from sensors.synthesis.modal_system import CONTACT_MODELS, contact_modal_model, transfer_state
+from sensors.synthesis.modal_system import CONTACT_MODELS, ModalSystem, contact_modal_model, transfer_state
 from sensors.synthesis.passive import ContactLoads, PassiveSound
 from sensors.synthesis import stream as stream_module
 from sensors.synthesis.stream import AcousticStream
@@ -258,13 +258,13 @@ def test_stream_with_passive_sound_matches_segmentwise_lsim(model_name, contact_
     the scaled state (``transfer_state``) and the new set's x_eq under the same forces added.
     The FEM bar's coupled modes hold its rigid-body motion on the springs and the attachment
     modes of each contact: the loads act on those too.  Both syntheses of a span whose load
-    changes (``stream.MERGED_LOAD_RAMP``) meet the reference."""
-    monkeypatch.setattr(stream_module, "MERGED_LOAD_RAMP", merged)
+    changes (``stream.ONE_CONVOLUTION_PER_RUN``) meet the reference."""
+    monkeypatch.setattr(stream_module, "ONE_CONVOLUTION_PER_RUN", merged)
     model = BoxModel(np.linspace(700, 15000, 16), "wood", seed=4) if model_name == "box" else request.getfixturevalue("bar")
     sched = _switching_schedule(model)
     exc, tip = Excitation.linear_sweep(), FingertipModel()
     stream = _passive_stream(contact_model)
-    y = np.concatenate([stream.advance(n, g) for n, g in sched]).astype(float) / mic_gain()
+    y = np.concatenate([stream.advance(sched[i:i + 8]) for i in range(0, len(sched), 8)]).astype(float) / mic_gain()
     # reference: the same roughness draws (one per read of a sliding contact, in order)
     gen = np.random.default_rng(2)
     reads = [(g.loads, *_read(g.loads, gen, 0.3)) for _, g in sched]
@@ -356,17 +356,27 @@ def test_ramp_particular_solves_the_affine_equations():
 
 @pytest.mark.parametrize("model_name,contact_model", [("box", "damping"), ("bar", "spring_damper")])
 def test_merged_load_ramp_equals_the_two_piece_synthesis(model_name, contact_model, request, monkeypatch):
-    """A span whose load changes synthesized with one drive convolution and the ramp's end as
-    a state jump (the default) equals the ramp and the rest synthesized one after the other
-    (the reference path, ``MERGED_LOAD_RAMP = False``) to rounding: 1e-12 of the largest
-    sample over 120 switching spans (the time-domain sums round at ~1e-15 per step)."""
+    """Spans in a row on one system synthesized with one drive convolution, each piece's start
+    (a new read, the end of an impact's ramp) a state jump (the default), equal the pieces
+    synthesized one after the other (the reference path, ``ONE_CONVOLUTION_PER_RUN = False``)
+    to rounding: 1e-12 of the largest sample over 120 switching spans (the time-domain sums
+    round at ~1e-15 per step)."""
     model = BoxModel(np.linspace(700, 15000, 16), "wood", seed=4) if model_name == "box" else request.getfixturevalue("bar")
     sched = _switching_schedule(model)
-    out = {}
+    out, calls = {}, {}
+    response = ModalSystem.response
+
+    def counted(self, *args, **kwargs):
+        calls[merged] += 1
+        return response(self, *args, **kwargs)
+
+    monkeypatch.setattr(ModalSystem, "response", counted)
     for merged in (True, False):
-        monkeypatch.setattr(stream_module, "MERGED_LOAD_RAMP", merged)
-        stream = _passive_stream(contact_model)
-        out[merged] = np.concatenate([stream.synthesize(n, g) for n, g in sched])
+        monkeypatch.setattr(stream_module, "ONE_CONVOLUTION_PER_RUN", merged)
+        stream, calls[merged] = _passive_stream(contact_model), 0
+        # the physics steps of an env step come in one call: 8 spans each
+        out[merged] = np.concatenate([stream.synthesize(sched[i:i + 8]) for i in range(0, len(sched), 8)])
     scale = np.abs(out[False]).max()
     assert scale > 0
     assert np.abs(out[True] - out[False]).max() <= 1e-12 * scale
+    assert calls[True] < calls[False] / 2          # spans on one system share a convolution

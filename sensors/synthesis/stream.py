@@ -57,13 +57,14 @@ from .microphone import Microphone
 from .modal_system import CONTACT_MODELS, ModalSystem, transfer_state
 from .passive import LoadRead, LoadSolver, PassiveSound, project_reads
 
-__all__ = ["AcousticStream", "MERGED_LOAD_RAMP"]
+__all__ = ["AcousticStream", "ONE_CONVOLUTION_PER_RUN"]
 
-#: A span whose passive load changes is two pieces (the sharp part's ramp over the rise time,
-#: then the rest).  True: one drive convolution over the span, the ramp's end entering as a
-#: state jump (``AcousticStream._evolve_ramp``); False: each piece synthesized from the
-#: previous one's end state (the reference path).  Equal to rounding; read at each span.
-MERGED_LOAD_RAMP = True
+#: Heard spans in a row on one system (with passive sound each contact read starts a span,
+#: and a span whose load changes is two pieces: the sharp part's ramp over the rise time, then
+#: the rest).  True: one drive convolution over the whole run, each piece's start entering as
+#: a state jump (``_Run``); False: each piece synthesized from the previous one's end state
+#: (the reference path).  Equal to rounding (tests/test_passive_sound.py); read at each span.
+ONE_CONVOLUTION_PER_RUN = True
 
 
 @dataclass
@@ -86,6 +87,8 @@ class _ObjectState:
     load_grasp: GraspState | None = None  # ... and the grasp it is of
     eq: np.ndarray | None = None     # the static state (in ``modes``) under the load the state is
     #                                  under: added to a steady state, carried across mode changes
+    run: "_Run | None" = None        # heard spans not yet synthesized (ONE_CONVOLUTION_PER_RUN): the
+    #                                  state at ``at`` is their end
 
     def state_in(self, modes, eq: np.ndarray | None = None) -> np.ndarray:
         """The state at sample ``at`` in ``modes`` (projected from the modes it is in when the
@@ -101,6 +104,7 @@ class _ObjectState:
     def state(self) -> np.ndarray:
         """The state at sample ``at``: propagated through the latest span now, or taken out
         of the periodic steady state."""
+        self.flush()
         if self.end is not None:
             system, force, x0, offset = self.end
             x = system.final_state(force, x0)
@@ -112,6 +116,70 @@ class _ObjectState:
             x = self.steady.state_at(self.at)
             self.x, self.steady = (x if self.eq is None else x + self.eq), None
         return self.x
+
+
+    def flush(self) -> None:
+        """Synthesize the pending run of heard spans (their samples and the end state)."""
+        if self.run is not None:
+            self.end, self.run = self.run.flush(), None
+
+
+class _Run:
+    """Heard spans in a row on one system, synthesized together (``ONE_CONVOLUTION_PER_RUN``).
+
+    Each span is one or two pieces on which the passive load is affine in time, with the
+    particular solution alpha + beta t (``sensors.synthesis.passive.LoadSolver``).  The
+    reference synthesizes piece after piece from x_i - alpha_i, each start state the previous
+    piece's exact end plus alpha_(i-1) + beta_(i-1) len T.  By linearity that is the response
+    of the whole run to the drive from x_0 - alpha_0 with the state jumping by
+    j_i = alpha_(i-1) + beta_(i-1) len_(i-1) T - alpha_i at each later piece's start
+    (``DiscreteSystem.response``'s ``jumps``: one convolution, each jump adding its free
+    response), plus each piece's alpha + beta t at the output; the end state is the run's from
+    x_0 - alpha_0 plus the jumps propagated freely to the end plus the last piece's offset."""
+
+    def __init__(self, system: ModalSystem, x: np.ndarray, sample_rate_hz: int) -> None:
+        self.system, self.x, self.T = system, x, 1.0 / sample_rate_hz
+        self.n = 0
+        self.forces: list[np.ndarray] = []
+        self.outs: list[tuple[int, np.ndarray]] = []
+        self.pieces: list[tuple[int, int, np.ndarray | None, np.ndarray | None]] = []   # start, stop, alpha, beta
+        self.jumps: list[tuple[int, np.ndarray]] = []
+        self.end: np.ndarray | None = None       # alpha + beta len T of the last piece
+
+    def add(self, u: np.ndarray, n: int, out: np.ndarray, pieces) -> None:
+        """A span of n samples (its force u at samples 0 .. n) written to ``out`` at the flush;
+        ``pieces``: (start, stop, alpha, beta) within it, alpha and beta None for no load."""
+        for a, b, alpha, beta in pieces:
+            a, b = self.n + a, self.n + b
+            if not self.pieces:
+                if alpha is not None:
+                    self.x = self.x - alpha
+            else:
+                jump = self.end if alpha is None else (alpha * -1.0 if self.end is None else self.end - alpha)
+                if jump is not None:
+                    self.jumps.append((a, jump))
+            self.pieces.append((a, b, alpha, beta))
+            self.end = None if alpha is None else alpha + beta * ((b - a) * self.T)
+        self.forces.append(u[:n])
+        self.outs.append((self.n, out))
+        self.last_force = u[n:n + 1]
+        self.n += n
+
+    def flush(self) -> tuple:
+        """Writes the spans' samples; returns the end state's ``_ObjectState.end`` form."""
+        sysm, T = self.system, self.T
+        u = np.concatenate(self.forces + [self.last_force])
+        y = sysm.response(u[:self.n], self.x, self.jumps)
+        for a, b, alpha, beta in self.pieces:
+            if alpha is not None:
+                y[a:b] += sysm.output(alpha) + sysm.output(beta) * (np.arange(b - a) * T)
+        for at, out in self.outs:
+            out[:] = y[at:at + len(out)]
+        offset = self.end
+        for at, jump in self.jumps:
+            free = sysm.free_state(jump, self.n - at)
+            offset = free if offset is None else offset + free
+        return sysm, u, self.x, offset
 
 
 @dataclass(frozen=True, eq=False)
@@ -392,6 +460,8 @@ class AcousticStream:
                 heard[off:off + n_i] = True
                 at += n_i
             k = m
+        for st in self._objects.values():
+            st.flush()                                    # the samples of pending runs
         return y, heard
 
     # -- resolving a grasp to its systems --------------------------------------------------
@@ -482,6 +552,7 @@ class AcousticStream:
                 if steady_drive is not None:
                     st.settled += n
                     if st.settled * sysm.slowest_decay_rate_per_s() >= SETTLE_E_FOLDS * self.sample_rate_hz:
+                        st.flush()                # its samples; the state is the steady one's
                         st.steady, st.end = self._steady_of(sysm, steady_drive), None   # plus st.eq
             st.geometry = (g.actuator.position_m, g.actuator.normal, g.mic.position_m, g.mic.normal)
             self.heard_samples += n
@@ -506,6 +577,9 @@ class AcousticStream:
         shifted state.  Loads and states are in ``sysm``'s modes (the state carried into them
         relative to the load's static state).  ``keep``: carry the end state."""
         load = self._load(st, sysm.modes)             # the latest read's, after any change
+        if ONE_CONVOLUTION_PER_RUN and out is not None and keep:
+            self._add_to_run(st, sysm, u, n, change, load, out)
+            return
         x = self._state_in(st, sysm, load if change is None else change[0])
         if change is None and (load is None or not np.any(load)):
             if out is not None:
@@ -521,10 +595,6 @@ class AcousticStream:
             k = self.passive.rise_samples(self.sample_rate_hz, n)
             mid = old + sharp + (new - old - sharp) * (k / n)
             pieces = [(0, k, old, mid)] + ([(k, n, mid, new)] if k < n else [])
-        if len(pieces) == 2 and MERGED_LOAD_RAMP:
-            self._evolve_ramp(st, sysm, solver, u, n, x, pieces, out, keep)
-            st.eq = self._equilibrium(sysm, load)
-            return
         for i, (a, b, p0, p1) in enumerate(pieces):
             alpha, beta = solver.particular(p0, p1, (b - a) * T if p1 is not p0 else 0.0)
             if out is not None:
@@ -538,28 +608,32 @@ class AcousticStream:
         # the static state under the load from here on (its ramp's particular solution is not)
         st.eq = alpha if change is None else self._equilibrium(sysm, load)
 
-    def _evolve_ramp(self, st: _ObjectState, sysm: ModalSystem, solver: LoadSolver, u: np.ndarray, n: int,
-                     x: np.ndarray, pieces, out, keep: bool) -> None:
-        """``_evolve``'s two pieces (the ramp, then the rest) with one drive convolution over
-        the whole span: by linearity the second piece's start state is the first's exact
-        continuation plus the jump j = alpha0 + beta0 k T - alpha1 between the pieces'
-        particular solutions, so the response is that of the whole span from x - alpha0
-        with the free response of j added from sample k (``DiscreteSystem.response``'s
-        ``jumps``), and the end state that of the whole span plus j propagated freely over
-        n - k samples.  Equal to the two-piece reference to rounding
-        (tests/test_passive_sound.py)."""
+    def _add_to_run(self, st: _ObjectState, sysm: ModalSystem, u: np.ndarray, n: int, change, load,
+                    out: np.ndarray) -> None:
+        """``_evolve`` of a heard span through the object's pending ``_Run`` (a new run when
+        its system differs: the state is then carried into ``sysm`` as ``_evolve`` does)."""
+        if st.run is None or st.run.system is not sysm:
+            x = self._state_in(st, sysm, load if change is None else change[0])     # flushes a run
+            st.run, st.x, st.end = _Run(sysm, x, self.sample_rate_hz), None, None
         T = 1.0 / self.sample_rate_hz
-        (_, k, p0, p1), (_, _, q0, q1) = pieces
-        a0, b0 = solver.particular(p0, p1, k * T)
-        a1, b1 = solver.particular(q0, q1, (n - k) * T)
-        jump = a0 + b0 * (k * T) - a1
-        x0 = x - a0
-        if out is not None:
-            out[:] = sysm.response(u[:n], x0, ((k, jump),))
-            out[:k] += sysm.output(a0) + sysm.output(b0) * (np.arange(k) * T)
-            out[k:] += sysm.output(a1) + sysm.output(b1) * (np.arange(n - k) * T)
-        end = sysm.free_state(jump, n - k) + a1 + b1 * ((n - k) * T)
-        st.x, st.end = None, (sysm, u, x0, end) if keep else None
+        if change is None:
+            bounds = [(0, n, load, load)]
+        else:
+            old, new, sharp = change
+            k = self.passive.rise_samples(self.sample_rate_hz, n)
+            mid = old + sharp + (new - old - sharp) * (k / n)
+            bounds = [(0, k, old, mid)] + ([(k, n, mid, new)] if k < n else [])
+        pieces = []
+        for a, b, p0, p1 in bounds:
+            if p0 is p1 and (p0 is None or not np.any(p0)):
+                pieces.append((a, b, None, None))
+                continue
+            solver = self._load_solvers.get_or_build(IdentityKey(sysm), lambda: LoadSolver(sysm))
+            alpha, beta = solver.particular(p0, p1, (b - a) * T if p1 is not p0 else 0.0)
+            pieces.append((a, b, alpha, beta))
+        st.run.add(u, n, out, pieces)
+        alpha = pieces[-1][2]
+        st.eq = alpha if change is None else self._equilibrium(sysm, load)
 
     # -- passive sound ---------------------------------------------------------------------
     def _load_change(self, st: _ObjectState, g: GraspState):
