@@ -450,8 +450,9 @@ class DensePart:
         return acc
 
     def free(self, z, steps: int):
-        """State ``steps`` samples after z without input (as :meth:`propagate`'s z0 term)."""
-        return self._power(int(steps)) @ z
+        """State ``steps`` samples after z without input (Phi^steps z; not kept among the
+        powers :meth:`_power` caches, as a stream's jumps come at any sample)."""
+        return scipy_linalg().expm(self.A * (self.T * int(steps))) @ z
 
     def periodic_vector(self, v, P: int):
         return np.linalg.solve(np.eye(self.Phi.shape[0]) - self._power(P), v)
