@@ -33,7 +33,9 @@ object's decayed ringing plus the new drive.
 Reusing systems: the stream's ``SystemCache`` (``sensors.synthesis.caches``) treats a contact
 set as unchanged when it matches a cached one within a ``ContactTolerance``;
 ``ContactTolerance.exact()`` reuses only identical contact sets.  The state at the end of a
-span is computed when the next span needs it (a batch recording never does).
+span is computed when the next span needs it (a batch recording never does).  Heard spans in a
+row on one system (with passive sound, every contact read starts a span) share one drive
+convolution, each new span's load entering as a state jump (``ONE_CONVOLUTION_PER_RUN``).
 """
 
 from __future__ import annotations
@@ -117,7 +119,6 @@ class _ObjectState:
             self.x, self.steady = (x if self.eq is None else x + self.eq), None
         return self.x
 
-
     def flush(self) -> None:
         """Synthesize the pending run of heard spans (their samples and the end state)."""
         if self.run is not None:
@@ -140,7 +141,8 @@ class _Run:
     def __init__(self, system: ModalSystem, x: np.ndarray, sample_rate_hz: int) -> None:
         self.system, self.x, self.T = system, x, 1.0 / sample_rate_hz
         self.n = 0
-        self.forces: list[np.ndarray] = []
+        self.forces: list[np.ndarray] = []      # each span's force at its n samples ...
+        self.last_force: np.ndarray | None = None   # ... and at the sample after the run
         self.outs: list[tuple[int, np.ndarray]] = []
         self.pieces: list[tuple[int, int, np.ndarray | None, np.ndarray | None]] = []   # start, stop, alpha, beta
         self.jumps: list[tuple[int, np.ndarray]] = []
@@ -155,7 +157,7 @@ class _Run:
                 if alpha is not None:
                     self.x = self.x - alpha
             else:
-                jump = self.end if alpha is None else (alpha * -1.0 if self.end is None else self.end - alpha)
+                jump = self.end if alpha is None else (-alpha if self.end is None else self.end - alpha)
                 if jump is not None:
                     self.jumps.append((a, jump))
             self.pieces.append((a, b, alpha, beta))
