@@ -101,12 +101,13 @@ class ObjectContacts:
                                           self.other_bodies)
                 if f > min_force_n]
 
-    def sensor_grasp(self, min_force_n: float = 0.0, materials=None) -> SensorGrasp:
+    def sensor_grasp(self, min_force_n: float = 0.0, materials=None, others: bool = True) -> SensorGrasp:
         """The contacts the acoustic sensor synthesizes from: each fingertip's contacts
         :meth:`merged` into one, and every other contact carrying more than ``min_force_n``
         (hand links, table, other objects; ``materials``: see :meth:`to_sensor_contacts`).
         The one place MuJoCo contacts become ``sensors.Contact`` for the simulated sensor
-        and its stream."""
+        and its stream.  ``others=False``: the fingertips only (``others`` None), for a caller
+        that takes the other contacts from :meth:`other_sensor_contacts` when it needs them."""
         from sensors.modal.contact import Contact
 
         tips = []
@@ -114,8 +115,11 @@ class ObjectContacts:
             patch = self.merged(kind)
             tips.append(None if patch is None else Contact(position_m=patch[0], normal=patch[1], force_n=patch[2],
                                                            friction=patch[3]))
-        others = self.select(~np.isin(self.kinds, ("actuator", "mic"))).to_sensor_contacts(min_force_n, materials)
-        return SensorGrasp(tips[0], tips[1], others)
+        return SensorGrasp(tips[0], tips[1], self.other_sensor_contacts(min_force_n, materials) if others else None)
+
+    def other_sensor_contacts(self, min_force_n: float = 0.0, materials=None) -> list:
+        """:meth:`sensor_grasp`'s other contacts: all but the fingertips', as ``sensors.Contact``."""
+        return self.select(~np.isin(self.kinds, ("actuator", "mic"))).to_sensor_contacts(min_force_n, materials)
 
     def sensor_loads(self, min_force_n: float = 0.0, pressing_before=None):
         """The forces every touching body exerts on the object (normal plus friction, object

@@ -149,9 +149,10 @@ class SimAcousticStream:
         body = self.sensor.grasped_body(contacts) or self._heard or self.bodies[0]
         self._heard = body
         self._heard_index = self.bodies.index(body)
-        grasp = contacts[body].sensor_grasp(self._min_force_n, self.sensor.object_materials())
+        # the other contacts are made only where no touching partner takes them (touching_grasp)
+        grasp = contacts[body].sensor_grasp(self._min_force_n, others=False)
         # the sensed objects it touches vibrate with it (spring_damper; aas_gym.touching_grasp)
-        model, others = touching_grasp(self.sensor, body, contacts, self.variation, grasp.others)
+        model, others = touching_grasp(self.sensor, body, contacts, self.variation, None)
         loads = None
         if self.stream.passive is not None:
             c = contacts[body]

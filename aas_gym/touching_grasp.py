@@ -56,13 +56,20 @@ class TouchingMemo:
         return group
 
 
-def touching_grasp(sensor, body: str, contacts: Mapping[str, ObjectContacts], variation, others: list):
+def touching_grasp(sensor, body: str, contacts: Mapping[str, ObjectContacts], variation, others: list | None):
     """``(model, others)`` for the grasp of ``body``: its (``variation``-scaled) model, or a
     ``TouchingObjects`` of it and the sensed objects it touches, and the contacts that stay
-    grounded on it (``others`` from ``ObjectContacts.sensor_grasp`` without the partners')."""
+    grounded on it (``others`` from ``ObjectContacts.sensor_grasp`` without the partners';
+    ``None``: made here, only where no partner takes them, ``ObjectContacts.other_sensor_contacts``)."""
     model = sensor.scaled_model(body, variation)
+    if others is None:
+        def all_others():
+            return contacts[body].other_sensor_contacts(sensor.min_force_n, sensor.object_materials())
+    else:
+        def all_others():
+            return others
     if sensor.contact_model != "spring_damper":
-        return model, on_solid(model, others)
+        return model, on_solid(model, all_others())
     oc = contacts[body]
     objs = oc.select("object")
     partners, names, tables, models = [], [], [], []
@@ -86,7 +93,7 @@ def touching_grasp(sensor, body: str, contacts: Mapping[str, ObjectContacts], va
         tables += [GraspState(None, None, None, links).contact_table(),
                    GraspState(None, None, None, (pose, *grounded)).contact_table()]
     if not partners:
-        return model, on_solid(model, others)
+        return model, on_solid(model, all_others())
     rest = oc.select(~np.isin(oc.kinds, ("actuator", "mic")) & ~np.isin(oc.other_bodies, names))
     memo = getattr(sensor, "touching", None)
     build = lambda: TouchingObjects(model, partners)  # noqa: E731

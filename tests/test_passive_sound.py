@@ -15,8 +15,9 @@ import scipy.signal as ss
 import sensors
 from sensors import Contact, Excitation, FingertipModel, GraspState
 from sensors.synthesis.microphone import mic_gain
-from sensors.synthesis.modal_system import CONTACT_MODELS, contact_modal_model, transfer_state
+from sensors.synthesis.modal_system import CONTACT_MODELS, ModalSystem, contact_modal_model, transfer_state
 from sensors.synthesis.passive import ContactLoads, PassiveSound
+from sensors.synthesis import stream as stream_module
 from sensors.synthesis.stream import AcousticStream
 from synthesis_fakes import BoxModel
 
@@ -217,25 +218,13 @@ def bar():
     return sensors.ModalModel.bar(0.2, 2 * H, 2 * H, sensors.MATERIALS["steel"], progress=False)
 
 
-@pytest.mark.parametrize("model_name,contact_model", [("box", "damping"), ("box", "spring_damper"),
-                                                      ("bar", "spring_damper")])
-def test_stream_with_passive_sound_matches_segmentwise_lsim(model_name, contact_model, request):
-    """Contacts and loads switching (table on/off, grip change, knocks, a slide): the stream
-    (piecewise-linear drive, exact tolerance) against lsim of fingertip and object with the
-    modal load as a second input (linear over each ramp, constant after), states carried.
-    With springs each span runs in its contact set's modes (those below Nyquist, as the
-    synthesis keeps them) with the loads projected onto them; where they change, the state
-    relative to the load's static state x_eq = [p / w^2; 0] is carried by the M-projection of
-    the scaled state (``transfer_state``) and the new set's x_eq under the same forces added.
-    The FEM bar's coupled modes hold its rigid-body motion on the springs and the attachment
-    modes of each contact: the loads act on those too."""
-    model = BoxModel(np.linspace(700, 15000, 16), "wood", seed=4) if model_name == "box" else request.getfixturevalue("bar")
+def _switching_schedule(model):
+    """120 spans (60-110 samples) of contacts and loads switching: the table on and off, the
+    grip changing, a knock (an impact) and a slide with roughness."""
     act, mic = _fingers()
     pressed = tuple(Contact(c.position_m, c.normal, 25.0, mu, **_TABLE_SPRINGS) for c, mu in ((act, 0.5), (mic, 0.8)))
     tab = tuple(Contact([x, 0.0, -H], [0, 0, -1], 1.5, 0.4, **_TABLE_SPRINGS) for x in (-0.08, 0.0, 0.08))
     rng = np.random.default_rng(5)
-    exc = Excitation.linear_sweep()
-    tip = FingertipModel()
     sched = []
     for k in range(120):
         fingers = pressed if 40 <= k < 70 else (act, mic)
@@ -246,10 +235,36 @@ def test_stream_with_passive_sound_matches_segmentwise_lsim(model_name, contact_
                              sliding=[k >= 80])
         loads = ContactLoads(loads.positions_m, loads.normals, loads.forces_n, loads.sliding, impact=[k == 20])
         sched.append((int(rng.integers(60, 110)), GraspState(model, *fingers, others, loads=loads, object_key="b")))
-    passive = PassiveSound(rise_time_s=1.5e-4, roughness=0.3, seed=2)
-    stream = AcousticStream(exc, tip, tolerance=sensors.ContactTolerance.exact(), bandlimited=False,
-                            passive=passive, contact_model=contact_model)
-    y = np.concatenate([stream.advance(n, g) for n, g in sched]).astype(float) / mic_gain()
+    return sched
+
+
+def _passive_stream(contact_model):
+    """The stream of :func:`_switching_schedule`'s tests (piecewise-linear drive, exact tolerance)."""
+    return AcousticStream(Excitation.linear_sweep(), FingertipModel(), tolerance=sensors.ContactTolerance.exact(),
+                          bandlimited=False, passive=PassiveSound(rise_time_s=1.5e-4, roughness=0.3, seed=2),
+                          contact_model=contact_model)
+
+
+@pytest.mark.parametrize("merged", [True, False])
+@pytest.mark.parametrize("model_name,contact_model", [("box", "damping"), ("box", "spring_damper"),
+                                                      ("bar", "spring_damper")])
+def test_stream_with_passive_sound_matches_segmentwise_lsim(model_name, contact_model, merged, request, monkeypatch):
+    """Contacts and loads switching (table on/off, grip change, knocks, a slide): the stream
+    (piecewise-linear drive, exact tolerance) against lsim of fingertip and object with the
+    modal load as a second input (linear over each ramp, constant after), states carried.
+    With springs each span runs in its contact set's modes (those below Nyquist, as the
+    synthesis keeps them) with the loads projected onto them; where they change, the state
+    relative to the load's static state x_eq = [p / w^2; 0] is carried by the M-projection of
+    the scaled state (``transfer_state``) and the new set's x_eq under the same forces added.
+    The FEM bar's coupled modes hold its rigid-body motion on the springs and the attachment
+    modes of each contact: the loads act on those too.  Both syntheses of a span whose load
+    changes (``stream.ONE_CONVOLUTION_PER_RUN``) meet the reference."""
+    monkeypatch.setattr(stream_module, "ONE_CONVOLUTION_PER_RUN", merged)
+    model = BoxModel(np.linspace(700, 15000, 16), "wood", seed=4) if model_name == "box" else request.getfixturevalue("bar")
+    sched = _switching_schedule(model)
+    exc, tip = Excitation.linear_sweep(), FingertipModel()
+    stream = _passive_stream(contact_model)
+    y = np.concatenate([stream.advance(sched[i:i + 8]) for i in range(0, len(sched), 8)]).astype(float) / mic_gain()
     # reference: the same roughness draws (one per read of a sliding contact, in order)
     gen = np.random.default_rng(2)
     reads = [(g.loads, *_read(g.loads, gen, 0.3)) for _, g in sched]
@@ -337,3 +352,31 @@ def test_ramp_particular_solves_the_affine_equations():
     assert np.abs(A @ alpha + load(p0) - beta).max() < 1e-12 * scale
     eq, zero = ramp_particular(lu, p0, p0, 0.0)
     assert not np.any(zero) and np.abs(A @ eq + load(p0)).max() < 1e-12 * scale
+
+
+@pytest.mark.parametrize("model_name,contact_model", [("box", "damping"), ("bar", "spring_damper")])
+def test_merged_load_ramp_equals_the_two_piece_synthesis(model_name, contact_model, request, monkeypatch):
+    """Spans in a row on one system synthesized with one drive convolution, each piece's start
+    (a new read, the end of an impact's ramp) a state jump (the default), equal the pieces
+    synthesized one after the other (the reference path, ``ONE_CONVOLUTION_PER_RUN = False``)
+    to rounding: 1e-12 of the largest sample over 120 switching spans (the time-domain sums
+    round at ~1e-15 per step)."""
+    model = BoxModel(np.linspace(700, 15000, 16), "wood", seed=4) if model_name == "box" else request.getfixturevalue("bar")
+    sched = _switching_schedule(model)
+    out, calls = {}, {}
+    response = ModalSystem.response
+
+    def counted(self, *args, **kwargs):
+        calls[merged] += 1
+        return response(self, *args, **kwargs)
+
+    monkeypatch.setattr(ModalSystem, "response", counted)
+    for merged in (True, False):
+        monkeypatch.setattr(stream_module, "ONE_CONVOLUTION_PER_RUN", merged)
+        stream, calls[merged] = _passive_stream(contact_model), 0
+        # the physics steps of an env step come in one call: 8 spans each
+        out[merged] = np.concatenate([stream.synthesize(sched[i:i + 8]) for i in range(0, len(sched), 8)])
+    scale = np.abs(out[False]).max()
+    assert scale > 0
+    assert np.abs(out[True] - out[False]).max() <= 1e-12 * scale
+    assert calls[True] < calls[False] / 2          # spans on one system share a convolution

@@ -310,6 +310,10 @@ class EigenPart:
             z = z + np.exp(lt * L) * z0
         return z
 
+    def free(self, z, steps: int):
+        """Coordinates ``steps`` samples after z without input (as :meth:`propagate`'s z0 term)."""
+        return np.exp(self.lam * self.T * steps) * z
+
     def periodic_vector(self, v, P: int):
         return v / (1.0 - np.exp(self.lam * self.T * P))
 
@@ -445,6 +449,11 @@ class DensePart:
             acc = acc + self._power(L) @ z0
         return acc
 
+    def free(self, z, steps: int):
+        """State ``steps`` samples after z without input (Phi^steps z; not kept among the
+        powers :meth:`_power` caches, as a stream's jumps come at any sample)."""
+        return scipy_linalg().expm(self.A * (self.T * int(steps))) @ z
+
     def periodic_vector(self, v, P: int):
         return np.linalg.solve(np.eye(self.Phi.shape[0]) - self._power(P), v)
 
@@ -500,12 +509,15 @@ class DiscreteSystem:
         parts = [p.with_output(Cout[p.idx], D if i == 0 else 0.0) for i, p in enumerate(self.parts)]
         return DiscreteSystem(parts, self.state_size, self.sample_rate_hz, self.hold)
 
-    def response(self, force_n, initial_state=None) -> np.ndarray:
+    def response(self, force_n, initial_state=None, jumps=()) -> np.ndarray:
         """Output for the sampled force [N] (one sample per force sample), float64.
 
         ``initial_state`` (``state_size``,) is the state at the first sample (default 0).
         Parts of the state a system does not simulate (a ``ModalSystem``'s dropped modes)
-        are ignored.
+        are ignored.  ``jumps``: ``(k, dx)`` pairs, the state jumping by ``dx`` at sample k
+        (0 < k < n, before that sample's output): equal, to rounding, to splitting the force
+        at k and restarting from :meth:`final_state` plus dx, but with one convolution of the
+        whole force (each jump adds only its free response, :meth:`free_state`).
         """
         u = force_signal(force_n)
         n = len(u)
@@ -520,7 +532,8 @@ class DiscreteSystem:
                 xs = x0[p.idx]
                 if np.any(xs != 0):
                     z0 = p.to_coords(xs)
-            if not has_u and z0 is None:
+            zj = [(int(k), p.to_coords(dx[p.idx])) for k, dx in jumps if 0 < k < n and np.any(dx[p.idx] != 0)]
+            if not has_u and z0 is None and not zj:
                 continue
             vecs = []
             if has_u:
@@ -529,6 +542,7 @@ class DiscreteSystem:
                     vecs.append(p.G1)
             if z0 is not None:
                 vecs.append(z0)
+            vecs += [z for _, z in zj]
             ps = p.power_sums(np.array(vecs), n)
             k = 0
             if has_u:
@@ -544,7 +558,19 @@ class DiscreteSystem:
                     k = 2
             if z0 is not None:
                 y += ps[k]
+                k += 1
+            for i, (at, _) in enumerate(zj):
+                y[at:] += ps[k + i, : n - at]
         return y
+
+    def free_state(self, state, steps: int) -> np.ndarray:
+        """The state ``steps`` samples after ``state`` without input (parts of the state no
+        part simulates: 0, as :meth:`final_state` leaves them)."""
+        x0 = np.asarray(state, dtype=float)
+        x = np.zeros(self.state_size)
+        for p in self.parts:
+            x[p.idx] = p.from_coords(p.free(p.to_coords(x0[p.idx]), steps))
+        return x
 
     def final_state(self, force_n, initial_state=None) -> np.ndarray:
         """State at the LAST sample of ``force_n`` (after len-1 steps)."""

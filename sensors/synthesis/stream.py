@@ -33,7 +33,9 @@ object's decayed ringing plus the new drive.
 Reusing systems: the stream's ``SystemCache`` (``sensors.synthesis.caches``) treats a contact
 set as unchanged when it matches a cached one within a ``ContactTolerance``;
 ``ContactTolerance.exact()`` reuses only identical contact sets.  The state at the end of a
-span is computed when the next span needs it (a batch recording never does).
+span is computed when the next span needs it (a batch recording never does).  Heard spans in a
+row on one system (with passive sound, every contact read starts a span) share one drive
+convolution, each new span's load entering as a state jump (``ONE_CONVOLUTION_PER_RUN``).
 """
 
 from __future__ import annotations
@@ -57,7 +59,14 @@ from .microphone import Microphone
 from .modal_system import CONTACT_MODELS, ModalSystem, transfer_state
 from .passive import LoadRead, LoadSolver, PassiveSound, project_reads
 
-__all__ = ["AcousticStream"]
+__all__ = ["AcousticStream", "ONE_CONVOLUTION_PER_RUN"]
+
+#: Heard spans in a row on one system (with passive sound each contact read starts a span,
+#: and a span whose load changes is two pieces: the sharp part's ramp over the rise time, then
+#: the rest).  True: one drive convolution over the whole run, each piece's start entering as
+#: a state jump (``_Run``); False: each piece synthesized from the previous one's end state
+#: (the reference path).  Equal to rounding (tests/test_passive_sound.py); read at each span.
+ONE_CONVOLUTION_PER_RUN = True
 
 
 @dataclass
@@ -80,6 +89,8 @@ class _ObjectState:
     load_grasp: GraspState | None = None  # ... and the grasp it is of
     eq: np.ndarray | None = None     # the static state (in ``modes``) under the load the state is
     #                                  under: added to a steady state, carried across mode changes
+    run: "_Run | None" = None        # heard spans not yet synthesized (ONE_CONVOLUTION_PER_RUN): the
+    #                                  state at ``at`` is their end
 
     def state_in(self, modes, eq: np.ndarray | None = None) -> np.ndarray:
         """The state at sample ``at`` in ``modes`` (projected from the modes it is in when the
@@ -95,6 +106,7 @@ class _ObjectState:
     def state(self) -> np.ndarray:
         """The state at sample ``at``: propagated through the latest span now, or taken out
         of the periodic steady state."""
+        self.flush()
         if self.end is not None:
             system, force, x0, offset = self.end
             x = system.final_state(force, x0)
@@ -106,6 +118,70 @@ class _ObjectState:
             x = self.steady.state_at(self.at)
             self.x, self.steady = (x if self.eq is None else x + self.eq), None
         return self.x
+
+    def flush(self) -> None:
+        """Synthesize the pending run of heard spans (their samples and the end state)."""
+        if self.run is not None:
+            self.end, self.run = self.run.flush(), None
+
+
+class _Run:
+    """Heard spans in a row on one system, synthesized together (``ONE_CONVOLUTION_PER_RUN``).
+
+    Each span is one or two pieces on which the passive load is affine in time, with the
+    particular solution alpha + beta t (``sensors.synthesis.passive.LoadSolver``).  The
+    reference synthesizes piece after piece from x_i - alpha_i, each start state the previous
+    piece's exact end plus alpha_(i-1) + beta_(i-1) len T.  By linearity that is the response
+    of the whole run to the drive from x_0 - alpha_0 with the state jumping by
+    j_i = alpha_(i-1) + beta_(i-1) len_(i-1) T - alpha_i at each later piece's start
+    (``DiscreteSystem.response``'s ``jumps``: one convolution, each jump adding its free
+    response), plus each piece's alpha + beta t at the output; the end state is the run's from
+    x_0 - alpha_0 plus the jumps propagated freely to the end plus the last piece's offset."""
+
+    def __init__(self, system: ModalSystem, x: np.ndarray, sample_rate_hz: int) -> None:
+        self.system, self.x, self.T = system, x, 1.0 / sample_rate_hz
+        self.n = 0
+        self.forces: list[np.ndarray] = []      # each span's force at its n samples ...
+        self.last_force: np.ndarray | None = None   # ... and at the sample after the run
+        self.outs: list[tuple[int, np.ndarray]] = []
+        self.pieces: list[tuple[int, int, np.ndarray | None, np.ndarray | None]] = []   # start, stop, alpha, beta
+        self.jumps: list[tuple[int, np.ndarray]] = []
+        self.end: np.ndarray | None = None       # alpha + beta len T of the last piece
+
+    def add(self, u: np.ndarray, n: int, out: np.ndarray, pieces) -> None:
+        """A span of n samples (its force u at samples 0 .. n) written to ``out`` at the flush;
+        ``pieces``: (start, stop, alpha, beta) within it, alpha and beta None for no load."""
+        for a, b, alpha, beta in pieces:
+            a, b = self.n + a, self.n + b
+            if not self.pieces:
+                if alpha is not None:
+                    self.x = self.x - alpha
+            else:
+                jump = self.end if alpha is None else (-alpha if self.end is None else self.end - alpha)
+                if jump is not None:
+                    self.jumps.append((a, jump))
+            self.pieces.append((a, b, alpha, beta))
+            self.end = None if alpha is None else alpha + beta * ((b - a) * self.T)
+        self.forces.append(u[:n])
+        self.outs.append((self.n, out))
+        self.last_force = u[n:n + 1]
+        self.n += n
+
+    def flush(self) -> tuple:
+        """Writes the spans' samples; returns the end state's ``_ObjectState.end`` form."""
+        sysm, T = self.system, self.T
+        u = np.concatenate(self.forces + [self.last_force])
+        y = sysm.response(u[:self.n], self.x, self.jumps)
+        for a, b, alpha, beta in self.pieces:
+            if alpha is not None:
+                y[a:b] += sysm.output(alpha) + sysm.output(beta) * (np.arange(b - a) * T)
+        for at, out in self.outs:
+            out[:] = y[at:at + len(out)]
+        offset = self.end
+        for at, jump in self.jumps:
+            free = sysm.free_state(jump, self.n - at)
+            offset = free if offset is None else offset + free
+        return sysm, u, self.x, offset
 
 
 @dataclass(frozen=True, eq=False)
@@ -386,6 +462,8 @@ class AcousticStream:
                 heard[off:off + n_i] = True
                 at += n_i
             k = m
+        for st in self._objects.values():
+            st.flush()                                    # the samples of pending runs
         return y, heard
 
     # -- resolving a grasp to its systems --------------------------------------------------
@@ -476,6 +554,7 @@ class AcousticStream:
                 if steady_drive is not None:
                     st.settled += n
                     if st.settled * sysm.slowest_decay_rate_per_s() >= SETTLE_E_FOLDS * self.sample_rate_hz:
+                        st.flush()                # its samples; the state is the steady one's
                         st.steady, st.end = self._steady_of(sysm, steady_drive), None   # plus st.eq
             st.geometry = (g.actuator.position_m, g.actuator.normal, g.mic.position_m, g.mic.normal)
             self.heard_samples += n
@@ -500,6 +579,9 @@ class AcousticStream:
         shifted state.  Loads and states are in ``sysm``'s modes (the state carried into them
         relative to the load's static state).  ``keep``: carry the end state."""
         load = self._load(st, sysm.modes)             # the latest read's, after any change
+        if ONE_CONVOLUTION_PER_RUN and out is not None and keep:
+            self._add_to_run(st, sysm, u, n, change, load, out)
+            return
         x = self._state_in(st, sysm, load if change is None else change[0])
         if change is None and (load is None or not np.any(load)):
             if out is not None:
@@ -526,6 +608,33 @@ class AcousticStream:
             else:
                 st.x, st.end = None, (sysm, u[a:], x - alpha, end) if keep else None
         # the static state under the load from here on (its ramp's particular solution is not)
+        st.eq = alpha if change is None else self._equilibrium(sysm, load)
+
+    def _add_to_run(self, st: _ObjectState, sysm: ModalSystem, u: np.ndarray, n: int, change, load,
+                    out: np.ndarray) -> None:
+        """``_evolve`` of a heard span through the object's pending ``_Run`` (a new run when
+        its system differs: the state is then carried into ``sysm`` as ``_evolve`` does)."""
+        if st.run is None or st.run.system is not sysm:
+            x = self._state_in(st, sysm, load if change is None else change[0])     # flushes a run
+            st.run, st.x, st.end = _Run(sysm, x, self.sample_rate_hz), None, None
+        T = 1.0 / self.sample_rate_hz
+        if change is None:
+            bounds = [(0, n, load, load)]
+        else:
+            old, new, sharp = change
+            k = self.passive.rise_samples(self.sample_rate_hz, n)
+            mid = old + sharp + (new - old - sharp) * (k / n)
+            bounds = [(0, k, old, mid)] + ([(k, n, mid, new)] if k < n else [])
+        pieces = []
+        for a, b, p0, p1 in bounds:
+            if p0 is p1 and (p0 is None or not np.any(p0)):
+                pieces.append((a, b, None, None))
+                continue
+            solver = self._load_solvers.get_or_build(IdentityKey(sysm), lambda: LoadSolver(sysm))
+            alpha, beta = solver.particular(p0, p1, (b - a) * T if p1 is not p0 else 0.0)
+            pieces.append((a, b, alpha, beta))
+        st.run.add(u, n, out, pieces)
+        alpha = pieces[-1][2]
         st.eq = alpha if change is None else self._equilibrium(sysm, load)
 
     # -- passive sound ---------------------------------------------------------------------
