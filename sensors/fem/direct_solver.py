@@ -21,10 +21,12 @@ from __future__ import annotations
 
 import logging
 import os
+import threading
 
 import numpy as np
 
-__all__ = ["SOLVERS", "SOLVER_ENV", "FactorizationError", "available_solvers", "default_solver", "factorize"]
+__all__ = ["SOLVERS", "SOLVER_ENV", "FactorizationError", "available_solvers", "default_solver", "factorize",
+           "preload_in_background"]
 
 log = logging.getLogger(__name__)
 
@@ -80,6 +82,11 @@ class SuperLUFactorization:
     def __init__(self, A):
         import scipy.sparse.linalg
 
+        if isinstance(A, scipy.sparse.bsr_matrix):
+            # Node blocks (fem.assembly.NodeBlocks.shifted): the entries a CSR difference of K and
+            # sigma M holds, without its exact zeros, so SuperLU orders the same pattern.
+            A = A.tocsr()
+            A.eliminate_zeros()
         try:
             self._lu = scipy.sparse.linalg.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                                                 options={"SymmetricMode": True})
@@ -140,3 +147,34 @@ def factorize(A, solver: str | None = None):
     if solver == "superlu":
         return SuperLUFactorization(A)
     raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
+
+
+#: The preload thread of this process, once started (see :func:`preload_in_background`).
+PRELOAD: list = []
+
+
+def _preload() -> None:
+    import scipy.linalg  # noqa: F401 - the eigen-solve's first use
+    import scipy.sparse
+
+    try:
+        if default_solver() == "pardiso":
+            # mkl_rt loads MKL's computational libraries on the first call: a 3 x 3 factorization
+            # makes that call.
+            PardisoFactorization(scipy.sparse.identity(3, format="csr"))
+        else:
+            import scipy.sparse.linalg  # noqa: F401 - SuperLU
+    except (FactorizationError, ValueError) as exc:  # the build's own factorization reports it
+        log.debug("solver preload failed: %s", exc)
+
+
+def preload_in_background() -> threading.Thread | None:
+    """Load the default solver (MKL's libraries: ~0.3 s) and the eigen-solve's SciPy modules in
+    a daemon thread, once per process, so that a model build's first factorization does not wait
+    for them (the build meshes and assembles meanwhile). Returns the thread when started."""
+    if PRELOAD:
+        return None
+    thread = threading.Thread(target=_preload, name="solver-preload", daemon=True)
+    PRELOAD.append(thread)
+    thread.start()
+    return thread

@@ -232,7 +232,8 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
         s += Y.shape[1]
 
 
-def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol, cap, say, solver, info):
+def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol, cap, say, solver, info,
+                        factorize_shifted=None):
     """Modes by shift-invert block Krylov: the shift inside the band first, then (if that
     factorization fails or the iteration stagnates) the safe negative shift.
 
@@ -248,7 +249,7 @@ def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol,
         say(f"factorizing ({solver})")
         start = time.perf_counter()
         try:
-            fact = factorize(K - sigma * M, solver)
+            fact = factorize(K - sigma * M, solver) if factorize_shifted is None else factorize_shifted(sigma, solver)
         except FactorizationError as exc:
             failure = EigenSolveError(f"factorization of K - sigma M failed ({exc}); is the mesh valid?")
             continue
@@ -289,7 +290,7 @@ def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol,
 
 def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_rtol: float = 2e-3,
                 residual_tol: float = 1e-6, max_modes: int | None = None, progress=None, solver: str | None = None,
-                info: dict | None = None):
+                info: dict | None = None, factorize_shifted=None):
     """Elastic modes of a free body with frequency up to ``max_frequency_hz``.
 
     Args:
@@ -307,6 +308,9 @@ def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_r
             below :data:`DENSE_MAX_DOF`), ``factor_mb`` (memory of the factorization), and for
             shift-invert ``factor_s`` (wall time of the factorization), ``block`` (Krylov block
             size), ``solves`` and ``solved_vectors`` (block solves and their columns).
+        factorize_shifted: Optional callable ``(sigma, solver)`` returning the factorization of
+            K - sigma M, the same as ``direct_solver.factorize(K - sigma * M, solver)`` (e.g.
+            :meth:`sensors.fem.assembly.NodeBlocks.factorize_shifted`, from the node blocks).
 
     Returns:
         (lambdas (r,) ascending [rad^2/s^2], U (3 n_nodes, r) with U^T M U = I).
@@ -349,7 +353,7 @@ def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_r
         n_below = None  # every eigenvalue computed: nothing to count
     else:
         lam, U, shift, n_below = _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol, cap,
-                                                     say, solver, info)
+                                                     say, solver, info, factorize_shifted)
 
     if len(lam) and lam[0] <= 1e-9 * lam_scale:
         raise EigenSolveError(

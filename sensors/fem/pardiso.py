@@ -19,6 +19,7 @@ import ctypes.util
 import glob
 import os
 import sys
+import threading
 
 import numpy as np
 
@@ -55,10 +56,18 @@ def _candidate_paths() -> list[str]:
     return found
 
 
+_LOADING = threading.Lock()  # one lookup, also when a build's preload thread races the build
+
+
 def mkl_library():
     """The loaded ``mkl_rt`` library, or None when MKL is not installed (looked up once)."""
     if LIBRARY:
         return LIBRARY[0]
+    with _LOADING:
+        return LIBRARY[0] if LIBRARY else _load_mkl()
+
+
+def _load_mkl():
     lib = None
     paths = _candidate_paths()
     if not paths:  # a system-wide MKL (slow: find_library may run ldconfig)
@@ -89,7 +98,8 @@ class PardisoLDLT:
     """A = P L D L^T P^T of a sparse real symmetric (indefinite) matrix, factorized once.
 
     Args:
-        A: scipy sparse matrix, symmetric; only its upper triangle is read.
+        A: scipy sparse matrix, symmetric; only its upper triangle is read. A BSR matrix of
+            3 x 3 blocks is taken as it is (sorted block indices); any other is converted.
 
     Attributes:
         n_positive, n_negative: Inertia of A (eigenvalue signs) as counted by the factorization.
@@ -108,13 +118,18 @@ class PardisoLDLT:
         if lib is None:
             raise PardisoError("MKL (mkl_rt) not found: pip install mkl")
         self._lib = lib
-        A = scipy.sparse.csr_matrix(A)
+        given_blocks = isinstance(A, scipy.sparse.bsr_matrix) and A.blocksize == (3, 3)
+        if not given_blocks:
+            A = scipy.sparse.csr_matrix(A)
         A.sort_indices()
         self.n = A.shape[0]
         if A.nnz >= 2**31:
             raise PardisoError("matrix too large for the 32-bit PARDISO interface")
         # PARDISO keeps pointers to the arrays between phases: hold them on the object.
-        if self.n % 3 == 0:
+        if given_blocks:  # node blocks as assembled (fem.assembly.NodeBlocks.shifted): no CSR round trip
+            Ab = A
+            self.block = 3
+        elif self.n % 3 == 0:
             # Node-major FE dofs: the upper triangle of 3 x 3 blocks in BSR form (iparm[36] = 3).
             # PARDISO's analysis then orders the node graph as given instead of finding the
             # blocks itself (variable block rows): mug, 99k dof, 0.2 s less of 0.6-0.7 s.
