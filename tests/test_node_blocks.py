@@ -150,3 +150,34 @@ def test_the_solver_preload_loads_the_default_solver_in_the_background():
             "print('ok')\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
+
+
+def test_pardiso_analysed_before_the_values_gives_the_same_factor_bit_for_bit(tube):
+    """PARDISO's analysis of the bare pattern (started by the assembly as soon as the pattern is
+    known) and a numerical factorization later: the same solves, bit for bit, as analysing and
+    factorizing at once; a matrix of another pattern is analysed afresh."""
+    if "pardiso" not in available_solvers():
+        pytest.skip("MKL PARDISO exists for x86-64 only (tests/test_direct_solver.py requires it there)")
+    from sensors.fem.direct_solver import analyze_pattern, factorize
+
+    nodes, tets, material = tube
+    sigma = 0.5 * (2 * math.pi * BAND_HZ) ** 2
+    plain = assemble_blocks(nodes, tets, material, "p2")
+    ahead = assemble_blocks(nodes, tets, material, "p2", analyze=True)
+    B = np.random.default_rng(4).standard_normal((3 * len(nodes), 3))
+    reference = factorize(plain.shifted(sigma), "pardiso")
+    fact = ahead.factorize_shifted(sigma, "pardiso")
+    assert fact.analysed_before and not reference.analysed_before
+    assert fact.n_negative == reference.n_negative and fact.factor_mb == reference.factor_mb
+    assert fact.solve(B).tobytes() == reference.solve(B).tobytes()
+    assert not ahead.factorize_shifted(sigma, "pardiso").analysed_before  # used once
+    # Another pattern (the tube's halves uncoupled): not this analysis.
+    other = analyze_pattern(plain.indptr, plain.indices, "pardiso")
+    K = plain.stiffness_csr()
+    half = 3 * (len(nodes) // 2)
+    A = (K - sigma * plain.mass_csr()).tolil()
+    A[:half, half:] = 0
+    A[half:, :half] = 0
+    A = A.tocsr()
+    A.eliminate_zeros()
+    assert not factorize(A, "pardiso", analysis=other).analysed_before

@@ -23,7 +23,7 @@ import threading
 
 import numpy as np
 
-__all__ = ["PardisoError", "PardisoLDLT", "mkl_library"]
+__all__ = ["PardisoAnalysis", "PardisoError", "PardisoLDLT", "mkl_library", "upper_triangle"]
 
 _MTYPE_REAL_SYMMETRIC_INDEFINITE = -2
 _ERRORS = {-1: "input inconsistent", -2: "not enough memory", -3: "reordering problem",
@@ -94,12 +94,126 @@ def _load_mkl():
     return lib
 
 
-class PardisoLDLT:
+def upper_triangle(indptr: np.ndarray, indices: np.ndarray):
+    """(keep, indptr, indices) of the upper triangle of a square CSR or BSR pattern (sorted
+    rows): ``keep`` selects its entries, the two others (32-bit) are the pattern PARDISO gets
+    (a mask on the arrays: scipy's triu goes through COO, 3x slower)."""
+    n_rows = len(indptr) - 1
+    rows = np.repeat(np.arange(n_rows, dtype=np.int32), np.diff(indptr))
+    keep = indices >= rows
+    upper_indptr = np.zeros(n_rows + 1, dtype=np.int32)
+    np.cumsum(np.bincount(rows[keep], minlength=n_rows), out=upper_indptr[1:])
+    return keep, upper_indptr, np.ascontiguousarray(indices[keep], dtype=np.int32)
+
+
+def _settings(bunch_kaufman: bool, block: int) -> np.ndarray:
+    """PARDISO's iparm for this solver."""
+    ip = np.zeros(64, dtype=np.int32)
+    ip[0] = 1    # these settings, not the defaults
+    ip[1] = 2    # METIS nested-dissection ordering
+    ip[7] = 0    # iterative refinement only after perturbed pivots (a positive count refines every solve)
+    ip[9] = 8    # pivot perturbation 1e-8 (the default for symmetric indefinite matrices)
+    ip[10] = 0   # no scaling and no weighted matching
+    ip[12] = 0
+    # 1x1 diagonal pivots, as SuperLU's path takes them: the factorization of K - sigma M
+    # is 1.4x faster than with Bunch-Kaufman 1x1 and 2x2 pivots (mug, 99k dof: 1.6 s
+    # against 2.3 s) for the same factor and inertia. A pivot that had to be perturbed
+    # sends the caller back to Bunch-Kaufman.
+    ip[20] = 1 if bunch_kaufman else 0
+    ip[34] = 1   # zero-based indices
+    # Node blocks: given as 3 x 3 BSR (above), or else variable block rows, where PARDISO
+    # finds blocks itself (rows 90 % alike): factorization 25-40 % faster on the project's
+    # matrices than scalar rows, the same factor.
+    ip[36] = 3 if block == 3 else -90
+    return ip
+
+
+class _Handle:
+    """A PARDISO handle and the arrays it was given (PARDISO keeps pointers to them between
+    phases: they are held on the object)."""
+
+    _factorized = False
+
+    def _call(self, phase: int, B: np.ndarray, X: np.ndarray | None = None) -> None:
+        # One OpenMP thread in every phase, whatever MKL_NUM_THREADS says: the factor depends on
+        # the thread count MKL actually runs (mug: 337.8 MB on one thread, 336.7 MB on two, the
+        # solutions equal to round-off only), and MKL runs fewer threads than asked on a loaded
+        # machine, so more than one would make the modes differ from run to run. The setting is
+        # this thread's own; the caller's comes back after the call.
+        previous = self._lib.MKL_Set_Num_Threads_Local(1)
+        try:
+            self._pardiso(phase, B, X)
+        finally:
+            self._lib.MKL_Set_Num_Threads_Local(previous)
+
+    def _pardiso(self, phase: int, B: np.ndarray, X: np.ndarray | None) -> None:
+        one, err = ctypes.c_int32(1), ctypes.c_int32(0)
+        self._lib.pardiso(self._pt.ctypes.data, ctypes.byref(one), ctypes.byref(one),
+                          ctypes.byref(ctypes.c_int32(_MTYPE_REAL_SYMMETRIC_INDEFINITE)), ctypes.byref(ctypes.c_int32(phase)),
+                          ctypes.byref(ctypes.c_int32(self.n // self.block)), self._data.ctypes.data, self._indptr.ctypes.data,
+                          self._indices.ctypes.data, None, ctypes.byref(ctypes.c_int32(B.shape[1])),
+                          self._iparm.ctypes.data, ctypes.byref(ctypes.c_int32(0)), B.ctypes.data,
+                          (B if X is None else X).ctypes.data, ctypes.byref(err))
+        if err.value:
+            raise PardisoError(f"PARDISO phase {phase}: error {err.value} ({_ERRORS.get(err.value, 'unknown')})")
+
+    def release(self) -> None:
+        """Free MKL's memory for this handle (also done when the object is collected)."""
+        if self._factorized:
+            self._factorized = False
+            self._call(-1, np.zeros((self.n, 1), order="F"))
+
+    def __del__(self):
+        try:
+            self.release()
+        except Exception:  # interpreter shutdown: MKL may already be gone
+            pass
+
+
+class PardisoAnalysis(_Handle):
+    """PARDISO's analysis (METIS ordering and symbolic factorization, phase 11) of a 3 x 3
+    node-block pattern, made before its values exist: a :class:`PardisoLDLT` of a matrix with
+    that pattern then only factorizes numerically. The analysis reads no values (with no
+    scaling or matching, as set here): the factor is bit for bit that of the whole factorization
+    (checked on the mug with three sets of values). Used once.
+
+    Args:
+        indptr, indices: Node-level pattern of a symmetric matrix (sorted rows); the upper
+            triangle is analysed.
+    """
+
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray):
+        lib = mkl_library()
+        if lib is None:
+            raise PardisoError("MKL (mkl_rt) not found: pip install mkl")
+        self._lib = lib
+        self.block = 3
+        self.n = 3 * (len(indptr) - 1)
+        _, self._indptr, self._indices = upper_triangle(indptr, indices)
+        self._data = np.ones(9 * len(self._indices))  # not read by the analysis
+        self._pt = np.zeros(64, dtype=np.int64)  # opaque solver handle (64 pointers)
+        self._iparm = _settings(bunch_kaufman=False, block=3)
+        self._factorized = True  # from here on the handle holds memory to free
+        self._call(11, np.zeros((self.n, 1), order="F"))
+
+    def take(self, n: int, indptr: np.ndarray, indices: np.ndarray):
+        """The handle and pattern arrays for a factorization of size ``n`` with this upper
+        pattern, or None when it differs or the analysis was taken before."""
+        if not self._factorized or n != self.n or not (np.array_equal(indptr, self._indptr)
+                                                       and np.array_equal(indices, self._indices)):
+            return None
+        self._factorized = False  # the factorization frees it now
+        return self._pt, self._iparm, self._indptr, self._indices
+
+
+class PardisoLDLT(_Handle):
     """A = P L D L^T P^T of a sparse real symmetric (indefinite) matrix, factorized once.
 
     Args:
         A: scipy sparse matrix, symmetric; only its upper triangle is read. A BSR matrix of
             3 x 3 blocks is taken as it is (sorted block indices); any other is converted.
+        analysis: Optional :class:`PardisoAnalysis` of A's node-block pattern (used when the
+            pattern is the same; else A is analysed here).
 
     Attributes:
         n_positive, n_negative: Inertia of A (eigenvalue signs) as counted by the factorization.
@@ -109,9 +223,10 @@ class PardisoLDLT:
         factor_mb: Memory of the numerical factorization [MB] (with block rows, PARDISO counts
             blocks, not entries).
         block: Rows per block as passed to PARDISO (3: node-block BSR; 1: CSR).
+        analysed_before: Whether the analysis came from a :class:`PardisoAnalysis`.
     """
 
-    def __init__(self, A):
+    def __init__(self, A, analysis: PardisoAnalysis | None = None):
         import scipy.sparse
 
         lib = mkl_library()
@@ -139,18 +254,14 @@ class PardisoLDLT:
         else:
             Ab = A
             self.block = 1
-        n_rows = self.n // self.block
-        # The upper triangle by a mask on the arrays (scipy's triu goes through COO: 3x slower).
-        rows = np.repeat(np.arange(n_rows, dtype=np.int32), np.diff(Ab.indptr))
-        keep = Ab.indices >= rows
+        keep, self._indptr, self._indices = upper_triangle(Ab.indptr, Ab.indices)
         self._data = np.ascontiguousarray(Ab.data[keep], dtype=np.float64)  # blocks row-major
-        self._indices = np.ascontiguousarray(Ab.indices[keep], dtype=np.int32)
-        self._indptr = np.zeros(n_rows + 1, dtype=np.int32)
-        np.cumsum(np.bincount(rows[keep], minlength=n_rows), out=self._indptr[1:])
+        taken = None if analysis is None or self.block != 3 else analysis.take(self.n, self._indptr, self._indices)
+        self.analysed_before = taken is not None
         self._factorized = False
         self.pivoting = "diagonal"
         try:
-            self._factorize(bunch_kaufman=False)
+            self._factorize(bunch_kaufman=False, analysed=taken)
             retry = self.n_perturbed_pivots > 0
         except PardisoError:
             retry = True
@@ -162,54 +273,20 @@ class PardisoLDLT:
             self.pivoting = "bunch-kaufman"
             self._factorize(bunch_kaufman=True)
 
-    def _factorize(self, bunch_kaufman: bool) -> None:
-        self._pt = np.zeros(64, dtype=np.int64)  # opaque solver handle (64 pointers)
-        self._iparm = np.zeros(64, dtype=np.int32)
+    def _factorize(self, bunch_kaufman: bool, analysed=None) -> None:
+        if analysed is None:
+            self._pt = np.zeros(64, dtype=np.int64)  # opaque solver handle (64 pointers)
+            self._iparm = _settings(bunch_kaufman, self.block)
+            phase = 12  # analysis + numerical factorization
+        else:  # the same settings, analysed already (the arrays equal to this object's)
+            self._pt, self._iparm, self._indptr, self._indices = analysed
+            phase = 22  # numerical factorization
+        self._factorized = True  # the handle holds memory from here on (freed by release)
         ip = self._iparm
-        ip[0] = 1    # these settings, not the defaults
-        ip[1] = 2    # METIS nested-dissection ordering
-        ip[7] = 0    # iterative refinement only after perturbed pivots (a positive count refines every solve)
-        ip[9] = 8    # pivot perturbation 1e-8 (the default for symmetric indefinite matrices)
-        ip[10] = 0   # no scaling and no weighted matching
-        ip[12] = 0
-        # 1x1 diagonal pivots, as SuperLU's path takes them: the factorization of K - sigma M
-        # is 1.4x faster than with Bunch-Kaufman 1x1 and 2x2 pivots (mug, 99k dof: 1.6 s
-        # against 2.3 s) for the same factor and inertia. A pivot that had to be perturbed
-        # sends the caller back to Bunch-Kaufman.
-        ip[20] = 1 if bunch_kaufman else 0
-        ip[34] = 1   # zero-based indices
-        # Node blocks: given as 3 x 3 BSR (above), or else variable block rows, where PARDISO
-        # finds blocks itself (rows 90 % alike): factorization 25-40 % faster on the project's
-        # matrices than scalar rows, the same factor.
-        ip[36] = 3 if self.block == 3 else -90
-        self._call(12, np.zeros((self.n, 1), order="F"))  # analysis + numerical factorization
-        self._factorized = True
+        self._call(phase, np.zeros((self.n, 1), order="F"))
         self.factor_mb = float(ip[16]) / 1024  # the factorization's memory (PARDISO's own count)
         self.n_perturbed_pivots = int(ip[13])
         self.n_positive, self.n_negative = int(ip[21]), int(ip[22])
-
-    def _call(self, phase: int, B: np.ndarray, X: np.ndarray | None = None) -> None:
-        # One OpenMP thread in every phase, whatever MKL_NUM_THREADS says: the factor depends on
-        # the thread count MKL actually runs (mug: 337.8 MB on one thread, 336.7 MB on two, the
-        # solutions equal to round-off only), and MKL runs fewer threads than asked on a loaded
-        # machine, so more than one would make the modes differ from run to run. The setting is
-        # this thread's own; the caller's comes back after the call.
-        previous = self._lib.MKL_Set_Num_Threads_Local(1)
-        try:
-            self._pardiso(phase, B, X)
-        finally:
-            self._lib.MKL_Set_Num_Threads_Local(previous)
-
-    def _pardiso(self, phase: int, B: np.ndarray, X: np.ndarray | None) -> None:
-        one, err = ctypes.c_int32(1), ctypes.c_int32(0)
-        self._lib.pardiso(self._pt.ctypes.data, ctypes.byref(one), ctypes.byref(one),
-                          ctypes.byref(ctypes.c_int32(_MTYPE_REAL_SYMMETRIC_INDEFINITE)), ctypes.byref(ctypes.c_int32(phase)),
-                          ctypes.byref(ctypes.c_int32(self.n // self.block)), self._data.ctypes.data, self._indptr.ctypes.data,
-                          self._indices.ctypes.data, None, ctypes.byref(ctypes.c_int32(B.shape[1])),
-                          self._iparm.ctypes.data, ctypes.byref(ctypes.c_int32(0)), B.ctypes.data,
-                          (B if X is None else X).ctypes.data, ctypes.byref(err))
-        if err.value:
-            raise PardisoError(f"PARDISO phase {phase}: error {err.value} ({_ERRORS.get(err.value, 'unknown')})")
 
     def solve(self, B: np.ndarray) -> np.ndarray:
         """A^-1 B for a vector or an (n, k) block of right-hand sides."""
@@ -221,15 +298,3 @@ class PardisoLDLT:
         X = np.empty_like(Bf, order="F")
         self._call(33, Bf, X)
         return X.ravel() if vector else X
-
-    def release(self) -> None:
-        """Free MKL's memory for the factorization (also done when the object is collected)."""
-        if self._factorized:
-            self._factorized = False
-            self._call(-1, np.zeros((self.n, 1), order="F"))
-
-    def __del__(self):
-        try:
-            self.release()
-        except Exception:  # interpreter shutdown: MKL may already be gone
-            pass

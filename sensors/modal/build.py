@@ -78,7 +78,7 @@ def _solve(cls, key, make_mesh, material, opts, meta):
             nodes, elements = tm.vertices_m, tm.tets
         bar.update()
         stage("assemble")
-        blocks = assemble_blocks(nodes, elements, material, opts["element"])
+        blocks = assemble_blocks(nodes, elements, material, opts["element"], analyze=True)
         K, M = assembled_csr(blocks)
         bar.update()
         stage("eigensolve")
