@@ -121,6 +121,17 @@ def test_shifted_blocks_are_the_csr_difference_bit_for_bit(tube):
     assert _bits(csr) == _bits(K - sigma * M)
 
 
+def test_node_level_mass_product_is_the_csr_product_bit_for_bit(tube):
+    nodes, tets, material = tube
+    blocks = assemble_blocks(nodes, tets, material, "p2")
+    M = blocks.mass_csr()
+    rng = np.random.default_rng(5)
+    for k, order in ((3, "F"), (6, "C"), (1, "C")):
+        X = np.asarray(rng.standard_normal((M.shape[0], k)), order=order)
+        product = blocks.mass_product(X)
+        assert product.shape == (M.shape[0], k) and product.tobytes() == (M @ X).tobytes()
+
+
 @pytest.mark.parametrize("solver", SOLVERS)
 def test_modes_from_the_blocks_are_those_from_csr_bit_for_bit(tube, solver):
     if solver not in available_solvers():
@@ -131,7 +142,7 @@ def test_modes_from_the_blocks_are_those_from_csr_bit_for_bit(tube, solver):
     info_csr, info_blocks = {}, {}
     lam, U = solve_modes(K, M, nodes, BAND_HZ, solver=solver, info=info_csr)
     lam_b, U_b = solve_modes(K, M, nodes, BAND_HZ, solver=solver, info=info_blocks,
-                             factorize_shifted=blocks.factorize_shifted)
+                             factorize_shifted=blocks.factorize_shifted, mass_product=blocks.mass_product)
     assert info_blocks["solver"] == solver and info_blocks["solves"] == info_csr["solves"]
     assert np.array_equal(lam, lam_b) and np.array_equal(U, U_b)
 

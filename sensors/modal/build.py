@@ -85,7 +85,8 @@ def _solve(cls, key, make_mesh, material, opts, meta):
         solved = {}
         lam, U = solve_modes(K, M, nodes, opts["max_frequency_hz"], info=solved,
                              progress=lambda s: bar.set_postfix_str(s, refresh=False),
-                             factorize_shifted=blocks.factorize_shifted)  # PARDISO takes the node blocks
+                             factorize_shifted=blocks.factorize_shifted,  # PARDISO takes the node blocks
+                             mass_product=blocks.mass_product)
         bar.update()
     finally:
         bar.close()
