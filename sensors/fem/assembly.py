@@ -340,7 +340,7 @@ def assemble_blocks(nodes_m: np.ndarray, tets: np.ndarray, material: Material, e
             pending.append((sel, A, Me.ravel()))
             if pattern.done():  # batches wait only as long as the pattern (memory: 7 kB per element)
                 sums.add(pending)
-        sums.add(pending)
+        sums.add(pending)  # the rest (and the zero blocks of a mesh without elements)
         indptr, indices, slot, nnzb, mirror = pattern.result()
         a_blocks, m_blocks = sums.a_blocks, sums.m_blocks
         # Symmetrize exactly (round-off in the element sums breaks it at 1e-16 relative): entry
@@ -383,7 +383,7 @@ class _BlockSums:
         """Sum the batches in ``pending`` (emptied) into the blocks (waits for the pattern)."""
         import scipy.sparse
 
-        if not pending:
+        if not pending and self.a_blocks is not None:
             return
         _, _, slot, nnzb, _ = self._pattern.result()
         if self.a_blocks is None:
