@@ -134,7 +134,7 @@ class _Stagnated(EigenSolveError):
 
 
 def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block=FULL_BLOCK, shift=0.0,
-                  n_below=None):
+                  n_below=None, mass=None):
     """Shift-invert block Krylov with full M-reorthogonalization and Rayleigh-Ritz.
 
     Small blocks of right-hand sides: a block of 6 costs SuperLU 1.3x more per vector than
@@ -152,6 +152,7 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
     """
     import scipy.linalg  # deferred as in solve_modes
 
+    mass = mass or M.__matmul__  # X -> M X
     n = K.shape[0]
     rng = np.random.default_rng(12345)  # deterministic start -> reproducible mode bases
     max_basis = min(n - 6, cap + 4 * block, 3000, max(4 * block, int(6e7 / n)))  # B, M B, K B <= ~0.5 GB each
@@ -169,14 +170,14 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
                 C = MB[:, :s].T @ Y
                 Y = Y - B[:, :s] @ C
                 KY = KY - KB[:, :s] @ C
-        MY = M @ Y
+        MY = mass(Y)
         G = Y.T @ MY
         w, Q = np.linalg.eigh(0.5 * (G + G.T))
         keep = w > 1e-12 * max(w.max(), 1e-300)  # drop directions the Krylov space already has
         T = Q[:, keep] / np.sqrt(w[keep])
         return Y @ T, MY @ T, KY @ T
 
-    Y, MY, KY = orthonormalize(*op(M @ rng.standard_normal((n, block))), 0)
+    Y, MY, KY = orthonormalize(*op(mass(rng.standard_normal((n, block)))), 0)
     Y, MY, KY = orthonormalize(Y, KY, 0)
     s = Y.shape[1]
     B[:, :s], MB[:, :s], KB[:, :s] = Y, MY, KY
@@ -232,7 +233,8 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
         s += Y.shape[1]
 
 
-def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol, cap, say, solver, info):
+def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol, cap, say, solver, info,
+                        factorize_shifted=None, mass=None):
     """Modes by shift-invert block Krylov: the shift inside the band first, then (if that
     factorization fails or the iteration stagnates) the safe negative shift.
 
@@ -240,6 +242,7 @@ def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol,
     the shift by the factorization's inertia (Sylvester), or None where it is not known.
     """
     safe = -min(max(1e-3 * lam_max, 1e-10 * lam_scale), 1e-3 * lam_scale)
+    mass = mass or M.__matmul__  # X -> M X
     MR = M @ R
     KR = K @ R  # round-off only (rigid-body modes store no energy), kept so K Z stays exact
     failure = None
@@ -248,7 +251,7 @@ def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol,
         say(f"factorizing ({solver})")
         start = time.perf_counter()
         try:
-            fact = factorize(K - sigma * M, solver)
+            fact = factorize(K - sigma * M, solver) if factorize_shifted is None else factorize_shifted(sigma, solver)
         except FactorizationError as exc:
             failure = EigenSolveError(f"factorization of K - sigma M failed ({exc}); is the mesh valid?")
             continue
@@ -269,17 +272,17 @@ def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol,
             Z = W - R @ c
             if not fact.exact_solves:  # the derived K Z is off by the solve's residual
                 return Z, K @ Z
-            return Z, X + sigma * (M @ W) - KR @ c
+            return Z, X + sigma * mass(W) - KR @ c
 
         block = krylov_block(n_below)
         try:
             lam, U = _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block=block,
-                                   shift=sigma, n_below=n_below)
+                                   shift=sigma, n_below=n_below, mass=mass)
             if block < FULL_BLOCK and _hides_copies(lam, block):
                 say("eigensolve: a repeated eigenvalue fills the block: again with the full block")
                 block = FULL_BLOCK
                 lam, U = _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block=block,
-                                       shift=sigma, n_below=n_below)
+                                       shift=sigma, n_below=n_below, mass=mass)
             info["block"] = block
             return lam, U, sigma, n_below
         except _Stagnated as exc:
@@ -289,7 +292,7 @@ def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol,
 
 def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_rtol: float = 2e-3,
                 residual_tol: float = 1e-6, max_modes: int | None = None, progress=None, solver: str | None = None,
-                info: dict | None = None):
+                info: dict | None = None, factorize_shifted=None, mass_product=None):
     """Elastic modes of a free body with frequency up to ``max_frequency_hz``.
 
     Args:
@@ -307,6 +310,11 @@ def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_r
             below :data:`DENSE_MAX_DOF`), ``factor_mb`` (memory of the factorization), and for
             shift-invert ``factor_s`` (wall time of the factorization), ``block`` (Krylov block
             size), ``solves`` and ``solved_vectors`` (block solves and their columns).
+        factorize_shifted: Optional callable ``(sigma, solver)`` returning the factorization of
+            K - sigma M, the same as ``direct_solver.factorize(K - sigma * M, solver)`` (e.g.
+            :meth:`sensors.fem.assembly.NodeBlocks.factorize_shifted`, from the node blocks).
+        mass_product: Optional callable ``X -> M @ X``, bit for bit the same, for the Krylov
+            iteration's products (e.g. :meth:`sensors.fem.assembly.NodeBlocks.mass_product`).
 
     Returns:
         (lambdas (r,) ascending [rad^2/s^2], U (3 n_nodes, r) with U^T M U = I).
@@ -349,7 +357,7 @@ def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_r
         n_below = None  # every eigenvalue computed: nothing to count
     else:
         lam, U, shift, n_below = _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol, cap,
-                                                     say, solver, info)
+                                                     say, solver, info, factorize_shifted, mass_product)
 
     if len(lam) and lam[0] <= 1e-9 * lam_scale:
         raise EigenSolveError(
