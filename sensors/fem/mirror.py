@@ -89,13 +89,19 @@ class MirrorSplit:
     classes: tuple
 
     def assemble(self, nodes_m: np.ndarray, material, element: str = "p2"):
-        """[(K_c, M_c)] per class, from the orthant's elements."""
-        K, M = assemble(nodes_m[self.orthant_nodes], self.orthant_elements, material, element)
+        """(K_o, M_o): stiffness and mass of the orthant's elements alone (3 n_o dofs); each class
+        takes its part (:meth:`class_matrices`, in its own thread)."""
+        return assemble(nodes_m[self.orthant_nodes], self.orthant_elements, material, element)
+
+    def class_matrices(self, orthant_matrices, c: MirrorClass):
+        """(K_c, M_c) = D A_o[S, S] D of the class ``c`` from :meth:`assemble`'s matrices."""
         out = []
-        for c in self.classes:
-            D = _diagonal(c.weights)
-            out.append(((D @ K[c.dofs][:, c.dofs] @ D).tocsr(), (D @ M[c.dofs][:, c.dofs] @ D).tocsr()))
-        return out
+        for A in orthant_matrices:
+            sub = A[c.dofs][:, c.dofs].tocsr()
+            rows = np.repeat(np.arange(sub.shape[0]), np.diff(sub.indptr))
+            sub.data *= c.weights[rows] * c.weights[sub.indices]
+            out.append(sub)
+        return tuple(out)
 
     def rigid_modes(self, nodes_m: np.ndarray, c: MirrorClass) -> np.ndarray:
         """(d, r) the class's rigid-body modes in its coordinates (span only: T^T of the modes)."""
@@ -118,12 +124,6 @@ class MirrorSplit:
                     sign[a] = -sign[a]
             U[self.images[:, g]] = full_o * sign[None, :, None]
         return U.reshape(3 * self.n_nodes, -1)
-
-
-def _diagonal(w):
-    import scipy.sparse
-
-    return scipy.sparse.diags(w, format="csr")
 
 
 def _translation_parity(c: int, a: int) -> int:
@@ -213,14 +213,14 @@ def _merged_cut(lam: np.ndarray, lam_max: float, cluster_rtol: float) -> int:
     return len(lam) if n is None else n
 
 
-def solve_mirrored_modes(split: MirrorSplit, nodes_m: np.ndarray, matrices, max_frequency_hz: float, *,
+def solve_mirrored_modes(split: MirrorSplit, nodes_m: np.ndarray, orthant_matrices, max_frequency_hz: float, *,
                          cluster_rtol: float = 2e-3, residual_tol: float = 1e-6, progress=None,
                          solver: str | None = None, info: dict | None = None):
     """The whole body's modes up to ``max_frequency_hz`` from its classes' problems.
 
     Args:
         split: :func:`mirror_split` of the mesh.
-        matrices: [(K_c, M_c)] per class (:meth:`MirrorSplit.assemble`).
+        orthant_matrices: (K_o, M_o) of the orthant's elements (:meth:`MirrorSplit.assemble`).
         Others as :func:`sensors.fem.eigen.solve_modes`.
 
     Returns:
@@ -229,18 +229,22 @@ def solve_mirrored_modes(split: MirrorSplit, nodes_m: np.ndarray, matrices, max_
     say = progress or (lambda msg: None)
     info = {} if info is None else info
     lam_max = (2.0 * math.pi * max_frequency_hz) ** 2
-    rigid = [split.rigid_modes(nodes_m, c) for c in split.classes]
     bands = [lam_max] * len(split.classes)
     results: list = [None] * len(split.classes)
     infos: list = [{} for _ in split.classes]
 
+    prepared: list = [None] * len(split.classes)  # (K_c, M_c, rigid modes) per class, made in its thread
+
     def solve(i):
-        K, M = matrices[i]
+        cpu = time.thread_time()
+        if prepared[i] is None:
+            prepared[i] = (*split.class_matrices(orthant_matrices, split.classes[i]),
+                           split.rigid_modes(nodes_m, split.classes[i]))
+        K, M, R = prepared[i]
         infos[i] = {}
         f_hz = math.sqrt(bands[i]) / (2.0 * math.pi)
-        cpu = time.thread_time()
         result = solve_modes(K, M, None, f_hz, cluster_rtol=cluster_rtol, residual_tol=residual_tol, solver=solver,
-                             rigid_modes=rigid[i], info=infos[i])
+                             rigid_modes=R, info=infos[i])
         infos[i]["cpu_s"] = time.thread_time() - cpu  # this class's own cost, whatever else runs
         return result
 
