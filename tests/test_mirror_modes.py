@@ -118,3 +118,22 @@ def test_a_mirror_mesh_changes_the_cache_key():
     tm = layered_mesh(tpl, 4, np.ones((4, len(tpl.triangles)), bool),
                       lambda p, k: np.column_stack([np.full(len(p), 0.02 * k), p]), "bar", mirror_axes=(1, 2))
     assert tm.digest() != dataclasses.replace(tm, mirror_axes=()).digest()
+
+
+def test_a_model_of_a_mirror_mesh_is_built_per_class_and_a_plain_mesh_whole(tmp_path):
+    import dataclasses
+
+    from sensors.modal.model import ModalModel
+
+    lines = np.linspace(-0.006, 0.006, 5)
+    tpl = grid_template(lines, lines, lambda u, v: np.zeros(len(u), int))
+    tm = layered_mesh(tpl, 10, np.ones((10, len(tpl.triangles)), bool),
+                      lambda p, k: np.column_stack([np.full(len(p), 0.009 * k), p]), "bar", mirror_axes=(1, 2))
+    split = ModalModel.from_tet_mesh(tm, "abs", max_frequency_hz=12000.0, cache_dir=tmp_path, progress=False)
+    whole = ModalModel.from_tet_mesh(dataclasses.replace(tm, mirror_axes=()), "abs", max_frequency_hz=12000.0,
+                                     cache_dir=tmp_path, progress=False)
+    assert not whole.metadata.get("cache_hit")  # another key: not served the split model
+    assert tuple(split.metadata["eigensolve"]["mirror_axes"]) == (1, 2)
+    assert "mirror_axes" not in whole.metadata["eigensolve"]
+    assert split.metadata["n_dof"] == whole.metadata["n_dof"]
+    np.testing.assert_allclose(split.frequencies_hz, whole.frequencies_hz, rtol=1e-9)
