@@ -98,13 +98,21 @@ def test_a_pair_cut_by_the_band_is_completed_across_classes():
     np.testing.assert_allclose(lam_s, lam, rtol=1e-9)
 
 
-def test_bit_for_bit_whatever_the_threads(monkeypatch):
+def test_bit_for_bit_whatever_the_threads_and_core_slots(monkeypatch):
     (nodes, elements), material = _square_bar(n_cells=2, n_layers=8)
     split = mirror.mirror_split(nodes, elements, (1, 2))
     runs = []
     for threads in (2, 1, 2):
         monkeypatch.setattr(mirror, "THREADS", threads)
         runs.append(mirror.solve_mirrored_modes(split, nodes, split.assemble(nodes, material), 15000.0))
+    # The classes one at a time, as beside CoACD (aas_gym.object_build holds a core).
+    import threading
+
+    token = mirror.CORE_SLOTS.set(threading.BoundedSemaphore(1))
+    try:
+        runs.append(mirror.solve_mirrored_modes(split, nodes, split.assemble(nodes, material), 15000.0))
+    finally:
+        mirror.CORE_SLOTS.reset(token)
     for lam, U in runs[1:]:
         assert np.array_equal(lam, runs[0][0]) and np.array_equal(U, runs[0][1])
 

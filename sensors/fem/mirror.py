@@ -26,6 +26,8 @@ band limit is cut between classes (as :func:`sensors.fem.eigen.solve_modes` neve
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import dataclasses
 import itertools
 import math
@@ -37,10 +39,15 @@ import numpy as np
 from .assembly import assemble
 from .eigen import EigenSolveError, band_cut, rigid_body_modes, solve_modes
 
-__all__ = ["MirrorClass", "MirrorSplit", "mirror_split", "solve_mirrored_modes", "THREADS"]
+__all__ = ["CORE_SLOTS", "MirrorClass", "MirrorSplit", "mirror_split", "solve_mirrored_modes", "THREADS"]
 
 #: Worker threads for the classes (each runs one single-threaded factorization at a time).
 THREADS = 2
+#: A semaphore of cores that other work of this build holds too (``aas_gym.object_build``: CoACD
+#: holds one of two while it runs), or None. Each class solve holds one while it runs: while CoACD
+#: runs the classes take the other core in turn instead of three threads sharing two cores, which
+#: left CoACD, the longer job, finishing alone at the end.
+CORE_SLOTS: contextvars.ContextVar = contextvars.ContextVar("mirror_core_slots", default=None)
 #: Nodes that mirror onto each other must agree to this, relative to the mesh's extent.
 MATCH_RTOL = 1e-9
 
@@ -235,7 +242,13 @@ def solve_mirrored_modes(split: MirrorSplit, nodes_m: np.ndarray, orthant_matric
 
     prepared: list = [None] * len(split.classes)  # (K_c, M_c, rigid modes) per class, made in its thread
 
+    slots = CORE_SLOTS.get()  # read here: the pool's threads do not inherit the caller's context
+
     def solve(i):
+        with slots if slots is not None else contextlib.nullcontext():
+            return solve_class(i)
+
+    def solve_class(i):
         cpu = time.thread_time()
         if prepared[i] is None:
             prepared[i] = (*split.class_matrices(orthant_matrices, split.classes[i]),
