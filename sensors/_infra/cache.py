@@ -34,6 +34,7 @@ log = logging.getLogger(__name__)
 # content, and their code by the everyday objects' own alias key).
 SOURCE_MODULES = ("sensors.mesh.tets", "sensors.mesh.prisms", "sensors.mesh.quadratic", "sensors.mesh.intersections",
                   "sensors.mesh.tetwild", "sensors.mesh.surface", "sensors.fem.assembly", "sensors.fem.eigen",
+                  "sensors.fem.mirror",
                   "sensors.modal.build", "sensors.modal.io", "sensors.materials.solids")
 
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from .direct_solver import FactorizationError, default_solver, factorize
 
-__all__ = ["EigenSolveError", "krylov_block", "rigid_body_modes", "solve_modes", "mode_residuals"]
+__all__ = ["EigenSolveError", "band_cut", "krylov_block", "rigid_body_modes", "solve_modes", "mode_residuals"]
 
 log = logging.getLogger(__name__)
 
@@ -54,10 +54,11 @@ class EigenSolveError(RuntimeError):
     """The eigen-solve failed or produced modes that do not satisfy K u = lambda M u."""
 
 
-def rigid_body_modes(nodes_m: np.ndarray) -> np.ndarray:
-    """(3 n, 6) translations x, y, z and rotations about x, y, z (about the centroid)."""
+def rigid_body_modes(nodes_m: np.ndarray, centre_m: np.ndarray | None = None) -> np.ndarray:
+    """(3 n, 6) translations x, y, z and rotations about x, y, z (about ``centre_m``, by default
+    the centroid)."""
     n = len(nodes_m)
-    x, y, z = (nodes_m - nodes_m.mean(axis=0)).T
+    x, y, z = (nodes_m - (nodes_m.mean(axis=0) if centre_m is None else np.asarray(centre_m))).T
     R = np.zeros((3 * n, 6))
     for i in range(3):
         R[i::3, i] = 1.0
@@ -79,7 +80,7 @@ def mode_residuals(K, M, lambdas: np.ndarray, U: np.ndarray) -> np.ndarray:
     return np.linalg.norm(KU - (M @ U) * lambdas, axis=0) / np.maximum(np.linalg.norm(KU, axis=0), 1e-300)
 
 
-def _cut(lam: np.ndarray, lam_max: float, cluster_rtol: float) -> int | None:
+def band_cut(lam: np.ndarray, lam_max: float, cluster_rtol: float) -> int | None:
     """Number of modes to keep: all with lam <= lam_max plus the rest of a cluster at the cut.
 
     Returns None if the computed set ends inside the band or inside the cluster (need more).
@@ -188,8 +189,12 @@ def _block_krylov(K, M, op, lam_max, cluster_rtol, residual_tol, cap, say, block
     prev_theta = np.zeros(0)
     while True:
         theta, Q = scipy.linalg.eigh(0.5 * (Kr + Kr.T))
-        n_want = _cut(theta, lam_max, cluster_rtol)
-        if n_want is not None and n_want == prev_count and n_want < len(theta) - 1:
+        n_want = band_cut(theta, lam_max, cluster_rtol)
+        # An empty band counts as settled only once the lowest Ritz value has: Ritz values approach
+        # from above, so a mode just below the band limit shows only late (a square bar's first
+        # bending pair cut by the band was returned as no mode at all).
+        if (n_want is not None and n_want == prev_count and n_want < len(theta) - 1
+                and (n_want > 0 or _settled(theta[:1], prev_theta).all())):
             # The band's mode count has settled: now pay for true residuals.
             if converged.size != n_want:
                 converged = np.zeros(n_want, bool)
@@ -292,12 +297,14 @@ def _shift_invert_modes(K, M, R, lam_max, lam_scale, cluster_rtol, residual_tol,
 
 def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_rtol: float = 2e-3,
                 residual_tol: float = 1e-6, max_modes: int | None = None, progress=None, solver: str | None = None,
-                info: dict | None = None, factorize_shifted=None, mass_product=None):
+                info: dict | None = None, factorize_shifted=None, mass_product=None,
+                rigid_modes: np.ndarray | None = None):
     """Elastic modes of a free body with frequency up to ``max_frequency_hz``.
 
     Args:
         K, M: Sparse stiffness and mass (3 n_nodes square, node-major dofs).
-        nodes_m: (n_nodes, 3) node coordinates (for the rigid-body modes).
+        nodes_m: (n_nodes, 3) node coordinates (for the rigid-body modes), or None with
+            ``rigid_modes``.
         max_frequency_hz: Band limit; the set may extend past it to complete a cluster.
         cluster_rtol: Modes whose frequencies differ by less than this (relative) count as one
             cluster, which is never cut.
@@ -315,6 +322,8 @@ def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_r
             :meth:`sensors.fem.assembly.NodeBlocks.factorize_shifted`, from the node blocks).
         mass_product: Optional callable ``X -> M @ X``, bit for bit the same, for the Krylov
             iteration's products (e.g. :meth:`sensors.fem.assembly.NodeBlocks.mass_product`).
+        rigid_modes: (n_dof, r) the zero-energy modes to project out instead of the six of
+            ``nodes_m`` (a symmetry class's share of them, :mod:`sensors.fem.mirror`).
 
     Returns:
         (lambdas (r,) ascending [rad^2/s^2], U (3 n_nodes, r) with U^T M U = I).
@@ -339,8 +348,8 @@ def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_r
     if np.any(d_m <= 0) or np.any(d_k <= 0):
         raise EigenSolveError("stiffness or mass matrix has non-positive diagonal entries (unused nodes?)")
     lam_scale = float(np.median(d_k / d_m))  # ~ (highest mesh frequency)^2
-    R = _m_orthonormalize(rigid_body_modes(nodes_m), M)
-    n_elastic = n_dof - 6
+    R = _m_orthonormalize(rigid_body_modes(nodes_m) if rigid_modes is None else np.asarray(rigid_modes, float), M)
+    n_elastic = n_dof - R.shape[1]
     cap = n_elastic if max_modes is None else min(max_modes, n_elastic)
     say = progress or (lambda msg: None)
     info = {} if info is None else info
@@ -369,7 +378,7 @@ def solve_modes(K, M, nodes_m: np.ndarray, max_frequency_hz: float, *, cluster_r
         if found != n_below:
             raise EigenSolveError(f"the factorization counts {n_below} modes below the shift "
                                   f"{math.sqrt(max(shift, 0)) / (2 * math.pi):.4g} Hz, the eigen-solve found {found}")
-    n = _cut(lam, lam_max, cluster_rtol)
+    n = band_cut(lam, lam_max, cluster_rtol)
     if n is None:
         n = len(lam)
         if n < cap:

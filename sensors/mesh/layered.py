@@ -16,6 +16,14 @@ Templates here:
   spoon planforms).
 
 :func:`handled_cup_mesh` joins a second sweep, a D handle, to a revolved cup's wall.
+
+Mirror planes: a template whose points and triangles mirror across a coordinate line is swept
+into a mesh that mirrors across the matching plane only if the prisms' split does too. The
+split follows an order of the template points (:func:`sensors.mesh.prisms.extrude_to_tets`);
+:func:`mirror_split_rank` gives one that the mirrors keep, so the revolved containers (about y
+and z), the mug (about z) and the box (about y and z) are mirror-symmetric meshes, vertices and
+tets, and say so (``TetMesh.mirror_axes``): their modes are solved per symmetry class
+(:mod:`sensors.fem.mirror`).
 """
 
 from __future__ import annotations
@@ -29,7 +37,11 @@ from .prisms import extrude_to_tets, grid_triangles, rod_mesh
 from .tets import TetMesh, boundary_faces, orient_tets
 
 __all__ = ["Template", "disk_template", "grid_template", "layered_mesh", "revolved_mesh", "handled_cup_mesh",
-           "p2_dof_count"]
+           "mirror_classes", "mirror_split_rank", "p2_dof_count"]
+
+#: Template coordinates closer than this (relative to the template's extent) are one value in
+#: :func:`mirror_classes` (mirrored points agree only to round-off: cos(-t) against cos(t)).
+MIRROR_TOL = 1e-9
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,28 +113,71 @@ def grid_template(u_lines: np.ndarray, v_lines: np.ndarray, region_of_cell) -> T
     return Template(points, tris[keep], region[keep])
 
 
-def _sweep(template: Template, n_layers: int, active, place) -> tuple[np.ndarray, np.ndarray]:
+def _dense_rank(values: np.ndarray, tol: float) -> np.ndarray:
+    """Rank of each value among the distinct ones, values within ``tol`` of their neighbour
+    in sorted order counting as one."""
+    order = np.argsort(values, kind="stable")
+    ranks = np.empty(len(values), np.int64)
+    ranks[order] = np.concatenate([[0], np.cumsum(np.diff(values[order]) > tol)])
+    return ranks
+
+
+def mirror_classes(points: np.ndarray, axes) -> np.ndarray:
+    """A rank per template point that mirroring across the coordinate lines ``axes`` (0 or 1:
+    the line where that coordinate is 0) keeps: the order of (|coordinate| along each mirror
+    axis, then the other coordinate). Points share a rank only with their own mirror images."""
+    points = np.asarray(points, float)
+    axes = tuple(int(a) for a in axes)
+    tol = MIRROR_TOL * max(float(np.abs(points).max()), 1e-300)
+    keys = [np.abs(points[:, a]) for a in axes] + [points[:, a] for a in range(points.shape[1]) if a not in axes]
+    columns = [_dense_rank(k, tol) for k in keys]
+    combined = np.zeros(len(points), np.int64)
+    for c in columns:  # lexicographic, first key most significant
+        combined = combined * (int(c.max()) + 1) + c
+    return _dense_rank(combined.astype(float), 0.5)
+
+
+def mirror_split_rank(classes: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Distinct split ranks (for :func:`sensors.mesh.prisms.extrude_to_tets`) that order the
+    template points by their mirror-invariant ``classes`` (ties by number): a prism and its
+    mirror image are then split alike, so the mesh mirrors as its template does.
+
+    Raises:
+        ValueError: a triangle joins two points of one class (an edge across the mirror line:
+            no split of it is mirror-invariant).
+    """
+    classes = np.asarray(classes)
+    c = classes[np.asarray(triangles)]
+    if np.any((c[:, 0] == c[:, 1]) | (c[:, 1] == c[:, 2]) | (c[:, 0] == c[:, 2])):
+        raise ValueError("a template edge joins a point to its mirror image: no mirror-invariant split exists")
+    order = np.lexsort((np.arange(len(classes)), classes))
+    rank = np.empty(len(classes), np.int64)
+    rank[order] = np.arange(len(classes))
+    return rank
+
+
+def _sweep(template: Template, n_layers: int, active, place, split_rank=None) -> tuple[np.ndarray, np.ndarray]:
     """Coordinates of every template point on every level (level k, point i -> row k p + i) and
     the solid tets in that numbering (before unused points are dropped)."""
     n_tri = len(template.triangles)
     if callable(active):
         active = np.stack([np.asarray(active(k), bool) for k in range(n_layers)])
     active = np.asarray(active, bool).reshape(n_layers, n_tri)
-    _, tets = extrude_to_tets(template.points, template.triangles, 1.0, n_layers)
+    _, tets = extrude_to_tets(template.points, template.triangles, 1.0, n_layers, split_rank)
     tets = tets[np.tile(active.ravel(), 3)]
     coords = np.concatenate([np.asarray(place(template.points, k), float) for k in range(n_layers + 1)])
     return coords, tets
 
 
-def _tet_mesh(coords, tets, kind, dimensions_m, cylinder_radii_m) -> TetMesh:
+def _tet_mesh(coords, tets, kind, dimensions_m, cylinder_radii_m, mirror_axes=()) -> TetMesh:
     used, inverse = np.unique(tets, return_inverse=True)
     vertices = coords[used]
     tets = orient_tets(vertices, inverse.reshape(-1, 4))
-    return TetMesh(vertices, tets, kind, dict(dimensions_m or {}), tuple(cylinder_radii_m))
+    return TetMesh(vertices, tets, kind, dict(dimensions_m or {}), tuple(cylinder_radii_m), tuple(mirror_axes))
 
 
 def layered_mesh(template: Template, n_layers: int, active, place, kind: str = "mesh",
-                 dimensions_m: dict | None = None, cylinder_radii_m: tuple = ()) -> TetMesh:
+                 dimensions_m: dict | None = None, cylinder_radii_m: tuple = (), mirror_axes: tuple = ()) -> TetMesh:
     """Sweep ``template`` through ``n_layers`` layers into a conforming tet mesh.
 
     Args:
@@ -132,9 +187,16 @@ def layered_mesh(template: Template, n_layers: int, active, place, kind: str = "
             point on level ``0 .. n_layers`` (levels bound the layers).
         cylinder_radii_m: exact cylinders about x whose P2 mid-edge nodes
             :func:`sensors.mesh.quadratic.quadratic_mesh` curves onto them.
+        mirror_axes: object axes (1 y, 2 z) whose planes through the x axis mirror the solid,
+            with ``place`` putting template coordinate ``axis - 1`` along that axis (its sign
+            kept) and ``active`` the same for mirrored triangles: the prisms are then split
+            mirror-invariantly (:func:`mirror_split_rank`) and the mesh records the planes.
     """
-    coords, tets = _sweep(template, n_layers, active, place)
-    return _tet_mesh(coords, tets, kind, dimensions_m, cylinder_radii_m)
+    rank = None
+    if mirror_axes:
+        rank = mirror_split_rank(mirror_classes(template.points, [a - 1 for a in mirror_axes]), template.triangles)
+    coords, tets = _sweep(template, n_layers, active, place, rank)
+    return _tet_mesh(coords, tets, kind, dimensions_m, cylinder_radii_m, mirror_axes)
 
 
 def _revolved(levels_x_m, inner_radius_m, outer_radius_m, floor_layers, n_theta, n_wall, angle_of=None):
@@ -173,9 +235,12 @@ def revolved_mesh(levels_x_m: np.ndarray, inner_radius_m, outer_radius_m, floor_
         inner_radius_m, outer_radius_m: callables x -> radius [m] of the wall's inner and outer
             surface (in the floor, the inner radius only places the inner grid ring).
         floor_layers: the first ``floor_layers`` layers are the solid floor.
+
+    The mesh mirrors across the x-y and the x-z plane (``mirror_axes`` (1, 2)).
     """
     tpl, active, place = _revolved(levels_x_m, inner_radius_m, outer_radius_m, floor_layers, n_theta, n_wall)
-    return layered_mesh(tpl, len(levels_x_m) - 1, active, place, kind, dimensions_m, cylinder_radii_m)
+    return layered_mesh(tpl, len(levels_x_m) - 1, active, place, kind, dimensions_m, cylinder_radii_m,
+                        mirror_axes=(1, 2))
 
 
 def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius_m: float, floor_layers: int,
@@ -193,8 +258,10 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
     The handle is itself a layered sweep: its template is the (across, along-path) grid and its
     layers go through the thickness. Conformity at the joints follows from the split rule of
     :func:`sensors.mesh.prisms.extrude_to_tets` (a quad's diagonal joins the bottom of the higher
-    template number to the top of the lower): the handle's template numbers rise with the wall's
-    along the upper joint and fall along the lower one, where its layers run down the axis.
+    split rank to the top of the lower): the handle's ranks rise with the wall's along the upper
+    joint and fall along the lower one, where its layers run down the axis. Both ranks are
+    mirror-invariant (:func:`mirror_split_rank`): the mesh mirrors across the x-y plane
+    (``mirror_axes`` (2,)).
 
     Args:
         levels_x_m: axial levels [m]; ``floor_layers`` solid floor layers first.
@@ -222,7 +289,8 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
         return np.sign(theta) * np.where(t <= a, t * b / a, b + (t - a) * (math.pi - b) / (math.pi - a))
 
     tpl, active, place = _revolved(levels, lambda x: ri, lambda x: ro, floor_layers, n_theta, n_wall, angle_of)
-    body_xyz, body_tets = _sweep(tpl, len(levels) - 1, active, place)
+    body_classes = mirror_classes(tpl.points, [1])  # the cup mirrors across x-y (z -> -z), handle and all
+    body_xyz, body_tets = _sweep(tpl, len(levels) - 1, active, place, mirror_split_rank(body_classes, tpl.triangles))
     p = len(tpl.points)
 
     # The joint's wall points: outer ring (rho = 2), ordered by angle across the handle.
@@ -246,13 +314,19 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
     ii, ss = np.meshgrid(np.arange(n_across + 1), np.arange(S + 1), indexing="ij")
     points[index.ravel()] = np.stack([ii.ravel(), ss.ravel()], 1)
     handle = Template(points, grid_triangles(n_across, S, index), np.zeros(2 * n_across * S, int))
+    # The handle's split: row by row along the path, and across a row in the order of the wall
+    # points it meets (reversed on the lower joint, whose layers run down the axis), so the
+    # joints' quads split as the wall's do and the handle mirrors across x-y with the cup.
+    col, row = points[:, 0].astype(int), points[:, 1].astype(int)
+    across = body_classes[patch][col]
+    handle_classes = row * (int(body_classes.max()) + 1) * 2 + np.where(row == S, -across, across)
+    handle_rank = mirror_split_rank(handle_classes, handle.triangles)
 
     n_t = k3 - k2
     t_m = levels[k3] - levels[k2]
     x_c = 0.5 * (levels[k3] + levels[k0])
     r_in = 0.5 * (levels[k2] - levels[k1])
     y_c = ro + stub_m
-    col, row = points[:, 0].astype(int), points[:, 1].astype(int)
 
     def place_handle(_, j):
         out = np.empty((len(points), 3))
@@ -271,7 +345,8 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
         out[bend, 1] = y_c + rho * np.sin(phi)
         return out
 
-    handle_xyz, handle_tets = _sweep(handle, n_t, np.ones((n_t, len(handle.triangles)), bool), place_handle)
+    handle_xyz, handle_tets = _sweep(handle, n_t, np.ones((n_t, len(handle.triangles)), bool), place_handle,
+                                     handle_rank)
     # Handle vertex (layer j, template number h) -> body vertex on the joints, else a new one.
     q = len(points)
     to_global = len(body_xyz) + np.arange(len(handle_xyz))
@@ -282,7 +357,7 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
     to_global[low_h] = ((k1 - j)[:, None] * p + patch[None, :]).ravel()
     coords = np.concatenate([body_xyz, handle_xyz])
     tets = np.concatenate([body_tets, to_global[handle_tets]])
-    return _tet_mesh(coords, tets, kind, dimensions_m, (ri, ro))
+    return _tet_mesh(coords, tets, kind, dimensions_m, (ri, ro), mirror_axes=(2,))
 
 
 def p2_dof_count(tet_mesh: TetMesh) -> int:

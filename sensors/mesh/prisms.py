@@ -19,20 +19,27 @@ __all__ = ["extrude_to_tets", "grid_triangles", "bar_mesh", "tube_mesh", "rod_me
 
 
 def extrude_to_tets(points_yz: np.ndarray, triangles: np.ndarray, length_m: float,
-                    nx: int) -> tuple[np.ndarray, np.ndarray]:
+                    nx: int, split_rank: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Extrude a 2D (y, z) triangulation along x over [-L/2, L/2] into tets (3 per prism).
 
     Returns (vertices (n, 3), tets (m, 4)), positively oriented. Vertices are stored layer by
     layer, the ``len(points_yz)`` of the layer at x = -L/2 first. Each prism is split by the
-    order of its global vertex numbers, so prisms sharing a quadrilateral face agree on its
-    diagonal (the mesh is conforming).
+    order of its template points (a quadrilateral face's diagonal joins the bottom of the higher
+    point to the top of the lower), so prisms sharing a quadrilateral face agree on its diagonal
+    (the mesh is conforming). The order is ``split_rank`` (distinct integers per template point,
+    e.g. a mirror-invariant one: :func:`sensors.mesh.layered.mirror_split_rank`), by default the
+    point numbers.
     """
     p = len(points_yz)
     x = np.linspace(-0.5 * length_m, 0.5 * length_m, nx + 1)
     vertices = np.empty(((nx + 1) * p, 3))
     vertices[:, 0] = np.repeat(x, p)
     vertices[:, 1:] = np.tile(points_yz, (nx + 1, 1))
-    tri = np.sort(triangles, axis=1)  # global order rule -> conforming diagonals
+    triangles = np.asarray(triangles)
+    if split_rank is None:
+        tri = np.sort(triangles, axis=1)  # global order rule -> conforming diagonals
+    else:
+        tri = np.take_along_axis(triangles, np.argsort(np.asarray(split_rank)[triangles], axis=1), axis=1)
     layers = (np.arange(nx) * p)[:, None, None]
     b = (tri[None] + layers).reshape(-1, 3)
     t = b + p

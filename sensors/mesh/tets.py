@@ -50,6 +50,9 @@ class TetMesh:
         cylinder_radii_m: Radii of exact cylindrical surfaces about the x axis; mid-edge nodes
             of edges lying on them are projected onto them by
             :func:`~sensors.mesh.quadratic.quadratic_mesh`.
+        mirror_axes: Axes (0 x, 1 y, 2 z) whose coordinate planes through the origin mirror the
+            mesh onto itself, vertices and tets (a mesher that builds it so says so); the modal
+            build splits its eigenproblem by them (:mod:`sensors.fem.mirror`).
     """
 
     vertices_m: np.ndarray
@@ -57,6 +60,7 @@ class TetMesh:
     kind: str = "mesh"
     dimensions_m: dict = dataclasses.field(default_factory=dict)
     cylinder_radii_m: tuple = ()
+    mirror_axes: tuple = ()
 
     @property
     def n_tets(self) -> int:
@@ -71,6 +75,8 @@ class TetMesh:
         h.update(np.ascontiguousarray(self.vertices_m, dtype=np.float64).tobytes())
         h.update(np.ascontiguousarray(self.tets, dtype=np.int64).tobytes())
         h.update(repr((self.kind, sorted(self.dimensions_m.items()), tuple(self.cylinder_radii_m))).encode())
+        if self.mirror_axes:  # the modes are solved another way (meshes without it keep their keys)
+            h.update(repr(("mirror_axes", tuple(self.mirror_axes))).encode())
         return h.hexdigest()
 
 

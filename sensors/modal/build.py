@@ -15,6 +15,7 @@ import numpy as np
 from .._infra import cache as cache_mod
 from . import io as modal_io
 from ..fem.eigen import solve_modes
+from ..fem import mirror
 from ..fem.assembly import assemble_blocks, assembled_csr
 from ..fem.direct_solver import preload_in_background
 from ..mesh.quadratic import quadratic_mesh
@@ -78,15 +79,24 @@ def _solve(cls, key, make_mesh, material, opts, meta):
             nodes, elements = tm.vertices_m, tm.tets
         bar.update()
         stage("assemble")
-        blocks = assemble_blocks(nodes, elements, material, opts["element"], analyze=True)
-        K, M = assembled_csr(blocks)
+        # A mesh built mirror-symmetric is solved per symmetry class, the classes side by side.
+        split = mirror.mirror_split(nodes, elements, tm.mirror_axes) if tm.mirror_axes else None
+        if split is None:
+            blocks = assemble_blocks(nodes, elements, material, opts["element"], analyze=True)
+            K, M = assembled_csr(blocks)
+        else:
+            classes = split.assemble(nodes, material, opts["element"])
         bar.update()
         stage("eigensolve")
         solved = {}
-        lam, U = solve_modes(K, M, nodes, opts["max_frequency_hz"], info=solved,
-                             progress=lambda s: bar.set_postfix_str(s, refresh=False),
-                             factorize_shifted=blocks.factorize_shifted,  # PARDISO takes the node blocks
-                             mass_product=blocks.mass_product)
+        if split is None:
+            lam, U = solve_modes(K, M, nodes, opts["max_frequency_hz"], info=solved,
+                                 progress=lambda s: bar.set_postfix_str(s, refresh=False),
+                                 factorize_shifted=blocks.factorize_shifted,  # PARDISO takes the node blocks
+                                 mass_product=blocks.mass_product)
+        else:
+            lam, U = mirror.solve_mirrored_modes(split, nodes, classes, opts["max_frequency_hz"], info=solved,
+                                                 progress=lambda s: bar.set_postfix_str(s, refresh=False))
         bar.update()
     finally:
         bar.close()
@@ -94,7 +104,7 @@ def _solve(cls, key, make_mesh, material, opts, meta):
     names = list(timings)
     stage_s = {n: (timings[names[i + 1]] if i + 1 < len(names) else end) - timings[n] for i, n in enumerate(names)}
     meta = dict(meta)
-    meta.update(key_options(opts), n_dof=int(K.shape[0]), n_tets=int(len(elements)), build_time_s=end - t0,
+    meta.update(key_options(opts), n_dof=3 * len(nodes), n_tets=int(len(elements)), build_time_s=end - t0,
                 stage_times_s=stage_s, cache_key=key, code_version=cache_mod.CODE_VERSION,
                 solver=solved.get("solver"),
                 eigensolve=dict(solved))  # the factorization's time, the Krylov solves (fem.eigen.solve_modes)

@@ -303,7 +303,7 @@ def box(length_m: float = 0.08, width_m: float = 0.06, height_m: float = 0.045, 
             return np.column_stack([np.full(len(p), levels[k]), p])
 
         return layered_mesh(tpl, len(levels) - 1, lambda k: np.ones(len(tpl.triangles), bool) if k == 0
-                            else tpl.region == 1, place, "box", dims)
+                            else tpl.region == 1, place, "box", dims, mirror_axes=(1, 2))
 
     inner = trimesh.creation.box([height_m - t, width_m - 2 * t, length_m - 2 * t])
     inner.apply_translation([0.5 * (height_m + t), 0.0, 0.0])
