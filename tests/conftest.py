@@ -30,6 +30,20 @@ def audio_loopback(tmp_path_factory):
     loopback.stop_loopback(lb.runtime_dir)
 
 
+@pytest.fixture(scope="session")
+def run_cache_dir(tmp_path_factory):
+    """A model cache folder of this test run, shared by its xdist workers: what several files
+    build alike (tests/small_can.py's container, its fill tables) is built once per run (a build
+    holds a lock, so another worker waits for it and then loads it) and never carried over from
+    an earlier run."""
+    base = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        base = base.parent  # the run's folder, above each worker's own
+    path = base / "run-cache"
+    path.mkdir(exist_ok=True)
+    return path
+
+
 @pytest.fixture
 def no_build(monkeypatch, tmp_path):
     """An empty cache folder (returned), and any container modal build fails the test: the
