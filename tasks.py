@@ -177,10 +177,13 @@ def main(argv: list[str]) -> int:
     if task == "main":
         return subprocess.call([str(py), "-m", "aas_gym.cli", "run", *rest], cwd=ROOT, env=env)
     # Tests: two workers for the two cores; each file stays on one worker (module fixtures are
-    # built once, and all audio tests, which share one sound server, are in one file).
+    # built once, and all audio tests, which share one sound server, are in one file). Files go
+    # out in collection order, which tests/conftest.py starts with the longest (not xdist's
+    # default, most tests first, which left the few-test cold builds for last).
     if "--fast" in rest:
         rest = [a for a in rest if a != "--fast"] + ["-m", "not slow"]
-    return subprocess.call([str(py), "-m", "pytest", "-n", "2", "--dist", "loadfile", *rest], cwd=ROOT, env=env)
+    return subprocess.call([str(py), "-m", "pytest", "-n", "2", "--dist", "loadfile", "--no-loadscope-reorder", *rest],
+                           cwd=ROOT, env=env)
 
 
 if __name__ == "__main__":

@@ -30,6 +30,20 @@ def audio_loopback(tmp_path_factory):
     loopback.stop_loopback(lb.runtime_dir)
 
 
+@pytest.fixture(scope="session")
+def run_cache_dir(tmp_path_factory):
+    """A model cache folder of this test run, shared by its xdist workers: what several files
+    build alike (tests/small_can.py's container, its fill tables) is built once per run (a build
+    holds a lock, so another worker waits for it and then loads it) and never carried over from
+    an earlier run."""
+    base = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        base = base.parent  # the run's folder, above each worker's own
+    path = base / "run-cache"
+    path.mkdir(exist_ok=True)
+    return path
+
+
 @pytest.fixture
 def no_build(monkeypatch, tmp_path):
     """An empty cache folder (returned), and any container modal build fails the test: the
@@ -62,3 +76,41 @@ def _fresh_caches_per_file():
     except (OSError, AttributeError):  # not glibc
         pass
     yield
+
+
+# The test files that take longest from an empty model cache, longest first (summed durations
+# of a cold `pytest -n 2 --dist loadfile --durations=0` run on the project's 2-core machine).
+# `python3 tasks.py test` hands whole files to its two workers in collection order
+# (`--no-loadscope-reorder`; xdist's default sends the files with most tests first, which left
+# these few-test cold builds for last, each on one worker while the other idled). Starting them
+# first lets the many short files fill in behind. A stale list costs only balance, never a test.
+LONGEST_FILES = (
+    "test_fill_level_env.py",
+    "test_fluid_fill_table.py",
+    "test_fluid_coupled.py",
+    "test_fluid_compressible.py",
+    "test_synthesis_stability.py",
+    "test_generate.py",
+    "test_modal_accuracy.py",
+    "test_fluid_analytic.py",
+)
+
+# BLAS/OpenMP threads per test worker when the run has several workers (`-n`). The workers
+# already fill the cores; a second BLAS thread per worker then only waits for a core, and
+# OpenBLAS's threads spin while they wait: 30 sparse complex solves of
+# tests/test_partner_loads.py took 41 s with two threads against 7 s with one, beside three busy
+# processes. Set before the workers start (they inherit the environment); a value the caller set
+# is kept.
+WORKER_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def pytest_configure(config):
+    if getattr(config.option, "numprocesses", None) and "PYTEST_XDIST_WORKER" not in os.environ:
+        for name in WORKER_THREAD_VARIABLES:
+            os.environ.setdefault(name, "1")
+
+
+def pytest_collection_modifyitems(config, items):
+    """Run :data:`LONGEST_FILES` first, in that order; every other file keeps its place."""
+    rank = {name: i for i, name in enumerate(LONGEST_FILES)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))

@@ -1,5 +1,6 @@
 """A small aluminium can (40 mm tall) with its dry modes to 20 kHz and its container, built into
-a test's own cache folder: the fluid tests' quick container."""
+the given cache folder (the run's, ``run_cache_dir`` in tests/conftest.py: the fluid files share
+one build): the fluid tests' quick container."""
 
 from sensors.fluid import Container
 from sensors.objects.everyday import can

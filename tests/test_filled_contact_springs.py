@@ -18,8 +18,8 @@ from small_can import small_can_container
 
 
 @pytest.fixture(scope="module")
-def small_can(tmp_path_factory):
-    return small_can_container(tmp_path_factory.mktemp("filled-springs-cache"))
+def small_can(run_cache_dir):
+    return small_can_container(run_cache_dir)
 
 
 def contact_points(obj, up):

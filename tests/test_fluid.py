@@ -17,15 +17,13 @@ import sensors
 from sensors import Contact, Excitation, ModalBasis, simulate_recording, with_material
 from sensors.fluid.cavity import LiquidSpillError
 from sensors.modal.damping import modal_damping_parts
-from sensors.objects.everyday import can
 from sensors.fluid import Container, FilledModalModel, container, filled
 from sensors.materials.liquids import LIQUIDS, Liquid, get_liquid
 from sensors.mesh.tets import MeshError
 from sensors.materials import scaled_material
 from sensors.modal.basis import MaterialView, material_scaling
 from sensors.modal.model import ModalModel
-
-SMALL_CAN = dict(outer_radius_m=0.02, wall_m=0.002, height_m=0.04, floor_m=0.003, material="aluminium")
+from small_can import small_can_container
 
 
 def tilted(angle_deg, towards=(0.0, 1.0, 0.0)):
@@ -35,11 +33,9 @@ def tilted(angle_deg, towards=(0.0, 1.0, 0.0)):
 
 
 @pytest.fixture(scope="module")
-def small_can(tmp_path_factory):
-    cache_dir = tmp_path_factory.mktemp("fluid-cache")
-    obj = can(**SMALL_CAN)
-    dry = obj.modal_model(resolution=0.5, max_frequency_hz=20000.0, cache_dir=cache_dir, progress=False)
-    return obj, Container.of(obj, dry=dry, cache_dir=cache_dir), cache_dir
+def small_can(run_cache_dir):
+    obj, _, c = small_can_container(run_cache_dir)
+    return obj, c, run_cache_dir
 
 
 def surface_points(obj, n=12, seed=0):

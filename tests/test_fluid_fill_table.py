@@ -32,8 +32,8 @@ FREQUENCY_RTOL = 1e-3
 
 
 @pytest.fixture(scope="module")
-def small_can(tmp_path_factory):
-    return small_can_container(tmp_path_factory.mktemp("fill-table-cache"))
+def small_can(run_cache_dir):
+    return small_can_container(run_cache_dir)
 
 
 def between_grid_heights(table) -> np.ndarray:
