@@ -13,7 +13,7 @@ from sensors.mesh.layered import grid_template, layered_mesh
 from sensors.mesh.quadratic import quadratic_mesh
 from sensors.objects import get_object
 
-SYMMETRIC = {"mug": (2,), "bottle": (1, 2), "can": (1, 2), "glass": (1, 2), "box": (1, 2)}
+SYMMETRIC = {"bottle": (1, 2), "can": (1, 2), "glass": (1, 2), "box": (1, 2)}
 
 
 def _mirrored_index(points: np.ndarray, axis: int) -> np.ndarray:
@@ -36,7 +36,7 @@ def test_everyday_meshes_mirror_onto_themselves(name):
 
 
 def test_asymmetric_meshes_take_the_whole_problem():
-    for name in ("spoon", "l_bracket"):
+    for name in ("spoon", "l_bracket", "mug"):  # the mug: see sensors.mesh.layered.handled_cup_mesh
         assert get_object(name).solid().tet_mesh().mirror_axes == ()
     # The spoon's vertices mirror across x-z, its tets do not: no split.
     tm = get_object("spoon").solid().tet_mesh()

@@ -15,7 +15,7 @@ an odd class, only that), and D = sqrt(2^k / orbit size) per node. Each class is
 eigenproblem of its own (its share of the six rigid-body modes projected out), solved by
 :func:`sensors.fem.eigen.solve_modes` with its own factorization in its own thread: on two
 cores the one-thread factorizations and Krylov solves of the halves run at once, each a
-fraction of the whole (mug, 99k dof: two of about 50k). Each class's result depends on it
+fraction of the whole (bottle, 95k dof: four of about 24k). Each class's result depends on it
 alone, so the modes are the same bit for bit whatever ran first.
 
 The union of the classes' modes, sorted by eigenvalue (ties by class order), is the whole
