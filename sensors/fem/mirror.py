@@ -191,20 +191,16 @@ class PaddedFactorization:
 
         A = scipy.sparse.csr_matrix(K - sigma * M)  # the entries solve_modes' own shift would hold
         A.sort_indices()
-        padded = np.ones(n_full, bool)
-        padded[dofs] = False
+        pad = np.setdiff1d(np.arange(n_full), dofs, assume_unique=True)
+        # A padded row's one entry goes before the class rows that follow it (np.insert keeps
+        # the order of insertions at one index); dofs ascending: each row stays sorted.
+        at = A.indptr[np.searchsorted(dofs, pad)]
+        indices = np.insert(dofs[A.indices], at, pad)
+        data = np.insert(A.data, at, float(np.median(np.abs(A.diagonal()))))  # decoupled, positive
         counts = np.ones(n_full, np.int64)
         counts[dofs] = np.diff(A.indptr)
         indptr = np.zeros(n_full + 1, np.int64)
         np.cumsum(counts, out=indptr[1:])
-        row = np.repeat(np.arange(len(dofs)), np.diff(A.indptr))
-        at = indptr[dofs][row] + (np.arange(A.nnz) - A.indptr[row])
-        indices = np.empty(indptr[-1], np.int64)
-        data = np.empty(indptr[-1])
-        indices[at], data[at] = dofs[A.indices], A.data  # dofs ascending: each row stays sorted
-        pad = np.flatnonzero(padded)
-        indices[indptr[pad]] = pad
-        data[indptr[pad]] = float(np.median(np.abs(A.diagonal())))  # decoupled, positive
         full = scipy.sparse.csr_matrix((data, indices, indptr), shape=(n_full, n_full))
         full.has_sorted_indices = True
         return cls(factorize(full, solver), dofs, n_full)
