@@ -39,7 +39,7 @@ import numpy as np
 from .assembly import assemble
 from .eigen import EigenSolveError, band_cut, rigid_body_modes, solve_modes
 
-__all__ = ["CORE_SLOTS", "MirrorClass", "MirrorSplit", "PaddedFactorization", "mirror_split", "solve_mirrored_modes", "THREADS"]
+__all__ = ["CORE_SLOTS", "MirrorClass", "MirrorSplit", "PAD_MIN_MIRRORS", "PaddedFactorization", "mirror_split", "solve_mirrored_modes", "THREADS"]
 
 #: Worker threads for the classes (each runs one single-threaded factorization at a time).
 THREADS = 2
@@ -48,6 +48,13 @@ THREADS = 2
 #: runs the classes take the other core in turn instead of three threads sharing two cores, which
 #: left CoACD, the longer job, finishing alone at the end.
 CORE_SLOTS: contextvars.ContextVar = contextvars.ContextVar("mirror_core_slots", default=None)
+#: PARDISO factorizes a class padded to node blocks (:class:`PaddedFactorization`) when the mesh
+#: has at least this many mirrors, else the class's scalar CSR (the same modes to round-off).
+#: Measured, K - sigma M of each class, one thread: with two mirrors (bottle, can, box, glass)
+#: padding halves the factor and its time (bottle: 71-87 -> 47 MB, 0.40-0.49 -> 0.24-0.29 s per
+#: class; in the cold build, beside CoACD, the classes' CPU 3.2 -> 2.4 s); with one (mug) it
+#: grows the factor (132 -> 148 MB) and costs as much or more beside CoACD.
+PAD_MIN_MIRRORS = 2
 #: Nodes that mirror onto each other must agree to this, relative to the mesh's extent.
 MATCH_RTOL = 1e-9
 
@@ -168,12 +175,12 @@ class PaddedFactorization:
 
     A class's dof count is rarely a multiple of 3 (a node on a mirror plane keeps one or two
     components), so PARDISO got it as scalar CSR and found node blocks itself (variable block
-    rows). Embedded at the orthant's dofs, each disallowed dof a decoupled unit-scaled diagonal
-    entry, the matrix is node blocks again: PARDISO's analysis takes the node graph as given
-    (mug class, 50k dof, one thread: factorization 1.07 -> 0.90 s, a 3-column solve 65 -> 58
-    ms). A right-hand side is zero at the padded dofs, so the solution is zero there and equals
-    the class's solve up to the round-off of another (equally valid) elimination order; the
-    padded dofs have positive pivots, so the inertia (``n_negative``) is the class's.
+    rows). Embedded at the orthant's dofs, each disallowed dof a decoupled diagonal entry, the
+    matrix is node blocks again and PARDISO's analysis takes the node graph as given (where that
+    pays: :data:`PAD_MIN_MIRRORS`). A right-hand side is zero at the padded dofs, so the
+    solution is zero there and equals the class's solve up to the round-off of another (equally
+    valid) elimination order; the padded dofs have positive pivots, so the inertia
+    (``n_negative``) is the class's.
     """
 
     def __init__(self, fact, dofs: np.ndarray, n_full: int):
@@ -329,7 +336,7 @@ def solve_mirrored_modes(split: MirrorSplit, nodes_m: np.ndarray, orthant_matric
             return solve_class(i)
 
     def factorize_class(K, M, sigma, i, name):
-        if name != "pardiso":  # SuperLU orders scalar rows anyway: the class's matrix as it is
+        if name != "pardiso" or len(split.axes) < PAD_MIN_MIRRORS:  # SuperLU orders scalar rows anyway
             from .direct_solver import factorize
 
             return factorize(K - sigma * M, name)
