@@ -590,13 +590,7 @@ class AcousticStream:
             return
         solver = self._load_solvers.get_or_build(IdentityKey(sysm), lambda: LoadSolver(sysm))
         T = 1.0 / self.sample_rate_hz
-        if change is None:
-            pieces = [(0, n, load, load)]
-        else:
-            old, new, sharp = change
-            k = self.passive.rise_samples(self.sample_rate_hz, n)
-            mid = old + sharp + (new - old - sharp) * (k / n)
-            pieces = [(0, k, old, mid)] + ([(k, n, mid, new)] if k < n else [])
+        pieces = self._load_pieces(n, change, load)
         for i, (a, b, p0, p1) in enumerate(pieces):
             alpha, beta = solver.particular(p0, p1, (b - a) * T if p1 is not p0 else 0.0)
             if out is not None:
@@ -610,6 +604,17 @@ class AcousticStream:
         # the static state under the load from here on (its ramp's particular solution is not)
         st.eq = alpha if change is None else self._equilibrium(sysm, load)
 
+    def _load_pieces(self, n: int, change, load) -> list:
+        """A span's pieces of constant or linearly ramped load, ``(start, end, load at start, load
+        at end)`` in samples: the whole span under ``load``, or, for a ``change`` (old, new,
+        sharp), a rise of ``passive.rise_samples`` from old (plus the sharp jump) then the rest."""
+        if change is None:
+            return [(0, n, load, load)]
+        old, new, sharp = change
+        k = self.passive.rise_samples(self.sample_rate_hz, n)
+        mid = old + sharp + (new - old - sharp) * (k / n)
+        return [(0, k, old, mid)] + ([(k, n, mid, new)] if k < n else [])
+
     def _add_to_run(self, st: _ObjectState, sysm: ModalSystem, u: np.ndarray, n: int, change, load,
                     out: np.ndarray) -> None:
         """``_evolve`` of a heard span through the object's pending ``_Run`` (a new run when
@@ -618,15 +623,8 @@ class AcousticStream:
             x = self._state_in(st, sysm, load if change is None else change[0])     # flushes a run
             st.run, st.x, st.end = _Run(sysm, x, self.sample_rate_hz), None, None
         T = 1.0 / self.sample_rate_hz
-        if change is None:
-            bounds = [(0, n, load, load)]
-        else:
-            old, new, sharp = change
-            k = self.passive.rise_samples(self.sample_rate_hz, n)
-            mid = old + sharp + (new - old - sharp) * (k / n)
-            bounds = [(0, k, old, mid)] + ([(k, n, mid, new)] if k < n else [])
         pieces = []
-        for a, b, p0, p1 in bounds:
+        for a, b, p0, p1 in self._load_pieces(n, change, load):
             if p0 is p1 and (p0 is None or not np.any(p0)):
                 pieces.append((a, b, None, None))
                 continue
