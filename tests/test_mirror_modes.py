@@ -154,7 +154,7 @@ def test_class_mass_product_is_the_class_mass_matrix_product_bit_for_bit():
     rng = np.random.default_rng(3)
     for c in split.classes:
         _, M_c = split.class_matrices(orthant, c)
-        product = split.class_mass_product(orthant, c)
+        product = split.class_mass_product(split.weighted_node_mass(orthant), c)
         for X in (rng.standard_normal((len(c.dofs), 3)), np.asfortranarray(rng.standard_normal((len(c.dofs), 6)))):
             assert np.array_equal(product(X), M_c @ X)
 

@@ -52,8 +52,9 @@ CORE_SLOTS: contextvars.ContextVar = contextvars.ContextVar("mirror_core_slots",
 #: has at least this many mirrors, else the class's scalar CSR (the same modes to round-off).
 #: Measured, K - sigma M of each class, one thread: with two mirrors (bottle, can, box, glass)
 #: padding halves the factor and its time (bottle: 71-87 -> 47 MB, 0.40-0.49 -> 0.24-0.29 s per
-#: class; in the cold build, beside CoACD, the classes' CPU 3.2 -> 2.4 s); with one (mug) it
-#: grows the factor (132 -> 148 MB) and costs as much or more beside CoACD.
+#: class; in the cold build, beside CoACD, the classes' CPU 3.2 -> 2.4 s); with one (measured on a
+#: mirror-split mug, which now keeps its plain mesh) it grew the factor (132 -> 148 MB) and cost
+#: as much or more beside CoACD.
 PAD_MIN_MIRRORS = 2
 #: Nodes that mirror onto each other must agree to this, relative to the mesh's extent.
 MATCH_RTOL = 1e-9
@@ -117,14 +118,10 @@ class MirrorSplit:
             out.append(sub)
         return tuple(out)
 
-    def class_mass_product(self, orthant_matrices, c: MirrorClass):
-        """``X -> M_c @ X`` for (d, k) blocks, bit for bit the CSR product with
-        :meth:`class_matrices`' M_c, at the node level: M_o is a multiple of the 3 x 3 identity
-        in every node block and D is one weight per node, so M_c's entries are those of the
-        node-level matrix m_ij (w_i w_j), computed as :meth:`class_matrices` computes them, and
-        each row's sum runs over the same columns in the same order (a disallowed dof
-        contributes an exact zero). The product reads a third of the indices (mug classes,
-        k = 3: the Krylov iteration's mass products 2.5x cheaper)."""
+    def weighted_node_mass(self, orthant_matrices):
+        """M_o's node-level matrix m_ij (w_i w_j) (n_o square): M_o is a multiple of the 3 x 3
+        identity in every node block and the weights D = w are one per node and the same in
+        every class, so this one matrix serves every class's :meth:`class_mass_product`."""
         M_o = orthant_matrices[1]
         n_o = len(self.orthant_nodes)
         node = M_o[0::3][:, 0::3].tocsr()  # m_ij: every component's entries are the same
@@ -132,6 +129,17 @@ class MirrorSplit:
         w = np.sqrt(2.0 ** len(self.axes) / self.orbit)
         rows = np.repeat(np.arange(n_o), np.diff(node.indptr))
         node.data = node.data * (w[rows] * w[node.indices])
+        return node
+
+    def class_mass_product(self, node_mass, c: MirrorClass):
+        """``X -> M_c @ X`` for (d, k) blocks, bit for bit the CSR product with
+        :meth:`class_matrices`' M_c, at the node level (``node_mass``:
+        :meth:`weighted_node_mass`): M_c's entries are those of the node-level matrix, computed
+        as :meth:`class_matrices` computes them, and each row's sum runs over the same columns in
+        the same order (a disallowed dof contributes an exact zero). The product reads a third
+        of the indices (measured on the mug's classes, k = 3: the Krylov iteration's mass
+        products 2.5x cheaper)."""
+        n_o = len(self.orthant_nodes)
         dofs = c.dofs
         full = len(dofs) == 3 * n_o
 
@@ -142,7 +150,7 @@ class MirrorSplit:
             else:
                 Xf = np.zeros((3 * n_o, k))
                 Xf[dofs] = X
-            Y = (node @ Xf.reshape(n_o, 3 * k)).reshape(3 * n_o, k)
+            Y = (node_mass @ Xf.reshape(n_o, 3 * k)).reshape(3 * n_o, k)
             return Y if full else Y[dofs]
 
         return product
@@ -329,6 +337,8 @@ def solve_mirrored_modes(split: MirrorSplit, nodes_m: np.ndarray, orthant_matric
 
     prepared: list = [None] * len(split.classes)  # (K_c, M_c, rigid modes) per class, made in its thread
 
+    node_mass = split.weighted_node_mass(orthant_matrices)  # one for every class
+
     slots = CORE_SLOTS.get()  # read here: the pool's threads do not inherit the caller's context
 
     def solve(i):
@@ -347,7 +357,7 @@ def solve_mirrored_modes(split: MirrorSplit, nodes_m: np.ndarray, orthant_matric
         if prepared[i] is None:
             prepared[i] = (*split.class_matrices(orthant_matrices, split.classes[i]),
                            split.rigid_modes(nodes_m, split.classes[i]),
-                           split.class_mass_product(orthant_matrices, split.classes[i]))
+                           split.class_mass_product(node_mass, split.classes[i]))
         K, M, R, mass = prepared[i]
         infos[i] = {}
         f_hz = math.sqrt(bands[i]) / (2.0 * math.pi)
