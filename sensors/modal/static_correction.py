@@ -466,7 +466,7 @@ class UnitLoadStore:
             X[:, :B.shape[1]] = np.asarray(flex.factor.solve(B)).reshape(flex.n_dof, -1)
             Y = flex.unit_load_projected(X)
             KU = Y.T @ flex.KU
-            MY = flex.M @ Y
+            MY = flex.M @ Y[:, :m]  # a sparse product: each column its own sums, padding not needed
             # the free slots, lowest first (the LRU may have been emptied by clear_all)
             free = sorted(set(range(self.capacity)) - set(self.slots.values()), reverse=True)
             for i, n in enumerate(missing):
