@@ -53,7 +53,7 @@ CORE_SLOTS: contextvars.ContextVar = contextvars.ContextVar("mirror_core_slots",
 #: Measured, K - sigma M of each class, one thread: with two mirrors (bottle, can, box, glass)
 #: padding halves the factor and its time (bottle: 71-87 -> 47 MB, 0.40-0.49 -> 0.24-0.29 s per
 #: class; in the cold build, beside CoACD, the classes' CPU 3.2 -> 2.4 s); with one (measured on a
-#: mirror-split mug, which now keeps its plain mesh) it grew the factor (132 -> 148 MB) and cost
+#: mirror-split mug) it grew the factor (132 -> 148 MB) and cost
 #: as much or more beside CoACD.
 PAD_MIN_MIRRORS = 2
 #: Nodes that mirror onto each other must agree to this, relative to the mesh's extent.
