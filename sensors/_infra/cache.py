@@ -118,10 +118,12 @@ def _feed(h, obj) -> None:
     h.update(b"|")
 
 
-def content_key(*parts) -> str:
-    """SHA-256 hex key of ``parts`` (arrays, numbers, strings, dicts) and the code version."""
+def content_key(*parts, code: bool = True) -> str:
+    """SHA-256 hex key of ``parts`` (arrays, numbers, strings, dicts) and, with ``code``, the code
+    version (a result that none of :data:`SOURCE_MODULES` computes puts its own code in ``parts``)."""
     h = hashlib.sha256()
-    _feed(h, code_version())
+    if code:
+        _feed(h, code_version())
     for part in parts:
         _feed(h, part)
     return h.hexdigest()
