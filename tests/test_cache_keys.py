@@ -88,3 +88,13 @@ def test_the_code_version_is_computed_once_when_two_threads_ask_at_once():
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
     out = subprocess.run([sys.executable, "-c", _TWO_THREADS], capture_output=True, text=True, env=env, check=True)
     assert out.stdout.split() == ["['v',", "'v']", "1"]
+
+
+def test_a_key_without_code_ignores_the_code_version(monkeypatch):
+    """``content_key(code=False)`` (CoACD's pieces, whose code is in their own key part) stays
+    when the FE modules' code version changes; a default key does not."""
+    parts = ("coacd", [1.0, 2.0], {"threshold": 0.03})
+    before = cache_mod.content_key(*parts), cache_mod.content_key(*parts, code=False)
+    monkeypatch.setattr(cache_mod, "code_version", lambda: "another version")
+    after = cache_mod.content_key(*parts), cache_mod.content_key(*parts, code=False)
+    assert before[0] != after[0] and before[1] == after[1]
