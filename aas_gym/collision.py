@@ -201,9 +201,12 @@ def convex_decomposition(surface: trimesh.Trimesh, cache: bool = True, cache_dir
     opts = {**COACD_OPTIONS, **options}
     vertices = np.ascontiguousarray(surface.vertices, dtype=np.float64)
     faces = np.ascontiguousarray(surface.faces, dtype=np.int64)
+    # This module's code is the decomposition's (_DECOMPOSITION_VERSION); the FE modules' code
+    # version plays no part: an FE edit keeps every decomposition, and in a cold object build
+    # CoACD's thread does not parse those modules too (aas_gym.object_build).
     key = cache_mod.content_key("coacd", coacd.__version__ if hasattr(coacd, "__version__") else "coacd",
                                 _DECOMPOSITION_VERSION, vertices, faces, opts, SIMPLIFY_ABOVE_FACES,
-                                SIMPLIFY_TOLERANCE, MIRROR_VERTEX_TOLERANCE, MIRROR_VOLUME_TOLERANCE)
+                                SIMPLIFY_TOLERANCE, MIRROR_VERTEX_TOLERANCE, MIRROR_VOLUME_TOLERANCE, code=False)
     if cache:
         hit = cache_mod.load_arrays(key, cache_dir)
         if hit is not None:

@@ -66,8 +66,8 @@ def build_object(obj: str | ObjectSpec, cache_dir=None, **modal_options) -> Obje
     if solid is None:
         raise ValueError(f"{spec.label} is a prism: it has no surface to decompose (use spec.modal_model())")
 
-    # Two cores: CoACD holds one while it runs; a mirrored model's class solves take the other in
-    # turn (sensors.fem.mirror.CORE_SLOTS), then both.
+    # Two cores: CoACD holds one while it runs; a two-mirror model's four class solves take the
+    # other in turn, then both; a one-mirror model's two start at once (sensors.fem.mirror.CORE_SLOTS).
     cores = threading.BoundedSemaphore(BUILD_CORES) if BUILD_CORES else None
 
     def collide():

@@ -48,3 +48,53 @@ def test_the_shipped_keys_name_existing_modules():
         assert cache_mod.source_version(name)
     with pytest.raises(ValueError, match="no Python source"):
         cache_mod.source_version("sensors.no_such_module")
+
+
+
+_TWO_THREADS = """
+import threading
+from sensors._infra import cache
+calls, started = [], threading.Barrier(2)
+
+def slow_version(*modules):
+    calls.append(modules)
+    threading.Event().wait(0.05)  # let the other thread arrive while this one computes
+    return "v"
+
+cache.source_version = slow_version
+
+def ask(out):
+    started.wait()
+    out.append(cache.code_version())
+
+results = []
+threads = [threading.Thread(target=ask, args=(results,)) for _ in range(2)]
+for t in threads:
+    t.start()
+for t in threads:
+    t.join()
+print(results, len(calls))
+"""
+
+
+def test_the_code_version_is_computed_once_when_two_threads_ask_at_once():
+    """A cold object build asks for it in CoACD's thread and the modes' at the same moment (in a
+    fresh process: this one may have computed it already)."""
+    import os
+    import subprocess
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    out = subprocess.run([sys.executable, "-c", _TWO_THREADS], capture_output=True, text=True, env=env, check=True)
+    assert out.stdout.split() == ["['v',", "'v']", "1"]
+
+
+def test_a_key_without_code_ignores_the_code_version(monkeypatch):
+    """``content_key(code=False)`` (CoACD's pieces, whose code is in their own key part) stays
+    when the FE modules' code version changes; a default key does not."""
+    parts = ("coacd", [1.0, 2.0], {"threshold": 0.03})
+    before = cache_mod.content_key(*parts), cache_mod.content_key(*parts, code=False)
+    monkeypatch.setattr(cache_mod, "code_version", lambda: "another version")
+    after = cache_mod.content_key(*parts), cache_mod.content_key(*parts, code=False)
+    assert before[0] != after[0] and before[1] == after[1]

@@ -18,6 +18,7 @@ import importlib.util
 import json
 import logging
 import os
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -70,13 +71,23 @@ def source_version(*modules: str) -> str:
     return h.hexdigest()[:16]
 
 
+#: One computation of :func:`code_version` per process: a cold object build asks for it in two
+#: threads at once (CoACD's and the modes'), which parsed the modules twice, under the GIL.
+_CODE_VERSION_LOCK = threading.Lock()
+
+
 @functools.cache
+def _code_version() -> str:
+    return source_version(*SOURCE_MODULES)
+
+
 def code_version() -> str:
     """Hash of the code of the modules that produce cached results (``CODE_VERSION``).
 
     Computed on first use, not at import: parsing those modules takes ~0.1 s, which
     ``import sensors`` should not pay."""
-    return source_version(*SOURCE_MODULES)
+    with _CODE_VERSION_LOCK:
+        return _code_version()
 
 
 def __getattr__(name: str):
@@ -107,10 +118,12 @@ def _feed(h, obj) -> None:
     h.update(b"|")
 
 
-def content_key(*parts) -> str:
-    """SHA-256 hex key of ``parts`` (arrays, numbers, strings, dicts) and the code version."""
+def content_key(*parts, code: bool = True) -> str:
+    """SHA-256 hex key of ``parts`` (arrays, numbers, strings, dicts) and, with ``code``, the code
+    version (a result that none of :data:`SOURCE_MODULES` computes puts its own code in ``parts``)."""
     h = hashlib.sha256()
-    _feed(h, code_version())
+    if code:
+        _feed(h, code_version())
     for part in parts:
         _feed(h, part)
     return h.hexdigest()

@@ -44,16 +44,18 @@ __all__ = ["CORE_SLOTS", "MirrorClass", "MirrorSplit", "PAD_MIN_MIRRORS", "Padde
 #: Worker threads for the classes (each runs one single-threaded factorization at a time).
 THREADS = 2
 #: A semaphore of cores that other work of this build holds too (``aas_gym.object_build``: CoACD
-#: holds one of two while it runs), or None. Each class solve holds one while it runs: while CoACD
-#: runs the classes take the other core in turn instead of three threads sharing two cores, which
-#: left CoACD, the longer job, finishing alone at the end.
+#: holds one of two while it runs), or None. With more classes than :data:`THREADS` each class
+#: solve holds one while it runs: while CoACD runs the four classes of a two-mirror body take the
+#: other core in turn instead of three threads sharing two cores, which left CoACD, the longer job,
+#: finishing alone at the end. Two classes (one mirror: the mug) start at once and hold none
+#: (see :func:`solve_mirrored_modes`).
 CORE_SLOTS: contextvars.ContextVar = contextvars.ContextVar("mirror_core_slots", default=None)
 #: PARDISO factorizes a class padded to node blocks (:class:`PaddedFactorization`) when the mesh
 #: has at least this many mirrors, else the class's scalar CSR (the same modes to round-off).
 #: Measured, K - sigma M of each class, one thread: with two mirrors (bottle, can, box, glass)
 #: padding halves the factor and its time (bottle: 71-87 -> 47 MB, 0.40-0.49 -> 0.24-0.29 s per
 #: class; in the cold build, beside CoACD, the classes' CPU 3.2 -> 2.4 s); with one (measured on a
-#: mirror-split mug, which now keeps its plain mesh) it grew the factor (132 -> 148 MB) and cost
+#: mirror-split mug) it grew the factor (132 -> 148 MB) and cost
 #: as much or more beside CoACD.
 PAD_MIN_MIRRORS = 2
 #: Nodes that mirror onto each other must agree to this, relative to the mesh's extent.
@@ -339,7 +341,11 @@ def solve_mirrored_modes(split: MirrorSplit, nodes_m: np.ndarray, orthant_matric
 
     node_mass = split.weighted_node_mass(orthant_matrices)  # one for every class
 
-    slots = CORE_SLOTS.get()  # read here: the pool's threads do not inherit the caller's context
+    # Read here: the pool's threads do not inherit the caller's context. With no more classes than
+    # threads (the mug's two) every class starts at once beside CoACD, three threads on two cores:
+    # waiting for a slot ran them one after the other on one core (the mug: 0.7 s before the
+    # classes + 2 x 1.9 s, where CoACD's 3.3 s left its core idle at the end).
+    slots = CORE_SLOTS.get() if len(split.classes) > THREADS else None
 
     def solve(i):
         with slots if slots is not None else contextlib.nullcontext():

@@ -21,12 +21,10 @@ Mirror planes: a template whose points and triangles mirror across a coordinate 
 into a mesh that mirrors across the matching plane only if the prisms' split does too. The
 split follows an order of the template points (:func:`sensors.mesh.prisms.extrude_to_tets`);
 :func:`mirror_split_rank` gives one that the mirrors keep, so the revolved containers (about y
-and z) and the box (about y and z) are mirror-symmetric meshes, vertices and tets, and say so
-(``TetMesh.mirror_axes``): their modes are solved per symmetry class (:mod:`sensors.fem.mirror`).
-The mug keeps its plain split (:func:`handled_cup_mesh`): its mirror-split mesh (modes 3.5e-4
-from these, 0.90 % from the reference) changed the collision surface, and CoACD's 40 pieces of it
-left the mug trembling on the table at ~1e-4 m/s, a soft-contact limit cycle, where the 36 pieces
-of this mesh rest at ~1e-10 m/s (FillLevel-v0's container; 2026-11-27).
+and z), the mug (about z) and the box (about y and z) are mirror-symmetric meshes, vertices and
+tets, and say so (``TetMesh.mirror_axes``): their modes are solved per symmetry class
+(:mod:`sensors.fem.mirror`). The mug's collision surface is that of its plain split
+(``handled_cup_mesh(mirror_split=False)``, see :func:`sensors.objects.everyday.mug`).
 """
 
 from __future__ import annotations
@@ -249,7 +247,7 @@ def revolved_mesh(levels_x_m: np.ndarray, inner_radius_m, outer_radius_m, floor_
 def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius_m: float, floor_layers: int,
                      handle_levels: tuple[int, int, int, int], handle_half_angle_rad: float, n_across: int,
                      stub_m: float, n_stub: int, n_bend: int, n_theta: int = 48, n_wall: int = 1, kind: str = "mug",
-                     dimensions_m: dict | None = None) -> TetMesh:
+                     dimensions_m: dict | None = None, mirror_split: bool = True) -> TetMesh:
     """A straight cup about x with a D handle on its +y side, structured and conforming.
 
     The handle is a rectangular bar swept along a path in the x-y plane: a straight stub out of
@@ -261,8 +259,11 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
     The handle is itself a layered sweep: its template is the (across, along-path) grid and its
     layers go through the thickness. Conformity at the joints follows from the split rule of
     :func:`sensors.mesh.prisms.extrude_to_tets` (a quad's diagonal joins the bottom of the higher
-    template number to the top of the lower): the handle's template numbers rise with the wall's
+    split rank to the top of the lower): the handle's ranks rise with the wall's
     along the upper joint and fall along the lower one, where its layers run down the axis.
+    With ``mirror_split`` both ranks are mirror-invariant (:func:`mirror_split_rank`): the mesh
+    mirrors across the x-y plane (``mirror_axes`` (2,)) and its modes split into two classes.
+    Without it the prisms split in template order (the same vertices, other diagonals).
 
     Args:
         levels_x_m: axial levels [m]; ``floor_layers`` solid floor layers first.
@@ -270,6 +271,7 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
         stub_m: length of each straight stub beyond the wall's outermost point [m].
         n_stub, n_bend: cells along a stub and along the half circle.
         n_wall: cells through the wall.
+        mirror_split: split the prisms mirror-invariantly (else in template order).
     """
     levels = np.asarray(levels_x_m, float)
     k0, k1, k2, k3 = handle_levels
@@ -290,7 +292,9 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
         return np.sign(theta) * np.where(t <= a, t * b / a, b + (t - a) * (math.pi - b) / (math.pi - a))
 
     tpl, active, place = _revolved(levels, lambda x: ri, lambda x: ro, floor_layers, n_theta, n_wall, angle_of)
-    body_xyz, body_tets = _sweep(tpl, len(levels) - 1, active, place)
+    body_classes = mirror_classes(tpl.points, [1])  # the cup mirrors across x-y (z -> -z), handle and all
+    body_xyz, body_tets = _sweep(tpl, len(levels) - 1, active, place,
+                                 mirror_split_rank(body_classes, tpl.triangles) if mirror_split else None)
     p = len(tpl.points)
 
     # The joint's wall points: outer ring (rho = 2), ordered by angle across the handle.
@@ -314,13 +318,21 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
     ii, ss = np.meshgrid(np.arange(n_across + 1), np.arange(S + 1), indexing="ij")
     points[index.ravel()] = np.stack([ii.ravel(), ss.ravel()], 1)
     handle = Template(points, grid_triangles(n_across, S, index), np.zeros(2 * n_across * S, int))
+    col, row = points[:, 0].astype(int), points[:, 1].astype(int)
+    handle_rank = None
+    if mirror_split:
+        # Row by row along the path, and across a row in the order of the wall points it meets
+        # (reversed on the lower joint, whose layers run down the axis), so the joints' quads
+        # split as the wall's do and the handle mirrors across x-y with the cup.
+        across = body_classes[patch][col]
+        handle_classes = row * (int(body_classes.max()) + 1) * 2 + np.where(row == S, -across, across)
+        handle_rank = mirror_split_rank(handle_classes, handle.triangles)
 
     n_t = k3 - k2
     t_m = levels[k3] - levels[k2]
     x_c = 0.5 * (levels[k3] + levels[k0])
     r_in = 0.5 * (levels[k2] - levels[k1])
     y_c = ro + stub_m
-    col, row = points[:, 0].astype(int), points[:, 1].astype(int)
 
     def place_handle(_, j):
         out = np.empty((len(points), 3))
@@ -339,7 +351,8 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
         out[bend, 1] = y_c + rho * np.sin(phi)
         return out
 
-    handle_xyz, handle_tets = _sweep(handle, n_t, np.ones((n_t, len(handle.triangles)), bool), place_handle)
+    handle_xyz, handle_tets = _sweep(handle, n_t, np.ones((n_t, len(handle.triangles)), bool), place_handle,
+                                     handle_rank)
     # Handle vertex (layer j, template number h) -> body vertex on the joints, else a new one.
     q = len(points)
     to_global = len(body_xyz) + np.arange(len(handle_xyz))
@@ -350,7 +363,7 @@ def handled_cup_mesh(levels_x_m: np.ndarray, inner_radius_m: float, outer_radius
     to_global[low_h] = ((k1 - j)[:, None] * p + patch[None, :]).ravel()
     coords = np.concatenate([body_xyz, handle_xyz])
     tets = np.concatenate([body_tets, to_global[handle_tets]])
-    return _tet_mesh(coords, tets, kind, dimensions_m, (ri, ro))
+    return _tet_mesh(coords, tets, kind, dimensions_m, (ri, ro), mirror_axes=(2,) if mirror_split else ())
 
 
 def p2_dof_count(tet_mesh: TetMesh) -> int:
