@@ -24,7 +24,8 @@ from sensors.modal import MaterialView, ModalModel, TouchingObjects, TouchingPar
 from sensors.modal.damping import MAX_SURFACE_DISTANCE_M
 from sensors.modal.spring_modes import flexible_base
 
-__all__ = ["BOX_DISTANCE", "TOUCHING_TOLERANCE", "TouchingMemo", "box_half_extents_m", "on_solid", "touching_grasp"]
+__all__ = ["BOX_DISTANCE", "TOUCHING_TOLERANCE", "TouchingMemo", "box_distance_m", "box_half_extents_m", "on_solid",
+           "touching_grasp"]
 
 #: :func:`on_solid` on a bar measures each contact's distance to the bar's box directly (a few
 #: microseconds) instead of querying the faceted surface (0.3-0.6 ms a probe): that surface lies
@@ -126,7 +127,7 @@ def on_solid(model, contacts) -> list:
         return contacts
     points = np.array([c.position_m for c in contacts], dtype=float)
     half = box_half_extents_m(model) if BOX_DISTANCE else None
-    d = None if half is None else _box_distance_m(points, half)
+    d = None if half is None else box_distance_m(points, half)
     if d is None or not (np.all(np.isfinite(d)) and np.all(np.abs(d - MAX_SURFACE_DISTANCE_M) > _BOX_MARGIN_M)):
         d = np.abs(np.asarray(distance(points), dtype=float)).reshape(-1)
     return [c for c, di in zip(contacts, d) if not di > MAX_SURFACE_DISTANCE_M]
@@ -142,7 +143,7 @@ def box_half_extents_m(model) -> np.ndarray | None:
     return np.array([dims["length_m"], dims["width_m"], dims["height_m"]]) / 2
 
 
-def _box_distance_m(points_m: np.ndarray, half_m: np.ndarray) -> np.ndarray:
+def box_distance_m(points_m: np.ndarray, half_m: np.ndarray) -> np.ndarray:
     """Unsigned distance [m] of each point (n, 3) to the surface of the box of half sizes ``half_m``
     centred on the origin: past the faces it sticks out of, or to the nearest face from inside."""
     q = np.abs(points_m) - half_m

@@ -10,7 +10,7 @@ import pytest
 
 import aas_gym  # noqa: F401  (registers the envs)
 from aas_gym import touching_grasp
-from aas_gym.touching_grasp import box_half_extents_m, on_solid
+from aas_gym.touching_grasp import box_distance_m, box_half_extents_m, on_solid
 from sensors import Contact
 from sensors.modal import with_material
 from sensors.modal.damping import MAX_SURFACE_DISTANCE_M
@@ -39,7 +39,7 @@ def test_box_distance_is_the_faceted_surfaces(name):
                                                                    else "aluminium")), half)
     points = _points_about_the_surface(half, np.random.default_rng(0))
     faceted = np.abs(model.surface_distance_m(points))
-    box = touching_grasp._box_distance_m(points, half)
+    box = box_distance_m(points, half)
     np.testing.assert_allclose(box, faceted, rtol=0, atol=1e-12)
     assert (faceted > MAX_SURFACE_DISTANCE_M).sum() > 20 and (faceted <= MAX_SURFACE_DISTANCE_M).sum() > 100
     contacts = [Contact(p, (0.0, 0.0, 1.0), 1.0, 0.5) for p in points]
