@@ -67,16 +67,20 @@ class ObjectContacts:
 
     def select(self, mask) -> "ObjectContacts":
         """Subset by boolean mask or kind name(s)."""
+        mask = self._mask(mask)
+        return ObjectContacts(self.body, self.positions_m[mask], self.normals[mask], self.normal_forces_n[mask],
+                              self.forces_n[mask], self.friction[mask], self.penetration_m[mask],
+                              self.kinds[mask], self.other_bodies[mask], self.other_geoms[mask])
+
+    def _mask(self, mask) -> np.ndarray:
+        """A boolean mask, or the contacts of the kind name(s) given as one."""
         if isinstance(mask, str) or (isinstance(mask, (tuple, list)) and mask and isinstance(mask[0], str)):
             kinds = (mask,) if isinstance(mask, str) else tuple(mask)
             unknown = set(kinds) - set(KINDS)
             if unknown:
                 raise ValueError(f"unknown contact kind(s) {sorted(unknown)}; known: {list(KINDS)}")
-            mask = np.isin(self.kinds, kinds)
-        mask = np.asarray(mask, dtype=bool)
-        return ObjectContacts(self.body, self.positions_m[mask], self.normals[mask], self.normal_forces_n[mask],
-                              self.forces_n[mask], self.friction[mask], self.penetration_m[mask],
-                              self.kinds[mask], self.other_bodies[mask], self.other_geoms[mask])
+            return np.isin(self.kinds, kinds)
+        return np.asarray(mask, dtype=bool)
 
     def total_normal_force_n(self, kind: str | None = None) -> float:
         """Sum of normal forces, optionally of one kind only."""
@@ -148,17 +152,18 @@ class ObjectContacts:
         """One equivalent contact for all contacts of ``kind`` (a fingertip pad touches a face
         at several points): force-weighted mean point and normal, summed force, mean friction.
         ``None`` if there is no such contact carrying force."""
-        sel = self.select(kind)
-        total = float(np.sum(sel.normal_forces_n))
-        if len(sel) == 0 or total <= 0.0:
+        mask = self._mask(kind)                        # what select(kind) keeps, without its copies
+        fn = self.normal_forces_n[mask]
+        total = float(np.sum(fn))
+        if len(fn) == 0 or total <= 0.0:
             return None
-        w = sel.normal_forces_n / total
-        point = w @ sel.positions_m
-        normal = w @ sel.normals
+        w = fn / total
+        point = w @ self.positions_m[mask]
+        normal = w @ self.normals[mask]
         norm = np.linalg.norm(normal)
         if norm < 1e-9:  # opposite normals cancel: not one contact patch
             return None
-        return point, normal / norm, total, float(w @ sel.friction)
+        return point, normal / norm, total, float(w @ self.friction[mask])
 
     def to_dict(self) -> dict:
         """Plain arrays (for ``info`` and datasets)."""
@@ -213,16 +218,18 @@ class ContactStream:
                                      for i in range(model.ngeom)], dtype=object)
         self._f6 = np.zeros(6)
         self._kind_names = np.array(KINDS)
-        # Per sensed body, per geom pair (flat index ngeom * geom0 + geom1): 1 where one geom is
-        # the body's and the other the actuator fingertip's, 2 for the mic fingertip's, else 0
-        # (fingertip_forces_n).
-        pad = np.select([self._kind_of_geom == _ACTUATOR, self._kind_of_geom == _MIC], [1, 2], 0).astype(np.int8)
-        self._pad_code = []
+        # Per sensed body, per geom pair (flat index ngeom * geom0 + geom1): 1 + the kind of the
+        # other geom where one geom is the body's, else 0 (two geoms of one body never touch):
+        # one lookup per contact gives whether it is the body's and what touches it there
+        # (normal_force_totals_n, fingertip_forces_n). ngeom^2 bytes per sensed body.
+        other_code = (self._kind_of_geom + 1).astype(np.int8)
+        self._kind_code = []
         for mine in self._geom_of_body:
             code = np.zeros((model.ngeom, model.ngeom), np.int8)
-            code[mine] = pad
-            code[:, mine] = np.maximum(code[:, mine], pad[:, None])
-            self._pad_code.append(code.ravel())
+            code[mine] = other_code
+            code[:, mine] = other_code[:, None]
+            code[np.ix_(mine, mine)] = 0
+            self._kind_code.append(code.ravel())
         self._pair_index = np.array([model.ngeom, 1])
 
     def read(self, data: mujoco.MjData) -> dict[str, ObjectContacts]:
@@ -274,8 +281,15 @@ class ContactStream:
         if self.model.opt.cone != _ELLIPTIC:
             c = self.read(data)[body]
             return np.array([c.total_normal_force_n(k) for k in KINDS])
-        fn, kinds = self._normal_forces(data, body)
-        return np.bincount(kinds, weights=fn, minlength=len(KINDS))
+        n = data.ncon
+        if not n or not data.nefc:
+            return np.zeros(len(KINDS))
+        con = data.contact
+        # the body's contacts in contact order, each with 1 + the kind of what touches it there
+        code = self._kind_code[self.bodies.index(body)][con.geom[:n].dot(self._pair_index)]
+        mine = code.nonzero()[0]
+        fn = _normal_row_forces(data.efc_force, con.efc_address[:n][mine])
+        return np.bincount(code[mine] - 1, weights=fn, minlength=len(KINDS))
 
     def fingertip_forces_n(self, data: mujoco.MjData, body: str) -> tuple[float, float]:
         """Summed normal force [N] of the actuator and the mic fingertip on ``body``: equal bit
@@ -290,27 +304,15 @@ class ContactStream:
             return 0.0, 0.0
         con = data.contact
         # the fingertips' contacts with the body in contact order (one lookup per contact)
-        code = self._pad_code[self.bodies.index(body)][con.geom[:n].dot(self._pair_index)]
-        if not code.any():                             # no fingertip touches it: empty sums
+        code = self._kind_code[self.bodies.index(body)][con.geom[:n].dot(self._pair_index)]
+        actuator, mic = code == _ACTUATOR + 1, code == _MIC + 1
+        if not (actuator.any() or mic.any()):          # no fingertip touches it: empty sums
             return 0.0, 0.0
         adr = con.efc_address[:n]
         efc = data.efc_force
         # summed as np.sum does (np.add.reduce without its Python wrapper)
-        return (float(np.add.reduce(_normal_row_forces(efc, adr[code == 1]), axis=None)),
-                float(np.add.reduce(_normal_row_forces(efc, adr[code == 2]), axis=None)))
-
-    def _normal_forces(self, data: mujoco.MjData, body: str) -> tuple[np.ndarray, np.ndarray]:
-        """Elliptic cones: the normal force [N] (the solver's normal row, clipped at 0) of each
-        contact on ``body`` in contact order, and the kind of what touches it there."""
-        n = data.ncon
-        if not n or not data.nefc:
-            return np.zeros(0), np.zeros(0, np.intp)
-        con = data.contact
-        geom = con.geom[:n]
-        # Per-geom tables (is it body i's; the kind its body is to the sensed objects): two
-        # lookups per contact instead of four, about half the per-step cost.
-        rows, sides = self._geom_of_body[self.bodies.index(body)][geom].nonzero()
-        return _normal_row_forces(data.efc_force, con.efc_address[:n][rows]), self._kind_of_geom[geom[rows, 1 - sides]]
+        return (float(np.add.reduce(_normal_row_forces(efc, adr[actuator]), axis=None)),
+                float(np.add.reduce(_normal_row_forces(efc, adr[mic]), axis=None)))
 
     def _contact_forces(self, data, con, n: int, rows: np.ndarray) -> np.ndarray:
         """Normal and two tangential force components (contact frame, acting on geom[1])."""

@@ -143,6 +143,7 @@ class ContactFormationEnv(AasEnv):
         self._plinth_offset = (dy, 2 * float(plinth.half_extents_m[2]))
         self._script = self._draw_script()
         self._segment, self._left = 0, self._script[0].steps
+        self._goal = self._waypoint(0)
         if self._stream is not None:
             # a new stream: the grasp just closed (the planar grasp was not recorded)
             self._stream = self._new_stream()
@@ -189,7 +190,8 @@ class ContactFormationEnv(AasEnv):
 
     # --- step ---------------------------------------------------------------------------------
     def step(self, action):
-        report = int(check_action(action, ()))
+        # a Discrete sample (int or numpy integer) is already a finite scalar
+        report = int(action) if isinstance(action, (int, np.integer)) else int(check_action(action, ()))
         if not 0 <= report < len(FORMATIONS):
             raise ValueError(f"action must be a formation index in [0, {len(FORMATIONS)}), got {report}")
         self._advance_script()
@@ -211,16 +213,19 @@ class ContactFormationEnv(AasEnv):
         if self._left <= 0 and self._segment + 1 < len(self._script):
             self._segment += 1
             self._left = self._script[self._segment].steps
+            self._goal = self._waypoint(self._segment)
         self._left -= 1
-        seg = self._script[self._segment]
-        goal = self._home[:3] + np.asarray(seg.offset)
-        delta = goal - self._target[:3]
+        delta = self._goal - self._target[:3]
         dist = math.sqrt(delta.dot(delta))  # what np.linalg.norm computes, without its overhead
         if dist > MAX_STEP_M:
             delta *= MAX_STEP_M / dist
         self._target[:3] += delta
         sc = self._scene
         sc.set_tcp_target(self._target)
+
+    def _waypoint(self, segment: int) -> np.ndarray:
+        """The TCP position [m] segment ``segment`` moves towards."""
+        return self._home[:3] + np.asarray(self._script[segment].offset)
 
     def _truth(self) -> dict:
         """The formation from the target's external contact forces after the step."""
