@@ -7,7 +7,8 @@
    config; a features-only observation takes the closed form, ``sensors.synthesis.
    simulate_features``), with sensing off (``acoustic={"enabled": False}``), and bare MuJoCo
    (``mj_step`` of ``frame_skip`` steps, one control period, on the same compiled model from
-   the env's state) beside them; with the default domain randomization (every placement,
+   the env's state) beside them, and the env's own ``mj_step`` calls replayed (its physics
+   alone); with the default domain randomization (every placement,
    grasp and material new) and, for the probe envs, without it (``randomization=False``:
    repeated grasps replay from the physics and synthesis caches). Beside the speed, the
    features of one grasp of the env's target through both paths (closed form against the
@@ -231,7 +232,49 @@ def _run_env(env_id: str, kwargs: dict, budget_s: float, warmup_s: float = 0.0) 
         mujoco.mj_step(u.model, bare, nstep=u.frame_skip)
         n += 1
     out["bare_steps_s"] = n / (_clock() - t0)
+    out["own_steps_s"], out["own_mismatches"] = _own_physics_rate(env, min(budget_s, 1.0))
     return out
+
+
+def _own_physics_rate(env, budget_s: float) -> tuple[float, int]:
+    """Env steps per CPU second if only MuJoCo ran: random actions for ``budget_s`` CPU seconds
+    with every ``mujoco.mj_step`` call of the env (control periods, settles, scripted grasps)
+    replayed once more on a scratch ``MjData`` from the same state and model, and only the
+    replays timed. The bound of the env's own physics, where *bare* steps one period from one
+    state (what that state touches moves it 2-3x). Returns the rate and the number of replays
+    that did not end in the env's state bit for bit (0: the replays are the env's steps)."""
+    spec = mujoco.mjtState.mjSTATE_INTEGRATION
+    original = mujoco.mj_step
+    scratch: dict[int, tuple] = {}
+    spent = [0.0]
+    mismatches = [0]
+
+    def replayed_step(model, data, nstep=1):
+        if id(model) not in scratch:  # the model is kept alive by the entry, so its id stays its own
+            scratch[id(model)] = (model, mujoco.MjData(model))
+        replay = scratch[id(model)][1]
+        state = np.empty(mujoco.mj_stateSize(model, spec))
+        mujoco.mj_getState(model, data, state, spec)
+        mujoco.mj_setState(model, replay, state, spec)
+        t0 = _clock()
+        original(model, replay, nstep=nstep)
+        spent[0] += _clock() - t0
+        original(model, data, nstep=nstep)
+        mujoco.mj_getState(model, replay, state, spec)
+        after = np.empty_like(state)
+        mujoco.mj_getState(model, data, after, spec)
+        mismatches[0] += not np.array_equal(state, after)
+
+    steps, t0 = 0, _clock()
+    mujoco.mj_step = replayed_step
+    try:
+        while _clock() - t0 < 2 * budget_s:  # about half of it is the replays
+            steps += 1
+            if any(env.step(env.action_space.sample())[2:4]):
+                env.reset()
+    finally:
+        mujoco.mj_step = original
+    return steps / max(spent[0], 1e-12), mismatches[0]
 
 
 def _grasp_once(env):
@@ -322,7 +365,7 @@ def env_throughput(budget_s: float, warmup_s: float = 0.0) -> list[dict]:
         on, off, err, ref_err = runs[key]
         value = {"steps": on["steps_s"], "episodes": on["episodes_s"], "rtf": on["steps_s"] * on["dt_s"]}[goal_kind]
         row = {"label": label, "on": on["steps_s"], "episodes": on["episodes_s"], "off": off["steps_s"],
-               "bare": on["bare_steps_s"], "rel_err": err[0], "err_of_max": err[1], "ref_err": ref_err,
+               "bare": on["bare_steps_s"], "own": on["own_steps_s"], "own_mismatches": on["own_mismatches"], "rel_err": err[0], "err_of_max": err[1], "ref_err": ref_err,
                "goal_kind": goal_kind,
                "goal": goal, "value": value, "met": value >= goal}
         if label.startswith("FillLevel"):
@@ -337,6 +380,7 @@ _UNITS = {"steps": "steps/s", "episodes": "episodes/s", "rtf": "x real time"}
 
 def _env_line(r: dict) -> str:
     return (f"| {r['label']} | {r['on']:.0f} | {r['episodes']:.1f} | {r['off']:.0f} | {r['bare']:.0f} | "
+            f"{r['own']:.0f}{'' if not r['own_mismatches'] else ' (' + str(r['own_mismatches']) + ' replays differ)'} | "
             f"{r['rel_err']:.1e} | {r['err_of_max']:.1e} | {r['ref_err']:.1e} | >= {r['goal']} {_UNITS[r['goal_kind']]}: "
             f"{r['value']:.0f}, {'met' if r['met'] else 'not met'} |")
 
@@ -351,7 +395,10 @@ def env_lines(rows: list[dict], budget_s: float, warmup_s: float = 0.0) -> list[
            " from the first steps (the first objects' models, factorizations and kept solves included)")
         + ". *On*: the "
         "env's default acoustic config (features only: closed form); *off*: `acoustic={\"enabled\": False}`; "
-        "*bare*: `mj_step` of one control period (`frame_skip` steps) on the same model. *Error*: features of "
+        "*bare*: `mj_step` of one control period (`frame_skip` steps) on the same model, from the run's last state; "
+        "*own physics*: the env's own `mj_step` calls (periods, settles, scripted grasps) of a further run, each "
+        "replayed from its state on a scratch `MjData` and only the replays timed: the rate if only MuJoCo ran "
+        "(every replay ended in the env's state bit for bit unless the row says otherwise). *Error*: features of "
         "one grasp of the target through the closed form against the recorded float32 waveform's, largest "
         "difference per feature / that feature, and / the largest feature (the float32 rounding, 2^-24 of "
         "each sample, is the whole difference: against the float64 chain it is below 1e-6 per feature, "
@@ -362,9 +409,9 @@ def env_lines(rows: list[dict], budget_s: float, warmup_s: float = 0.0) -> list[
         "(`aas_gym.canonical_settle.CANONICAL_SETTLE = False`), largest difference per feature / that feature "
         "(`tests/test_unit_load_reuse.py`, `tests/test_canonical_settle.py`).",
         "",
-        "| env | on [steps/s] | episodes/s | off [steps/s] | bare [steps/s] | error / feature | error / max | "
-        "modes error | goal |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---|",
+        "| env | on [steps/s] | episodes/s | off [steps/s] | bare [steps/s] | own physics [steps/s] | error / feature | "
+        "error / max | modes error | goal |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     lines += [_env_line(r) for r in rows]
     fill = next((r for r in rows if r["label"].startswith("FillLevel")), None)
