@@ -32,7 +32,6 @@ Two evaluations of the run from rest, the same numbers to rounding:
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from .._infra.jit import jitted
@@ -175,8 +174,8 @@ def _from_sums(act: EigenPart, mic: EigenPart, fe: np.ndarray, fe_spectrum: np.n
     exact lowest force wait for first use, the separation check takes a bound first."""
     z0 = sums.start(act)
     transient, mic_tr = _transient(act, z0), _transient(mic, z0)
-    top = float(np.abs(fe).max())
-    bound = min(-_steady_bound(act, top) - transient.bound(), -_steady_bound(mic, top) - mic_tr.bound())
+    steady_act, steady_mic = _steady_bounds(act, mic, sums.input_max)
+    bound = min(-steady_act - transient.bound(), -steady_mic - mic_tr.bound())
     spectrum = None
     if bins is not None:
         m = np.asarray(bins, dtype=int)
@@ -184,14 +183,17 @@ def _from_sums(act: EigenPart, mic: EigenPart, fe: np.ndarray, fe_spectrum: np.n
     return DriveSpectrum(None, transient, None, spectrum, _SteadyRun(sums, act, mic, z0, fe), bound)
 
 
-def _steady_bound(part: EigenPart, input_max: float) -> float:
-    """An upper bound of |y| over the periodic steady state of ``part`` under any input of
-    magnitude at most ``input_max``: each mode's |z| <= (|G0| + |G1|) max|u| / (1 - |a|) and
-    |y| <= sum |co| |z| + |D| max|u| (inf if a mode does not decay)."""
-    a = np.abs(part.a)
+def _steady_bounds(act: EigenPart, mic: EigenPart, input_max: float) -> tuple[float, float]:
+    """Upper bounds of |y| over the periodic steady states of ``act`` and ``mic`` (one state
+    equation, two outputs) under any input of magnitude at most ``input_max``: each mode's
+    |z| <= (|G0| + |G1|) max|u| / (1 - |a|) and |y| <= sum |co| |z| + |D| max|u| (inf if a
+    mode does not decay)."""
+    a = np.abs(act.a)
     if not np.all(a < 1.0):
-        return np.inf
-    return float(np.sum(np.abs(part.co) * (np.abs(part.G0) + np.abs(part.G1)) / (1.0 - a)) + abs(part.D)) * input_max
+        return np.inf, np.inf
+    z_max = (np.abs(act.G0) + np.abs(act.G1)) / (1.0 - a) * input_max
+    return (float(np.abs(act.co) @ z_max) + abs(act.D) * input_max,
+            float(np.abs(mic.co) @ z_max) + abs(mic.D) * input_max)
 
 
 class _SteadyRun(SteadyDrive):
@@ -227,11 +229,10 @@ def _transient(part: EigenPart, z0: np.ndarray) -> Exponentials:
 def _transfer(part: EigenPart, w: np.ndarray) -> np.ndarray:
     """The sampled (first-order-hold) transfer function of a complex-mode part at the DFT
     phasors ``w``: an input period's DFT times this is its steady output period's."""
-    a, G0, G1, co = part.a[:, None], part.G0[:, None], part.G1[:, None], part.co[:, None]
-    at_w = co * (G0 * w + G1) / (1.0 - a * w)
-    wc = np.conj(w)
-    at_wc = co * (G0 * wc + G1) / (1.0 - a * wc)
-    return part.D + 0.5 * (at_w.sum(axis=0) + np.conj(at_wc.sum(axis=0)))
+    M = len(w)
+    ww = np.concatenate([w, np.conj(w)])                           # at w and at conj(w) at once
+    at = part.co @ ((part.G0[:, None] * ww + part.G1[:, None]) / (1.0 - part.a[:, None] * ww))
+    return part.D + 0.5 * (at[:M] + np.conj(at[M:]))
 
 
 # compiled by numba on first use (sensors._infra.jit)

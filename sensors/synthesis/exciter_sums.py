@@ -53,6 +53,7 @@ class ExciterSums:
         P = len(u)
         self.period_samples = P
         self.first = float(u[0])
+        self.input_max = float(np.abs(u).max(initial=0.0))       # max |u|
         self.block = max(1, int(np.ceil(np.sqrt(P))))
         self.blocks_n = -(-P // self.block)
         X = np.zeros(self.blocks_n * self.block)

@@ -200,50 +200,53 @@ def _per_window(system, P, start_of, input_transient, w, spec, n_windows, from_r
 def _factored(system, P, start_of, input_transient, w, spec, n_windows, from_rest):
     """The same sums with the output row taken first: every term of a part's coordinate
     spectra at a bin is a mode's coefficient over (1 - a w), so one reciprocal per mode and
-    bin (and per conjugate bin) and one matrix product per window replace the per-window
-    mode-by-bin temporaries."""
-    wc = np.conj(w)
+    bin (at w and conj(w) side by side) and one matrix product replace the per-window
+    mode-by-bin temporaries; the input transient's window sums likewise (one reciprocal per
+    pole and bin, a factor per window)."""
+    M = len(w)
+    ww = np.concatenate([w, np.conj(w)])                                     # bins at w, then at conj(w)
     gam, sl = input_transient.gain, input_transient.log_pole
     W = int(n_windows)
-    out = np.zeros((W, len(w)), complex)
+    out = np.zeros((W, M), complex)
     if gam.size:
-        geo_in = np.stack([_window_geometric(sl, w, k, P) for k in range(W)])         # (W, L, M)
-        geo_inc = np.stack([_window_geometric(sl, wc, k, P) for k in range(W)])
+        # the input transient's window sums: exp(s kP) (1 - exp(s P)) / (1 - exp(s) w)
+        inv_in = 1.0 / (1.0 - np.exp(sl)[:, None] * ww)                     # (L, 2M)
+        heads = np.exp(np.outer(np.arange(W) * P, sl)) * -np.expm1(sl * P)   # (W, L)
     D_total = 0.0
     for p in system.parts:
         a, co = p.a, p.co
-        den, denc = 1.0 - a[:, None] * w[None, :], 1.0 - a[:, None] * wc[None, :]
-        if min(np.abs(den).min(initial=np.inf), np.abs(denc).min(initial=np.inf)) < _MIN_DENOMINATOR:
+        # |1 - a w| >= 1 - |a| on the unit circle: the bins' check only where that is too small
+        if np.abs(a).max(initial=0.0) > 1.0 - _MIN_DENOMINATOR and \
+                np.abs(1.0 - a[:, None] * ww).min(initial=np.inf) < _MIN_DENOMINATOR:
             return None
-        inv, invc = 1.0 / den, 1.0 / denc                                    # (K, M)
-        rows = [co * p.G0, co * p.G1]
+        inv = 1.0 / (1.0 - a[:, None] * ww)                                  # (K, 2M)
         if from_rest:
             if gam.size:
                 gap = np.exp(sl)[None, :] - a[:, None]                       # (K, L)
                 if np.abs(gap).min() < _MIN_DENOMINATOR:
                     return None
-                Kc = gam[None, :] * (p.G0[:, None] + p.G1[:, None] * np.exp(sl)[None, :]) / gap
+                Kc = gam * (p.G0[:, None] + p.G1[:, None] * np.exp(sl)) / gap
             start = start_of(p)                                              # steady state at phase 0
             if gam.size:
                 start = start + Kc.sum(axis=1)                               # the mode's own decay
             log_a = p.lam * p.T
-            decay = -np.expm1(log_a * P)
-            rows += [co * start * (np.exp(log_a * (k * P)) * decay) for k in range(W)]
-        rows = np.stack(rows)
-        R, Rc = rows @ inv, rows @ invc                                      # (2 + W, M)
-        steady = spec * (w * R[0] + R[1])                                    # co . z_ss at w
-        steady_c = np.conj(spec) * (wc * Rc[0] + Rc[1])                      # ... at conj(w)
+            rows = np.empty((2 + W, len(a)), complex)
+            rows[2:] = (co * start * -np.expm1(log_a * P)) * np.exp(np.outer(np.arange(W) * P, log_a))
+        else:
+            rows = np.empty((2, len(a)), complex)
+        rows[0] = co * p.G0
+        rows[1] = co * p.G1
+        R = rows @ inv                                                       # (2 + W, 2M)
+        steady = spec * (w * R[0, :M] + R[1, :M])                            # co . z_ss at w
+        steady_c = np.conj(spec) * (ww[M:] * R[0, M:] + R[1, M:])            # ... at conj(w)
         if not from_rest:
             out += 0.5 * (steady + np.conj(steady_c))
         else:
-            forced = (co @ Kc) if gam.size else None                         # particular solutions
-            for k in range(W):
-                Z, Zc = steady - R[2 + k], steady_c - Rc[2 + k]
-                if forced is not None:
-                    Z, Zc = Z + forced @ geo_in[k], Zc + forced @ geo_inc[k]
-                out[k] += 0.5 * (Z + np.conj(Zc))
+            Z = np.concatenate([steady, steady_c]) - R[2:]                   # (W, 2M)
+            if gam.size:
+                Z += (heads * (co @ Kc)) @ inv_in                            # particular solutions
+            out += 0.5 * (Z[:, :M] + np.conj(Z[:, M:]))
         D_total += p.D
     if D_total != 0.0:
-        for k in range(W):
-            out[k] += D_total * (spec + (gam @ geo_in[k] if gam.size else 0.0))
+        out += D_total * (spec + ((heads * gam) @ inv_in[:, :M] if gam.size else 0.0))
     return out
