@@ -92,22 +92,21 @@ class SteadyDrive:
         self.start_coords = start_coords
         self.period_samples = sums.period_samples
         self.first_output = float((drive.co @ start_coords).real) + drive.D * sums.first   # y[0]
+        # the drive's modes and their conjugates side by side: y = D u + sum_j c_j x_j / 2
+        self._modes = [np.concatenate([v, np.conj(v)]) for v in (drive.G0, drive.G1, drive.a, start_coords)]
+        self._halves = 0.5 * np.concatenate([drive.co, np.conj(drive.co)])
 
     def start(self, part: EigenPart) -> np.ndarray:
         """The coordinates of ``part`` at phase 0 of its periodic steady state under the
         drive's steady output (``part.periodic_start(y)`` for y the output's period).  It divides
         by b - a_j for each pole b of ``part`` and a_j of the drive (and conj(a_j)): the caller
         keeps them apart (``window_spectra`` does: the drive's transient has those poles)."""
-        d, x0 = self.drive, self.start_coords
+        g0, g1, a, x0 = self._modes
         log_b = part.lam * part.T
         b = part.a
         T = self.sums.sums(log_b)                                         # T_b(u)
         gap = -np.expm1(log_b * self.period_samples)                      # 1 - b^P
         T_next = b * T + self.sums.first * gap                            # T_b(u[n+1])
-        Ty = d.D * T
-        for g0, g1, a, c, x in ((d.G0, d.G1, d.a, d.co, x0),
-                                (np.conj(d.G0), np.conj(d.G1), np.conj(d.a), np.conj(d.co), np.conj(x0))):
-            Tv = T[:, None] * g0 + T_next[:, None] * g1                    # (K, J): T_b(v_j)
-            Tx = (Tv - gap[:, None] * x) / (b[:, None] - a)               # T_b(x_j)
-            Ty = Ty + 0.5 * (Tx @ c)
+        Tx = (T[:, None] * g0 + T_next[:, None] * g1 - gap[:, None] * x0) / (b[:, None] - a)   # (K, 2J): T_b(x_j)
+        Ty = Tx @ self._halves + self.drive.D * T
         return (part.G0 * Ty + part.G1 * (b * Ty + self.first_output * gap)) / gap
