@@ -65,11 +65,13 @@ class ExciterSums:
         """T_p = sum_{n<P} p^(P-1-n) u[n] for the poles p = exp(log_poles): per block one
         real matrix product with p^(B-1-j), then the blocks weighted by p^((M-1-m) B)."""
         lp = np.asarray(log_poles, dtype=complex)
-        B, M = self.block, self.blocks_n
+        K, B, M = len(lp), self.block, self.blocks_n
+        # p^(B-1-j) and (p^B)^(M-1-m) in one doubling run (M <= B: the last M rows)
+        powers = _falling_powers(np.exp(np.concatenate([lp, lp * B])), B)
         # complex (B, K) seen as real (B, 2K) with each pole's real and imaginary parts side by
         # side: the product's rows are then the complex block sums seen as real
-        inner = (self._blocks @ _falling_powers(np.exp(lp), B).view(float)).view(complex)   # (M, K)
-        return np.einsum("mk,mk->k", _falling_powers(np.exp(lp * B), M), inner)
+        inner = (self._blocks @ np.ascontiguousarray(powers[:, :K]).view(float)).view(complex)   # (M, K)
+        return np.einsum("mk,mk->k", powers[B - M:, K:], inner)
 
     def start(self, part: EigenPart) -> np.ndarray:
         """The coordinates of ``part`` at phase 0 of its periodic steady state under this
