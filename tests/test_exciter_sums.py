@@ -78,3 +78,27 @@ def test_separation_check_decides_as_the_exact_lowest_force(excitation, mass_kg)
     for grip in (0.5 * -exact, 1.5 * -exact, 0.5 * -fast.lowest_bound_n, 2.0 * -fast.lowest_bound_n):
         fresh = drive_module.drive_spectrum(AcousticStream(ex, tip), tip, True)
         assert fresh.separates(grip) == (grip + exact < 0)
+
+
+@pytest.mark.parametrize("excitation", ["linear", "impulse"])
+def test_window_spectra_under_the_drive_against_the_sampled_chain(excitation):
+    """Independent of every closed form: the drive's first-order-hold run from rest over two
+    looped periods, the object's run under it, the DFT of each window at the feature bins;
+    against the window spectra from the drive's sums (no period passed)."""
+    from sensors.signals.features import feature_frequencies_hz
+    from sensors.synthesis.window_spectra import window_spectra
+
+    ex = Excitation.by_name(excitation)
+    tip = FingertipModel(object_mass_kg=0.7, grip_force_n=0.0)
+    stream = AcousticStream(ex, tip)
+    bins = np.round(feature_frequencies_hz() * ex.period_s).astype(int)
+    drive = drive_module.drive_spectrum(stream, tip, True, bins)
+    assert drive.steady is not None
+    obj = modal_bank(6, 25)
+    got = window_spectra(obj, None, drive.transient, bins, 2, input_spectrum=drive.bin_spectrum,
+                         input_start=drive.steady)
+    systems = stream.drive.systems(tip)
+    force = systems.drive.act.response(np.tile(tip.actuator_force_n * np.asarray(systems.period), 2))
+    y = obj.response(force)
+    want = np.fft.rfft(y.reshape(2, -1), axis=1)[:, bins]
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * np.abs(want).max())
