@@ -148,13 +148,17 @@ def grasp():
 
 
 @pytest.mark.parametrize("excitation", ["linear", "impulse"])
-def test_features_through_both_paths(grasp, monkeypatch, excitation):
+@pytest.mark.parametrize("flags", ["all", "exciter_sums"])
+def test_features_through_both_paths(grasp, monkeypatch, excitation, flags):
+    """The fast paths against their references: every flag (``all``), or the exciter sums alone."""
     model, act, mic, others = grasp
     ex = Excitation.by_name(excitation)
     out = []
     for fast in (False, True):
-        monkeypatch.setattr(drive_module, "CLOSED_FORM_DRIVE", fast)
-        monkeypatch.setattr(window_module, "FACTORED_WINDOWS", fast)
+        monkeypatch.setattr(drive_module, "EXCITER_SUMS", fast)
+        if flags == "all":
+            monkeypatch.setattr(drive_module, "CLOSED_FORM_DRIVE", fast)
+            monkeypatch.setattr(window_module, "FACTORED_WINDOWS", fast)
         obs = simulate_features(model, ex, 1.0, act, mic, others, fingertip=FingertipModel(object_mass_kg=0.21))
         assert obs.metadata["features_path"] == "closed_form"
         out.append(obs.features(average=False))

@@ -47,6 +47,9 @@ def test_fingertip_bad_parameters():
         FingertipModel(grip_force_n=-1.0)
     with pytest.raises(ValueError):
         FingertipModel(object_mass_kg=0.0)
+    for not_finite in (np.nan, np.inf, np.float64(np.nan)):
+        with pytest.raises(ValueError):
+            FingertipModel(contact_stiffness_n_m=not_finite)
 
 
 def test_leak_roundtrip_and_alignment(tmp_path):

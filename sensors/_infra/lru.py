@@ -24,7 +24,7 @@ CACHE_SIZES: dict[str, int] = {
     "synthesis.drive_spectra": 8,    # fingertip drive steady period + transient (closed-form features)
     "synthesis.window_spectra": 8,   # models whose grasps' feature-window spectra are kept (closed form)
     "synthesis.grasp_spectra": 64,   # ... and per model, its grasps' spectra (4.5 kB each)
-    "synthesis.exciter_periods": 8,  # exciter force period and its spectrum per excitation (closed form): 0.5 MB each
+    "synthesis.exciter_periods": 8,  # exciter force period, its spectrum and blocked sums per excitation: 0.7 MB each
     "synthesis.feature_bins": 8,     # feature frequencies as DFT bins per (rate, excitation period)
     "synthesis.prefilter_taps": 4,   # one-shot band-limited prefilters (passes, length): a few floats each
     "stream.systems": 16,            # streamed contact systems (SystemCache)

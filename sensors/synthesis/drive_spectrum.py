@@ -21,17 +21,23 @@ Two evaluations of the run from rest, the same numbers to rounding:
   transfer function there, U_m (D + sum_k Re-pair of c_k (G0_k w + G1_k) / (1 - a_k w)),
   instead of an FFT of the period.  Per new fingertip model (a randomized object mass) about
   1 ms against 2.6-2.8 ms on GraspPosition-v0's probes; ``tests/test_closed_form_drive.py``.
+- with ``EXCITER_SUMS`` (the default), no pass over the period at all: the phase-0 state from
+  the exciter period's geometric sums at the drive's four poles, the separation check from a
+  bound (each mode's steady |z| <= (|G0| + |G1|) max|u| / (1 - |a|)), the period and the exact
+  lowest force only where that bound cannot rule a separation out (a grip below about 25 N
+  at the default fingertip).  The window spectra then take the object's phase-0 state from
+  the same sums through the drive's modes (``sensors.synthesis.exciter_sums``);
+  ``tests/test_exciter_sums.py``.
 """
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 
 from .._infra.jit import jitted
 from .._infra.lru import CACHE_SIZES, LRU
 from .fingertip import FingertipModel
+from .exciter_sums import ExciterSums, SteadyDrive
 from .lti import EigenPart, SteadyState
 from .window_spectra import Exponentials, bin_phasors, closed_form_supported, periodic_transient
 
@@ -43,18 +49,55 @@ __all__ = ["CLOSED_FORM_DRIVE", "DriveSpectrum", "drive_spectrum", "exciter_peri
 #: numbers to rounding, ``tests/test_closed_form_drive.py``).  Read at each call.
 CLOSED_FORM_DRIVE = True
 
+#: The closed-form drive from rest: True takes its phase-0 state from the exciter period's
+#: geometric sums (``sensors.synthesis.exciter_sums``: one real product for its four modes) and
+#: runs its steady period only where a cheap bound cannot rule out a separation, and the window
+#: spectra take the object's phase-0 state from the same sums (``SteadyDrive``); False runs
+#: the period (two compiled passes) and the object's state from it (the reference; the same
+#: numbers to rounding, ``tests/test_exciter_sums.py``).  Read at each call.
+EXCITER_SUMS = True
 
-@dataclass(frozen=True)
+
 class DriveSpectrum:
     """One fingertip model under the looped excitation: the contact force's steady ``period``
-    [N] and ``transient`` from rest, the lowest contact force either may reach (separation
-    check), and the period's DFT at the feature bins where known (``bin_spectrum``, else
-    ``None``: the window spectra transform the period)."""
+    [N] and ``transient`` from rest, the lowest contact force either may reach
+    (``lowest_dynamic_n``, a bound; ``lowest_bound_n`` a lower one known without the period;
+    :meth:`separates` is the separation check), and the
+    period's DFT at the feature bins where known (``bin_spectrum``, else ``None``: the window
+    spectra transform the period).  ``steady``: the drive in complex modes at phase 0 of its
+    steady state (``EXCITER_SUMS``), which gives the period and the lowest force on first use."""
 
-    period: np.ndarray
-    transient: Exponentials
-    lowest_dynamic_n: float          # min over the recording of both contacts' dynamic force (bound)
-    bin_spectrum: np.ndarray | None = None
+    def __init__(self, period: np.ndarray | None, transient: Exponentials, lowest_dynamic_n: float | None,
+                 bin_spectrum: np.ndarray | None = None, steady: "_SteadyRun | None" = None,
+                 lowest_bound_n: float = -np.inf) -> None:
+        self._period = period
+        self.transient = transient
+        self._lowest = lowest_dynamic_n
+        self.bin_spectrum = bin_spectrum
+        self.steady = steady
+        self.lowest_bound_n = lowest_bound_n      # <= lowest_dynamic_n, known without the period
+
+    def _run(self) -> None:
+        self._period, self._lowest = self.steady.run(self.transient)
+
+    @property
+    def period(self) -> np.ndarray:
+        if self._period is None:
+            self._run()
+        return self._period
+
+    @property
+    def lowest_dynamic_n(self) -> float:
+        if self._lowest is None:
+            self._run()
+        return self._lowest
+
+    def separates(self, grip_force_n: float) -> bool:
+        """Whether a contact may separate under ``grip_force_n`` (grip plus the lowest dynamic
+        force below 0); the cheap bound settles it where it can, the period elsewhere."""
+        if grip_force_n + self.lowest_bound_n >= 0:
+            return False
+        return grip_force_n + self.lowest_dynamic_n < 0
 
 
 #: The exciter force period the drive runs under and its ``np.fft.rfft``, per (excitation,
@@ -64,13 +107,14 @@ _EXCITER_PERIODS: LRU = LRU(CACHE_SIZES["synthesis.exciter_periods"])
 
 
 def exciter_period(stream, actuator_force_n: float, period: np.ndarray):
-    """``(force period [N], its rfft)`` of the exciter (read-only), kept per excitation."""
+    """``(force period [N], its rfft, its ExciterSums)`` of the exciter (read-only), kept per
+    excitation."""
     def build():
         fe = actuator_force_n * period
         spectrum = np.fft.rfft(fe)
         fe.setflags(write=False)
         spectrum.setflags(write=False)
-        return fe, spectrum
+        return fe, spectrum, ExciterSums(fe)
 
     key = (stream.excitation, stream.drive.bandlimited, float(actuator_force_n))
     return _EXCITER_PERIODS.get_or_build(key, build)
@@ -88,9 +132,11 @@ def drive_spectrum(stream, tip: FingertipModel, from_rest: bool, bins: np.ndarra
     if not from_rest:
         act, mic = sy.steady()
         return DriveSpectrum(act.output, Exponentials.none(), float(min(act.output.min(), mic.output.min())))
-    fe, fe_spectrum = exciter_period(stream, tip.actuator_force_n, sy.period)
+    fe, fe_spectrum, sums = exciter_period(stream, tip.actuator_force_n, sy.period)
     modes = tip.modes(stream.excitation.sample_rate_hz) if CLOSED_FORM_DRIVE else None
     if modes is not None:
+        if EXCITER_SUMS:
+            return _from_sums(*modes, fe, fe_spectrum, sums, bins)
         return _closed_form(*modes, fe, fe_spectrum, bins)
     if not (closed_form_supported(sy.drive.act) and closed_form_supported(sy.drive.mic)):
         return None
@@ -122,6 +168,56 @@ def _closed_form(act: EigenPart, mic: EigenPart, fe: np.ndarray, fe_spectrum: np
     return DriveSpectrum(act_period, transient, float(lowest), spectrum)
 
 
+def _from_sums(act: EigenPart, mic: EigenPart, fe: np.ndarray, fe_spectrum: np.ndarray, sums: ExciterSums,
+               bins: np.ndarray | None) -> DriveSpectrum:
+    """As :func:`_closed_form`, the phase-0 state from the exciter's sums: the period and the
+    exact lowest force wait for first use, the separation check takes a bound first."""
+    z0 = sums.start(act)
+    transient, mic_tr = _transient(act, z0), _transient(mic, z0)
+    steady_act, steady_mic = _steady_bounds(act, mic, sums.input_max)
+    bound = min(-steady_act - transient.bound(), -steady_mic - mic_tr.bound())
+    spectrum = None
+    if bins is not None:
+        m = np.asarray(bins, dtype=int)
+        spectrum = fe_spectrum[m] * _transfer(act, bin_phasors(m, len(fe)))
+    return DriveSpectrum(None, transient, None, spectrum, _SteadyRun(sums, act, mic, z0, fe), bound)
+
+
+def _steady_bounds(act: EigenPart, mic: EigenPart, input_max: float) -> tuple[float, float]:
+    """Upper bounds of |y| over the periodic steady states of ``act`` and ``mic`` (one state
+    equation, two outputs) under any input of magnitude at most ``input_max``: each mode's
+    |z| <= (|G0| + |G1|) max|u| / (1 - |a|) and |y| <= sum |co| |z| + |D| max|u| (inf if a
+    mode does not decay)."""
+    a = np.abs(act.a)
+    if not np.all(a < 1.0):
+        return np.inf, np.inf
+    z_max = (np.abs(act.G0) + np.abs(act.G1)) / (1.0 - a) * input_max
+    return (float(np.abs(act.co) @ z_max) + abs(act.D) * input_max,
+            float(np.abs(mic.co) @ z_max) + abs(mic.D) * input_max)
+
+
+class _SteadyRun(SteadyDrive):
+    """The drive at phase 0 of its steady state (:class:`SteadyDrive`, for the window spectra)
+    with its microphone side, for the steady period and the exact lowest force on demand."""
+
+    def __init__(self, sums: ExciterSums, act: EigenPart, mic: EigenPart, z0: np.ndarray, fe: np.ndarray) -> None:
+        super().__init__(sums, act, z0)
+        self.mic = mic
+        self._fe = fe
+
+    def run(self, transient: Exponentials) -> tuple[np.ndarray, float]:
+        """The actuator side's steady period [N] and the lowest dynamic force of both sides
+        (as :func:`_closed_form`: two compiled passes over the period)."""
+        act, mic = self.drive, self.mic
+        run = jitted(globals(), "_periodic_run", cache=True)
+        a_P = np.exp(act.lam * act.T * len(self._fe))
+        z0, act_period, mic_period = run(act.a, a_P, act.G0, act.G1, act.co, mic.co, act.D, mic.D,
+                                         np.ascontiguousarray(self._fe))
+        lowest = min(act_period.min() - transient.bound(), mic_period.min() - _transient(mic, self.start_coords).bound())
+        act_period.setflags(write=False)
+        return act_period, float(lowest)
+
+
 def _transient(part: EigenPart, z0: np.ndarray) -> Exponentials:
     """The output transient from rest of a part whose periodic steady state passes phase 0 in
     the coordinates ``z0`` (``periodic_transient`` without the change of coordinates)."""
@@ -133,11 +229,10 @@ def _transient(part: EigenPart, z0: np.ndarray) -> Exponentials:
 def _transfer(part: EigenPart, w: np.ndarray) -> np.ndarray:
     """The sampled (first-order-hold) transfer function of a complex-mode part at the DFT
     phasors ``w``: an input period's DFT times this is its steady output period's."""
-    a, G0, G1, co = part.a[:, None], part.G0[:, None], part.G1[:, None], part.co[:, None]
-    at_w = co * (G0 * w + G1) / (1.0 - a * w)
-    wc = np.conj(w)
-    at_wc = co * (G0 * wc + G1) / (1.0 - a * wc)
-    return part.D + 0.5 * (at_w.sum(axis=0) + np.conj(at_wc.sum(axis=0)))
+    M = len(w)
+    ww = np.concatenate([w, np.conj(w)])                           # at w and at conj(w) at once
+    at = part.co @ ((part.G0[:, None] * ww + part.G1[:, None]) / (1.0 - part.a[:, None] * ww))
+    return part.D + 0.5 * (at[:M] + np.conj(at[M:]))
 
 
 # compiled by numba on first use (sensors._infra.jit)

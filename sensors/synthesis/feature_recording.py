@@ -159,14 +159,14 @@ def _object_spectra(grasp: GraspState, excitation: Excitation, fingertip, output
     grasps = cache.window_spectra.get_or_build(IdentityKey(grasp.model),
                                                lambda: LRU(CACHE_SIZES["synthesis.grasp_spectra"]))
     key = (table.shape, table.tobytes(), fingertip, excitation, output, method, n_windows, bool(steady_state),
-           bins.tobytes(), contact_model, bandlimited, bool(_drive.CLOSED_FORM_DRIVE))
+           bins.tobytes(), contact_model, bandlimited, bool(_drive.CLOSED_FORM_DRIVE), bool(_drive.EXCITER_SUMS))
     grip = grasp.actuator.force_n
     hit = grasps.get(key)
     if hit is None:
         hit = grasps.put(key, _build_spectra(grasp, excitation, fingertip, output, method, steady_state, cache,
                                              bins, n_windows, contact_model, bandlimited))
     spectra, drive, tip = hit
-    if spectra is None or grip + drive.lowest_dynamic_n < 0:
+    if spectra is None or drive.separates(grip):
         return None, {}     # no closed form, or the contact may separate: the time-domain chain decides
     fingertip_meta = {k: float(v) for k, v in tip.__dict__.items()}
     fingertip_meta["grip_force_n"] = float(grip)        # grasp_fingertip(fingertip, model, grip)
@@ -179,7 +179,7 @@ def _build_spectra(grasp, excitation, fingertip, output, method, steady_state, c
     stream = AcousticStream(excitation, fingertip, output=output, method=method, cache=cache, carry_state=False,
                             contact_model=contact_model, bandlimited=bandlimited)
     system, tip = stream.grasp_systems(grasp)
-    closed_form_drive = bool(_drive.CLOSED_FORM_DRIVE)
+    closed_form_drive = (bool(_drive.CLOSED_FORM_DRIVE), bool(_drive.EXCITER_SUMS))
     drive = cache.drive_spectra.get_or_build((tip, excitation, bool(steady_state), bandlimited, closed_form_drive),
                                              lambda: _drive.drive_spectrum(stream, tip, not steady_state, bins))
     if drive is None:
@@ -187,6 +187,6 @@ def _build_spectra(grasp, excitation, fingertip, output, method, steady_state, c
     if steady_state and bandlimited:          # the settled chain's steady state is per harmonic
         spectra = bandlimited_steady_spectra(system, drive.period, bins, n_windows)
     else:
-        spectra = window_spectra(system, drive.period, drive.transient, bins, n_windows, from_rest=not steady_state,
-                                 input_spectrum=drive.bin_spectrum)
+        spectra = window_spectra(system, None if drive.steady else drive.period, drive.transient, bins, n_windows,
+                                 from_rest=not steady_state, input_spectrum=drive.bin_spectrum, input_start=drive.steady)
     return spectra, drive, tip

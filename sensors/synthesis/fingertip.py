@@ -54,6 +54,7 @@ Parameter values (defaults) and why
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -103,7 +104,9 @@ class FingertipModel:
 
     def __post_init__(self) -> None:
         for k, v in vars(self).items():          # the fields (asdict would deep-copy them)
-            if not np.isfinite(v) or v < 0:
+            # math, not numpy: a model is made per grasp (3 per GraspPosition-v0 probe), and
+            # np.isfinite of a Python float costs about 1 us
+            if not math.isfinite(v) or v < 0:
                 raise ValueError(f"FingertipModel.{k} must be finite and >= 0, got {v!r}")
         for k in ("actuator_mass_kg", "fingertip_mass_kg", "mic_fingertip_mass_kg", "object_mass_kg",
                   "contact_stiffness_n_m", "actuator_resonance_hz"):

@@ -115,9 +115,9 @@ def _window_geometric(log_pole: np.ndarray, w: np.ndarray, k: int, P: int) -> np
     return head[:, None] / (1.0 - r[:, None] * w[None, :])
 
 
-def window_spectra(system: DiscreteSystem, input_period: np.ndarray, input_transient: Exponentials,
+def window_spectra(system: DiscreteSystem, input_period: np.ndarray | None, input_transient: Exponentials,
                    bins: np.ndarray, n_windows: int, from_rest: bool = True,
-                   input_spectrum: np.ndarray | None = None) -> np.ndarray | None:
+                   input_spectrum: np.ndarray | None = None, input_start=None) -> np.ndarray | None:
     """The DFT of the output over windows k = 0 .. n_windows - 1 at ``bins`` (complex,
     ``(n_windows, len(bins))``, unscaled: sum over the window of y[n] w^(n - kP)).
 
@@ -126,30 +126,45 @@ def window_spectra(system: DiscreteSystem, input_period: np.ndarray, input_trans
     be empty).  ``None`` where the closed form does not apply (a dense part, a pole on a bin,
     a system pole on a transient pole): use the time-domain chain.  ``input_spectrum``: the
     input period's DFT at ``bins`` if the caller has it (else ``np.fft.rfft`` of the period).
-    ``FACTORED_WINDOWS`` selects the evaluation (module docstring).
+    ``input_start``: where the input is a driving system's steady output, that drive
+    (``sensors.synthesis.exciter_sums.SteadyDrive``): its ``start(part)`` gives each part's
+    phase-0 state without the period's samples (``input_period`` may then be ``None``, with
+    ``input_spectrum`` given).  ``FACTORED_WINDOWS`` selects the evaluation (module docstring).
     """
     if not closed_form_supported(system):
         return None
-    u = np.asarray(input_period, dtype=float)
-    P = len(u)
+    if input_start is None:
+        u = np.asarray(input_period, dtype=float)
+        P = len(u)
+        if FACTORED_WINDOWS:
+            def start(p):
+                return p.periodic_start(u)
+        else:
+            ext = np.concatenate([u, u[:1]])
+
+            def start(p):
+                return p.periodic_vector(p.propagate(None, ext), P)
+    else:
+        if input_spectrum is None:
+            raise ValueError("input_start needs input_spectrum (the input period's DFT at the bins)")
+        P = input_start.period_samples
+        start = input_start.start
     w = bin_phasors(bins, P)
     spec = np.fft.rfft(u)[np.asarray(bins, dtype=int)] if input_spectrum is None else input_spectrum  # U_ss(w)
     gam = input_transient.gain
     if not from_rest and gam.size:
         raise ValueError("a system in periodic steady state has an input without transient")
     evaluate = _factored if FACTORED_WINDOWS else _per_window
-    return evaluate(system, u, input_transient, w, spec, n_windows, from_rest)
+    return evaluate(system, P, start, input_transient, w, spec, n_windows, from_rest)
 
 
-def _per_window(system, u, input_transient, w, spec, n_windows, from_rest):
+def _per_window(system, P, start_of, input_transient, w, spec, n_windows, from_rest):
     """The reference: each mode's coordinate spectra per window, then the output row."""
-    P = len(u)
     wc = np.conj(w)
     gam, sl = input_transient.gain, input_transient.log_pole
     out = np.zeros((n_windows, len(w)), complex)
     geo_in = [(_window_geometric(sl, w, k, P), _window_geometric(sl, wc, k, P)) for k in range(n_windows)]
     D_total = 0.0
-    ext = np.concatenate([u, u[:1]])
     for p in system.parts:
         a = p.a
         den, denc = 1.0 - a[:, None] * w[None, :], 1.0 - a[:, None] * wc[None, :]
@@ -158,7 +173,6 @@ def _per_window(system, u, input_transient, w, spec, n_windows, from_rest):
         z_ss = (p.G0[:, None] * w + p.G1[:, None]) * spec / den            # (K, M) at w
         z_ssc = (p.G0[:, None] * wc + p.G1[:, None]) * np.conj(spec) / denc  # at conj(w)
         if from_rest:
-            z0 = p.periodic_vector(p.propagate(None, ext), P)               # steady state at phase 0
             if gam.size:
                 gap = np.exp(sl)[None, :] - a[:, None]                       # (K, L)
                 if np.abs(gap).min() < _MIN_DENOMINATOR:
@@ -166,7 +180,7 @@ def _per_window(system, u, input_transient, w, spec, n_windows, from_rest):
                 Kc = gam[None, :] * (p.G0[:, None] + p.G1[:, None] * np.exp(sl)[None, :]) / gap
             else:
                 Kc = np.zeros((len(a), 0), complex)
-            start = z0 + Kc.sum(axis=1)                                      # the mode's own decay
+            start = start_of(p) + Kc.sum(axis=1)                             # the mode's own decay
             log_a = p.lam * p.T
         for k in range(n_windows):
             Z, Zc = z_ss, z_ssc
@@ -183,54 +197,56 @@ def _per_window(system, u, input_transient, w, spec, n_windows, from_rest):
     return out
 
 
-def _factored(system, u, input_transient, w, spec, n_windows, from_rest):
+def _factored(system, P, start_of, input_transient, w, spec, n_windows, from_rest):
     """The same sums with the output row taken first: every term of a part's coordinate
     spectra at a bin is a mode's coefficient over (1 - a w), so one reciprocal per mode and
-    bin (and per conjugate bin) and one matrix product per window replace the per-window
-    mode-by-bin temporaries."""
-    P = len(u)
-    wc = np.conj(w)
+    bin (at w and conj(w) side by side) and one matrix product replace the per-window
+    mode-by-bin temporaries; the input transient's window sums likewise (one reciprocal per
+    pole and bin, a factor per window)."""
+    M = len(w)
+    ww = np.concatenate([w, np.conj(w)])                                     # bins at w, then at conj(w)
     gam, sl = input_transient.gain, input_transient.log_pole
     W = int(n_windows)
-    out = np.zeros((W, len(w)), complex)
+    out = np.zeros((W, M), complex)
     if gam.size:
-        geo_in = np.stack([_window_geometric(sl, w, k, P) for k in range(W)])         # (W, L, M)
-        geo_inc = np.stack([_window_geometric(sl, wc, k, P) for k in range(W)])
+        # the input transient's window sums: exp(s kP) (1 - exp(s P)) / (1 - exp(s) w)
+        inv_in = 1.0 / (1.0 - np.exp(sl)[:, None] * ww)                     # (L, 2M)
+        heads = np.exp(np.outer(np.arange(W) * P, sl)) * -np.expm1(sl * P)   # (W, L)
     D_total = 0.0
     for p in system.parts:
         a, co = p.a, p.co
-        den, denc = 1.0 - a[:, None] * w[None, :], 1.0 - a[:, None] * wc[None, :]
-        if min(np.abs(den).min(initial=np.inf), np.abs(denc).min(initial=np.inf)) < _MIN_DENOMINATOR:
+        # |1 - a w| >= 1 - |a| on the unit circle: the bins' check only where that is too small
+        if np.abs(a).max(initial=0.0) > 1.0 - _MIN_DENOMINATOR and \
+                np.abs(1.0 - a[:, None] * ww).min(initial=np.inf) < _MIN_DENOMINATOR:
             return None
-        inv, invc = 1.0 / den, 1.0 / denc                                    # (K, M)
-        rows = [co * p.G0, co * p.G1]
+        inv = 1.0 / (1.0 - a[:, None] * ww)                                  # (K, 2M)
         if from_rest:
-            z0 = p.periodic_start(u)                                         # steady state at phase 0
-            start = z0                                                # the mode's own decay
             if gam.size:
                 gap = np.exp(sl)[None, :] - a[:, None]                       # (K, L)
                 if np.abs(gap).min() < _MIN_DENOMINATOR:
                     return None
-                Kc = gam[None, :] * (p.G0[:, None] + p.G1[:, None] * np.exp(sl)[None, :]) / gap
-                start = start + Kc.sum(axis=1)
+                Kc = gam * (p.G0[:, None] + p.G1[:, None] * np.exp(sl)) / gap
+            start = start_of(p)                                              # steady state at phase 0
+            if gam.size:
+                start = start + Kc.sum(axis=1)                               # the mode's own decay
             log_a = p.lam * p.T
-            decay = -np.expm1(log_a * P)
-            rows += [co * start * (np.exp(log_a * (k * P)) * decay) for k in range(W)]
-        rows = np.stack(rows)
-        R, Rc = rows @ inv, rows @ invc                                      # (2 + W, M)
-        steady = spec * (w * R[0] + R[1])                                    # co . z_ss at w
-        steady_c = np.conj(spec) * (wc * Rc[0] + Rc[1])                      # ... at conj(w)
+            rows = np.empty((2 + W, len(a)), complex)
+            rows[2:] = (co * start * -np.expm1(log_a * P)) * np.exp(np.outer(np.arange(W) * P, log_a))
+        else:
+            rows = np.empty((2, len(a)), complex)
+        rows[0] = co * p.G0
+        rows[1] = co * p.G1
+        R = rows @ inv                                                       # (2 + W, 2M)
+        steady = spec * (w * R[0, :M] + R[1, :M])                            # co . z_ss at w
+        steady_c = np.conj(spec) * (ww[M:] * R[0, M:] + R[1, M:])            # ... at conj(w)
         if not from_rest:
             out += 0.5 * (steady + np.conj(steady_c))
         else:
-            forced = (co @ Kc) if gam.size else None                         # particular solutions
-            for k in range(W):
-                Z, Zc = steady - R[2 + k], steady_c - Rc[2 + k]
-                if forced is not None:
-                    Z, Zc = Z + forced @ geo_in[k], Zc + forced @ geo_inc[k]
-                out[k] += 0.5 * (Z + np.conj(Zc))
+            Z = np.concatenate([steady, steady_c]) - R[2:]                   # (W, 2M)
+            if gam.size:
+                Z += (heads * (co @ Kc)) @ inv_in                            # particular solutions
+            out += 0.5 * (Z[:, :M] + np.conj(Z[:, M:]))
         D_total += p.D
     if D_total != 0.0:
-        for k in range(W):
-            out[k] += D_total * (spec + (gam @ geo_in[k] if gam.size else 0.0))
+        out += D_total * (spec + ((heads * gam) @ inv_in[:, :M] if gam.size else 0.0))
     return out
