@@ -58,8 +58,9 @@ _WARNED: set = set()
 REUSE_SPRING_ROWS = True
 #: Whether the springs' stiffness sum_p S_p^T W_p S_p is one product Z^T Z of the stacked
 #: rows Z_p = W_p^(1/2) S_p (True, fast: one BLAS call instead of two per spring), or summed
-#: spring by spring (False, the reference).  The same matrix to rounding (1e-15 of its norm;
-#: frequencies within 1e-12 relative, ``tests/test_spring_stiffness_sum.py``).  Read at each call.
+#: spring by spring (False, the reference).  The same matrix to rounding: eigenvalues within
+#: 1e-13 of the largest (``tests/test_spring_stiffness_sum.py``; the lowest suspension modes'
+#: frequencies within 1e-11 relative, as between any two summation orders).  Read at each call.
 ONE_PRODUCT_STIFFNESS = True
 #: Whether :func:`merge_close_springs` rules out far pairs in one vectorized pass before its
 #: exact per-pair test (True, fast) or tests every pair (False, the reference).  The same
