@@ -53,8 +53,10 @@ _WARNED: set = set()
 #: basis anew at every call (False, the reference).  A point's rows do not depend on the other
 #: points of a batch (locations and interpolation are per point), except for the attachment
 #: rows of nodes an implicit basis had not made yet (their product rounds with its row count,
-#: ~1e-16).  Kept: P x 3 x (6 + r + a) floats per SpringModes (5.6 kB for GraspPosition-v0's
-#: six springs), which lives in the spring-mode LRU.  Read at each call.
+#: ~1e-16).  The contacts' own points (those merged into a spring) are evaluated with the
+#: springs' in one call.  Kept: (P + merged) x 3 x (6 + r + a) floats per SpringModes (5.6 kB
+#: for GraspPosition-v0's six springs, at most 40 kB for FillLevel-v0's 25 contacts), which
+#: lives in the spring-mode LRU (32 entries: at most 1.3 MB).  Read at each call.
 REUSE_SPRING_ROWS = True
 #: Whether the springs' stiffness sum_p S_p^T W_p S_p is one product Z^T Z of the stacked
 #: rows Z_p = W_p^(1/2) S_p (True, fast: one BLAS call instead of two per spring), or summed
@@ -150,7 +152,7 @@ class SpringModes:
     """
 
     def __init__(self, base, springs, frequency_scale: float = 1.0, shape_scale: float = 1.0,
-                 flexible=None) -> None:
+                 flexible=None, also_at=None) -> None:
         self.base = base
         self.material = base.material
         self.springs = springs
@@ -181,8 +183,19 @@ class SpringModes:
         self.free_stiffness = K.copy()   # of the Ritz basis, before the springs
         self._spring_rows = None
         points = np.array([p for p, _, _, _ in springs]).reshape(-1, 3)
-        S = self.ritz_at(points)      # (P, 3, n)
-        self._spring_rows = (_point_bits(points), S)
+        if also_at is not None and REUSE_SPRING_ROWS:
+            # the points a system of these contacts asks for next (the contacts that merged
+            # into a spring), evaluated with the springs' in one call
+            extra = np.asarray(also_at, dtype=float).reshape(-1, 3)
+            bits = _point_bits(extra)
+            new = ~np.all(bits[:, None, :] == _point_bits(points)[None, :, :], axis=2).any(axis=1)
+            extra = np.unique(extra[new], axis=0)
+            rows = self.ritz_at(np.concatenate([points, extra]))
+            S = rows[:len(points)]      # (P, 3, n)
+            self._spring_rows = (_point_bits(np.concatenate([points, extra])), rows)
+        else:
+            S = self.ritz_at(points)      # (P, 3, n)
+            self._spring_rows = (_point_bits(points), S)
         if ONE_PRODUCT_STIFFNESS and len(springs):
             K += _spring_stiffness(springs, S)
         else:
@@ -318,6 +331,7 @@ def flexible_base(model):
 def spring_modes(model, contacts):
     """``model`` with the springs of ``contacts`` (a :class:`SpringModes`), or ``model``
     itself when no contact is a spring.  Cached per (model, springs)."""
+    contacts = list(contacts)
     springs = contact_springs(model, contacts)
     if not springs:
         return model
@@ -328,6 +342,7 @@ def spring_modes(model, contacts):
     if hit is not None:
         return hit
     flex = flexible_base(model)
+    at = np.array([c.position_m for c in contacts]).reshape(-1, 3)
     if flex is None:
         name = type(model).__name__
         if name not in _WARNED:
@@ -341,10 +356,10 @@ def spring_modes(model, contacts):
                 log.warning("a %s has no mesh: its contact springs act on its elastic modes only, without "
                             "rigid-body modes or static correction (a grounded 1e7 N/m spring can be ~10 %% off)",
                             name)
-        out = SpringModes(model, springs)
+        out = SpringModes(model, springs, also_at=at)
     else:
         base, fs, ss = flex
-        out = SpringModes(model, springs, fs, ss, contact_flexibility(base))
+        out = SpringModes(model, springs, fs, ss, contact_flexibility(base), also_at=at)
     return _CACHE.put(key, out)
 
 
