@@ -14,6 +14,8 @@ import sys
 import numpy as np
 import pytest
 
+from sensors._infra.lru import clear_all
+
 from sensors import Contact, ModalModel, ModalSystem
 from sensors.modal.damping import OffSurfaceError, modal_damping_matrix
 from sensors.synthesis import modal_system
@@ -49,7 +51,7 @@ def paths(monkeypatch):
     def use(fast: bool):
         monkeypatch.setattr(modal_system, "ONE_POINT_PASS", fast)
         monkeypatch.setattr(spring_module, "REUSE_SPRING_ROWS", fast)
-        spring_module._CACHE.clear()
+        clear_all()
     return use
 
 

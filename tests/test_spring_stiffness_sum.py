@@ -11,6 +11,8 @@ import sys
 import numpy as np
 import pytest
 
+from sensors._infra.lru import clear_all
+
 from sensors import Contact, ModalModel
 from sensors.modal.spring_modes import merge_close_springs, spring_modes
 
@@ -33,7 +35,7 @@ def test_one_product_stiffness_matches_the_per_spring_sum(bar, monkeypatch):
     freqs = {}
     for flag in (False, True):
         monkeypatch.setattr(spring_module, "ONE_PRODUCT_STIFFNESS", flag)
-        spring_module._CACHE.clear()
+        clear_all()
         modes = spring_modes(bar, contacts)
         freqs[flag] = modes.frequencies_hz
     # independent: the free Ritz stiffness plus each spring's W = k_n n n^T + k_t (I - n n^T)

@@ -18,27 +18,21 @@ import numpy as np
 __all__ = ["mkl_eig"]
 
 _COLUMN_MAJOR = 102
-_DGEEV: list = []        # [LAPACKE_dgeev or None], looked up once
 
 
 def _dgeev():
-    if not _DGEEV:
-        from ..fem.pardiso import mkl_library  # deferred: its subpackage loads with the first model
+    """(mkl_rt, its LAPACKE_dgeev), or (None, None) without MKL."""
+    from ..fem.pardiso import mkl_library  # deferred: its subpackage loads with the first model
 
-        lib = mkl_library()
-        f = None
-        if lib is not None:
-            try:
-                f = lib.LAPACKE_dgeev
-            except AttributeError:
-                f = None
-        if f is not None:
-            f.restype = ctypes.c_int
-            f.argtypes = [ctypes.c_int, ctypes.c_char, ctypes.c_char, ctypes.c_int, ctypes.c_void_p, ctypes.c_int,
-                          ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p,
-                          ctypes.c_int]
-        _DGEEV.append((lib, f))
-    return _DGEEV[0]
+    lib = mkl_library()
+    f = getattr(lib, "LAPACKE_dgeev", None) if lib is not None else None
+    if f is None:
+        return None, None
+    if f.argtypes is None:
+        f.restype = ctypes.c_int
+        f.argtypes = [ctypes.c_int, ctypes.c_char, ctypes.c_char, ctypes.c_int, ctypes.c_void_p, ctypes.c_int,
+                      ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p, ctypes.c_int]
+    return lib, f
 
 
 def mkl_eig(A: np.ndarray):
