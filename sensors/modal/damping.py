@@ -69,6 +69,7 @@ def contact_damping_factor(model, contacts: Sequence[Contact], shapes=None) -> n
     ``shapes``: ``model.mode_shapes_at`` at every contact's position (P, 3, r), if the caller
     has them (the same numbers: a point's shapes do not depend on its batch)."""
     r = len(model.angular_frequencies_rad_s)
+    contacts = list(contacts)
     touching = [i for i, c in enumerate(contacts) if c.force_n > 0.0]
     contacts = [contacts[i] for i in touching]
     if not contacts:

@@ -148,7 +148,9 @@ class SpringModes:
     A ``ModalBasis``: ``frequencies_hz``, ``angular_frequencies_rad_s``, ``material``,
     ``mode_shapes_at``, ``surface_distance_m``, ``mass_kg``, ``n_modes``.  ``coordinates``
     names the Ritz basis (``basis``: the free model, ``psi``: its attachment vectors, ``V``:
-    the eigenvectors) for :func:`modal_transfer`.
+    the eigenvectors) for :func:`modal_transfer`.  ``also_at``: points (m, 3) whose Ritz rows
+    to evaluate with the springs' and keep (the contacts merged into springs, which the system's
+    damping asks for; :data:`REUSE_SPRING_ROWS`).
     """
 
     def __init__(self, base, springs, frequency_scale: float = 1.0, shape_scale: float = 1.0,
