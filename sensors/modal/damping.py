@@ -35,37 +35,53 @@ def check_on_surface(model, points_m: np.ndarray, what: str = "contact",
 
     Only applies when the model offers ``surface_distance_m(points_m)``.
     """
+    check_groups_on_surface(model, [(points_m, what)], max_distance_m)
+
+
+def check_groups_on_surface(model, groups, max_distance_m: float = MAX_SURFACE_DISTANCE_M) -> None:
+    """:func:`check_on_surface` of several point groups ``[(points_m, what), ...]`` with one
+    distance query (a point's distance does not depend on the batch it is asked in): the
+    first point too far, in the groups' order, raises the error its own check would."""
     surf = getattr(model, "surface_distance_m", None)
     if surf is None:
         return
-    pts = np.atleast_2d(np.asarray(points_m, dtype=float))
-    if pts.size == 0:
+    pts = [np.atleast_2d(np.asarray(p, dtype=float)).reshape(-1, 3) for p, _ in groups]
+    labels = [what for (_, what), p in zip(groups, pts) for _ in range(len(p))]
+    if not labels:
         return
+    pts = np.concatenate(pts)
     d = np.abs(np.asarray(surf(pts), dtype=float).reshape(-1))
     bad = np.flatnonzero(~(d <= max_distance_m))
     if bad.size:
         i = int(bad[0])
         raise OffSurfaceError(
-            f"{what} at {pts[i].tolist()} m is {d[i] * 1e3:.3g} mm from the object surface "
+            f"{labels[i]} at {pts[i].tolist()} m is {d[i] * 1e3:.3g} mm from the object surface "
             f"(limit {max_distance_m * 1e3:.3g} mm): is it in the object frame?")
 
 
-def contact_damping_factor(model, contacts: Sequence[Contact]) -> np.ndarray:
+def contact_damping_factor(model, contacts: Sequence[Contact], shapes=None) -> np.ndarray:
     """F with G = F^T F, shape (3 P, r), units sqrt(N): per contact p the rows
     sqrt(c_p) W_p^(1/2) U_p, where W_p^(1/2) = sqrt(mu_p) (I - n_p n_p^T) + n_p n_p^T is the
     square root of the weight (it has eigenvalues 1 along the normal and mu_p across it).
 
     The contact damping has rank at most 3 P: the synthesis uses this factor to find the
-    complex modes in O(r^2 P^2) instead of O(r^3) (:mod:`sensors.synthesis.low_rank_modes`)."""
+    complex modes in O(r^2 P^2) instead of O(r^3) (:mod:`sensors.synthesis.low_rank_modes`).
+    ``shapes``: ``model.mode_shapes_at`` at every contact's position (P, 3, r), if the caller
+    has them (the same numbers: a point's shapes do not depend on its batch)."""
     r = len(model.angular_frequencies_rad_s)
-    contacts = [c for c in contacts if c.force_n > 0.0]
+    contacts = list(contacts)
+    touching = [i for i, c in enumerate(contacts) if c.force_n > 0.0]
+    contacts = [contacts[i] for i in touching]
     if not contacts:
         return np.zeros((0, r))
     pos = np.array([c.position_m for c in contacts])
     nrm = np.array([c.normal for c in contacts])
     f = np.array([c.force_n for c in contacts])
     mu = np.array([c.friction for c in contacts])
-    U = np.asarray(model.mode_shapes_at(pos), dtype=float)   # (P, 3, r)
+    if shapes is None:
+        U = np.asarray(model.mode_shapes_at(pos), dtype=float)   # (P, 3, r)
+    else:
+        U = np.asarray(shapes, dtype=float)[touching]
     along = np.einsum("pi,pir->pr", nrm, U)                   # n^T U
     normal_part = nrm[:, :, None] * along[:, None, :]         # n n^T U
     F = np.sqrt(f)[:, None, None] * (np.sqrt(mu)[:, None, None] * (U - normal_part) + normal_part)
@@ -79,10 +95,14 @@ def contact_damping_matrix(model, contacts: Sequence[Contact]) -> np.ndarray:
 
 
 def modal_damping_parts(model, contacts: Sequence[Contact] = (), *,
-                        max_surface_distance_m: float = MAX_SURFACE_DISTANCE_M) -> tuple[np.ndarray, np.ndarray]:
+                        max_surface_distance_m: float = MAX_SURFACE_DISTANCE_M,
+                        contact_shapes=None) -> tuple[np.ndarray, np.ndarray]:
     """``(d, Q)`` with C_m = diag(d) + Q^T Q: the Rayleigh part d = alpha + beta w^2 [1/s]
     (plus the model's ``added_damping_per_s`` if it has one) and the contact part's factor Q = sqrt(gamma) F (``contact_damping_factor``), shape
-    (3 P, r). Validates the contacts as :func:`modal_damping_matrix` does."""
+    (3 P, r). Validates the contacts as :func:`modal_damping_matrix` does.
+    ``contact_shapes``: ``model.mode_shapes_at`` at every contact's position (P, 3, r), given by
+    a caller that has them and has checked the contacts on the surface itself
+    (``ModalSystem.build``): neither is done again."""
     contacts = list(contacts)
     for c in contacts:
         if not isinstance(c, Contact):
@@ -100,8 +120,10 @@ def modal_damping_parts(model, contacts: Sequence[Contact] = (), *,
     coupling = np.zeros((0, w.size)) if coupling is None else np.asarray(coupling, float)
     if not contacts:
         return d, coupling
-    check_on_surface(model, np.array([c.position_m for c in contacts]), "contact", max_surface_distance_m)
-    return d, np.vstack([np.sqrt(float(mat.gamma)) * contact_damping_factor(model, contacts), coupling])
+    if contact_shapes is None:
+        check_on_surface(model, np.array([c.position_m for c in contacts]), "contact", max_surface_distance_m)
+    return d, np.vstack([np.sqrt(float(mat.gamma)) * contact_damping_factor(model, contacts, contact_shapes),
+                         coupling])
 
 
 def modal_damping_matrix(model, contacts: Sequence[Contact] = (), *,

@@ -47,6 +47,29 @@ _NEGLIGIBLE_STIFFNESS_N_PER_M = 1e-9
 _CACHE: LRU = LRU(CACHE_SIZES["modal.spring_modes"])
 _WARNED: set = set()
 
+#: Whether a :class:`SpringModes` answers ``ritz_at`` at its own spring points from the rows it
+#: built its stiffness with (True, fast: a grasp's damping contacts, drive and microphone points
+#: are mostly those points, so a new contact set locates its points once), or evaluates the
+#: basis anew at every call (False, the reference).  A point's rows do not depend on the other
+#: points of a batch (locations and interpolation are per point), except for the attachment
+#: rows of nodes an implicit basis had not made yet (their product rounds with its row count,
+#: ~1e-16).  The contacts' own points (those merged into a spring) are evaluated with the
+#: springs' in one call.  Kept: (P + merged) x 3 x (6 + r + a) floats per SpringModes (5.6 kB
+#: for GraspPosition-v0's six springs, at most 40 kB for FillLevel-v0's 25 contacts), which
+#: lives in the spring-mode LRU (32 entries: at most 1.3 MB).  Read at each call.
+REUSE_SPRING_ROWS = True
+#: Whether the springs' stiffness sum_p S_p^T W_p S_p is one product Z^T Z of the stacked
+#: rows Z_p = W_p^(1/2) S_p (True, fast: one BLAS call instead of two per spring), or summed
+#: spring by spring (False, the reference).  The same matrix to rounding: eigenvalues within
+#: 1e-13 of the largest (``tests/test_spring_stiffness_sum.py``; the lowest suspension modes'
+#: frequencies within 1e-11 relative, as between any two summation orders).  Read at each call.
+ONE_PRODUCT_STIFFNESS = True
+#: Whether :func:`merge_close_springs` rules out far pairs in one vectorized pass before its
+#: exact per-pair test (True, fast) or tests every pair (False, the reference).  The same
+#: groups: the exact test decides every pair the pass keeps, and its 1e-9 margin keeps every
+#: pair that test could accept.  Read at each call.
+VECTORIZED_MERGE = True
+
 
 def contact_springs(model, contacts) -> list[tuple[np.ndarray, np.ndarray, float, float]]:
     """``[(position_m, normal, k_n, k_t), ...]`` [N/m] of the contacts that are springs on
@@ -71,6 +94,21 @@ def _n_directions(springs) -> int:
                for _, _, kn, kt in springs)
 
 
+def _maybe_close(springs, radius_m: float):
+    """Per pair of springs (a list of lists of bools), whether they may merge: within
+    ``radius_m`` and normals above 0.9, with a 1e-9 margin (the exact test of
+    :func:`merge_close_springs` decides the pairs kept; None: test every pair).  Pairs are
+    ruled out at once instead of one norm and one dot per pair in Python (0.9 ms for
+    FillLevel-v0's 25 contacts)."""
+    if not VECTORIZED_MERGE or len(springs) < 2:
+        return None
+    pts = np.array([p for p, _, _, _ in springs], dtype=float)
+    nrm = np.array([n for _, n, _, _ in springs], dtype=float)
+    diff = pts[:, None, :] - pts[None, :, :]
+    d2 = np.einsum("ijk,ijk->ij", diff, diff)
+    return ((d2 <= (radius_m * (1.0 + 1e-9)) ** 2) & (nrm @ nrm.T > 0.9 - 1e-9)).tolist()
+
+
 def merge_close_springs(springs, radius_m: float = MERGE_RADIUS_M):
     """Springs within ``radius_m`` of each other with normals within 25 degrees merged into one
     (parallel springs: stiffnesses summed, at their stiffness-weighted centre); the radius is
@@ -79,13 +117,17 @@ def merge_close_springs(springs, radius_m: float = MERGE_RADIUS_M):
     failing mid-episode."""
     while True:
         groups: list[list] = []
-        for p, n, kn, kt in springs:
+        near = _maybe_close(springs, radius_m)
+        for i, (p, n, kn, kt) in enumerate(springs):
             for g in groups:
-                if np.linalg.norm(g[0][0] - p) <= radius_m and float(np.dot(g[0][1], n)) > 0.9:
-                    g.append((p, n, kn, kt))
+                # the exact test on the pairs the vectorized one cannot rule out
+                if (near is None or near[g[0][4]][i]) and np.linalg.norm(g[0][0] - p) <= radius_m \
+                        and float(np.dot(g[0][1], n)) > 0.9:
+                    g.append((p, n, kn, kt, i))
                     break
             else:
-                groups.append([(p, n, kn, kt)])
+                groups.append([(p, n, kn, kt, i)])
+        groups = [[x[:4] for x in g] for g in groups]
         merged = []
         for g in groups:
             if len(g) == 1:
@@ -106,11 +148,13 @@ class SpringModes:
     A ``ModalBasis``: ``frequencies_hz``, ``angular_frequencies_rad_s``, ``material``,
     ``mode_shapes_at``, ``surface_distance_m``, ``mass_kg``, ``n_modes``.  ``coordinates``
     names the Ritz basis (``basis``: the free model, ``psi``: its attachment vectors, ``V``:
-    the eigenvectors) for :func:`modal_transfer`.
+    the eigenvectors) for :func:`modal_transfer`.  ``also_at``: points (m, 3) whose Ritz rows
+    to evaluate with the springs' and keep (the contacts merged into springs, which the system's
+    damping asks for; :data:`REUSE_SPRING_ROWS`).
     """
 
     def __init__(self, base, springs, frequency_scale: float = 1.0, shape_scale: float = 1.0,
-                 flexible=None) -> None:
+                 flexible=None, also_at=None) -> None:
         self.base = base
         self.material = base.material
         self.springs = springs
@@ -139,10 +183,27 @@ class SpringModes:
             K[n_rigid:, n_rigid:] = np.diag(w ** 2)
             self.split = (n_rigid, r, 0)
         self.free_stiffness = K.copy()   # of the Ritz basis, before the springs
-        S = self.ritz_at(np.array([p for p, _, _, _ in springs]).reshape(-1, 3))      # (P, 3, n)
-        for (p, nrm, kn, kt), Sp in zip(springs, S):
-            W = kn * np.outer(nrm, nrm) + kt * (np.eye(3) - np.outer(nrm, nrm))
-            K += Sp.T @ W @ Sp
+        self._spring_rows = None
+        points = np.array([p for p, _, _, _ in springs]).reshape(-1, 3)
+        if also_at is not None and REUSE_SPRING_ROWS:
+            # the points a system of these contacts asks for next (the contacts that merged
+            # into a spring), evaluated with the springs' in one call
+            extra = np.asarray(also_at, dtype=float).reshape(-1, 3)
+            bits = _point_bits(extra)
+            new = ~np.all(bits[:, None, :] == _point_bits(points)[None, :, :], axis=2).any(axis=1)
+            extra = np.unique(extra[new], axis=0)
+            rows = self.ritz_at(np.concatenate([points, extra]))
+            S = rows[:len(points)]      # (P, 3, n)
+            self._spring_rows = (_point_bits(np.concatenate([points, extra])), rows)
+        else:
+            S = self.ritz_at(points)      # (P, 3, n)
+            self._spring_rows = (_point_bits(points), S)
+        if ONE_PRODUCT_STIFFNESS and len(springs):
+            K += _spring_stiffness(springs, S)
+        else:
+            for (p, nrm, kn, kt), Sp in zip(springs, S):
+                W = kn * np.outer(nrm, nrm) + kt * (np.eye(3) - np.outer(nrm, nrm))
+                K += Sp.T @ W @ Sp
         lam, V = np.linalg.eigh(0.5 * (K + K.T))
         keep = lam > (2 * np.pi * MIN_MODE_FREQUENCY_HZ) ** 2
         self.V = V[:, keep]
@@ -163,7 +224,26 @@ class SpringModes:
     def ritz_at(self, points_m) -> np.ndarray:
         """The Ritz basis [R, U, Psi] at points: (n, 3, 6 + r + a) (without a mesh: [R, U] if the
         model gives its rigid modes, ``rigid_mode_shapes_at``, else U alone);
-        ``split`` holds the three column counts, ``free_stiffness`` its stiffness without springs."""
+        ``split`` holds the three column counts, ``free_stiffness`` its stiffness without springs.
+        Rows at its own spring points are those it was built with (:data:`REUSE_SPRING_ROWS`)."""
+        known = self._spring_rows
+        if known is not None and REUSE_SPRING_ROWS:
+            p = np.asarray(points_m, dtype=float)
+            if p.ndim == 2 and p.shape[1] == 3 and len(p):
+                bits, rows = known
+                same = np.all(_point_bits(p)[:, None, :] == bits[None, :, :], axis=2)   # (n, P)
+                hit = same.any(axis=1)
+                if hit.all():
+                    return rows[same.argmax(axis=1)]
+                if hit.any():
+                    out = np.empty((len(p), 3, rows.shape[2]))
+                    out[hit] = rows[same.argmax(axis=1)[hit]]
+                    out[~hit] = self._ritz_rows(p[~hit])
+                    return out
+        return self._ritz_rows(points_m)
+
+    def _ritz_rows(self, points_m) -> np.ndarray:
+        """:meth:`ritz_at` evaluated anew."""
         U = np.asarray(self.base.mode_shapes_at(points_m), float)
         if self.geometry is None:
             return U if self._rigid_at is None else np.concatenate([self._rigid_at(points_m), U], axis=2)
@@ -193,6 +273,24 @@ class SpringModes:
 
     def __repr__(self) -> str:
         return f"SpringModes({len(self.springs)} springs on {self.base!r}, {self.n_modes} modes)"
+
+
+def _point_bits(points: np.ndarray) -> np.ndarray:
+    """Points (n, 3) as their float64 bit patterns: equal only when bit for bit the same."""
+    return np.ascontiguousarray(points, dtype=float).view(np.int64).reshape(-1, 3)
+
+
+def _spring_stiffness(springs, S: np.ndarray) -> np.ndarray:
+    """sum_p S_p^T (k_n n n^T + k_t (I - n n^T)) S_p (n, n) for the springs' Ritz rows S (P, 3,
+    n), as Z^T Z with Z_p = (sqrt(k_n) n n^T + sqrt(k_t) (I - n n^T)) S_p (the weight's square
+    root: eigenvalues k_n along n, k_t across it)."""
+    nrm = np.array([n for _, n, _, _ in springs], dtype=float)                       # (P, 3)
+    kn = np.array([k for _, _, k, _ in springs], dtype=float)
+    kt = np.array([k for _, _, _, k in springs], dtype=float)
+    nn = nrm[:, :, None] * nrm[:, None, :]                                          # (P, 3, 3)
+    root = (np.sqrt(kn)[:, None, None] * nn + np.sqrt(kt)[:, None, None] * (np.eye(3) - nn))
+    Z = (root @ S).reshape(-1, S.shape[2])
+    return Z.T @ Z
 
 
 def cross3(a, b) -> np.ndarray:
@@ -235,6 +333,7 @@ def flexible_base(model):
 def spring_modes(model, contacts):
     """``model`` with the springs of ``contacts`` (a :class:`SpringModes`), or ``model``
     itself when no contact is a spring.  Cached per (model, springs)."""
+    contacts = list(contacts)
     springs = contact_springs(model, contacts)
     if not springs:
         return model
@@ -245,6 +344,7 @@ def spring_modes(model, contacts):
     if hit is not None:
         return hit
     flex = flexible_base(model)
+    at = np.array([c.position_m for c in contacts]).reshape(-1, 3)
     if flex is None:
         name = type(model).__name__
         if name not in _WARNED:
@@ -258,10 +358,10 @@ def spring_modes(model, contacts):
                 log.warning("a %s has no mesh: its contact springs act on its elastic modes only, without "
                             "rigid-body modes or static correction (a grounded 1e7 N/m spring can be ~10 %% off)",
                             name)
-        out = SpringModes(model, springs)
+        out = SpringModes(model, springs, also_at=at)
     else:
         base, fs, ss = flex
-        out = SpringModes(model, springs, fs, ss, contact_flexibility(base))
+        out = SpringModes(model, springs, fs, ss, contact_flexibility(base), also_at=at)
     return _CACHE.put(key, out)
 
 

@@ -52,9 +52,11 @@ import copy
 
 import numpy as np
 
+from .mkl_eigen import mkl_eig
+
 __all__ = ["DiscreteSystem", "EigenPart", "DensePart", "SteadyState", "SETTLE_E_FOLDS", "MAX_EIGVEC_COND", "lti_system", "lti_parts",
            "force_signal", "hold_gain", "bandlimited_samples", "one_blas_thread", "scipy_linalg",
-           "DIRECT_CONVOLUTION_PRODUCTS"]
+           "DIRECT_CONVOLUTION_PRODUCTS", "MKL_EIGEN"]
 
 _HOLDS = ("foh", "zoh")
 #: cond(V) above this: the complex-mode sums lose more than ~1e-8 relative -> dense fallback.
@@ -65,6 +67,11 @@ _DECAY_TOL = 1e-17
 #: A system counts as in periodic steady state after its slowest mode decayed this many
 #: e-folds under a periodic input: exp(-30) ~ 1e-13 of the transient is left.
 SETTLE_E_FOLDS = 30.0
+
+#: Whether the state matrix's eigen-decomposition is MKL's ``dgeev`` when MKL is installed (True,
+#: fast: about half the time, ``sensors.synthesis.mkl_eigen``) or SciPy's (False, the reference).
+#: The same decomposition to rounding (``tests/test_lti_mkl_eigen.py``).  Read at each call.
+MKL_EIGEN = True
 
 #: A drive convolution of at most this many products (signal length times impulse-response
 #: length) is summed directly (``np.convolve``) instead of by FFT: a stream's span of one
@@ -726,7 +733,8 @@ def _lti_parts_one_thread(A, B, Cout, D, T, hold, passive=False):
     60 s of free ringing cannot grow."""
     sla = scipy_linalg()
     idx = np.arange(A.shape[0])
-    lam, V = sla.eig(A, check_finite=False, overwrite_a=False)
+    found = mkl_eig(A) if MKL_EIGEN and np.all(np.isfinite(A)) else None
+    lam, V = found if found is not None else sla.eig(A, check_finite=False, overwrite_a=False)
     if passive:
         lam = np.minimum(lam.real, 0.0) + 1j * lam.imag
     V = V / np.linalg.norm(V, axis=0)

@@ -51,7 +51,7 @@ import numpy as np
 
 from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from ..modal.contact import Contact
-from ..modal.damping import check_on_surface, modal_damping_matrix, modal_damping_parts
+from ..modal.damping import check_groups_on_surface, check_on_surface, modal_damping_matrix, modal_damping_parts
 from ..modal.spring_modes import modal_transfer, spring_modes
 from ..modal.touching import TouchingObjects, coupled_grasp_modes
 from .low_rank_modes import low_rank_modes
@@ -76,6 +76,12 @@ _TRANSFERS: LRU = LRU(CACHE_SIZES["stream.transfers"])
 # modes, while the contact factor has at most this many rows per mode (benchmarks/synthesis.py).
 LOW_RANK_MIN_MODES = 40
 LOW_RANK_MAX_RATIO = 0.5
+#: Whether ``ModalSystem.build`` checks the drive/mic point and the contacts on the surface in
+#: one query and evaluates the mode shapes at all of them in one call (True, fast), or checks
+#: and evaluates once per consumer (False, the reference: drive/mic, contacts, the damping).  A
+#: point's distance and shapes do not depend on the batch it is asked in, so both give the same
+#: bytes (``tests/test_modal_system_points.py``).  Read at each call.
+ONE_POINT_PASS = True
 
 
 def _as_contacts(contacts) -> list[Contact]:
@@ -211,19 +217,32 @@ class ModalSystem(DiscreteSystem):
         dp, mp = _point(drive_point_m, "drive_point_m"), _point(mic_point_m, "mic_point_m")
         dn, mn = _unit(drive_normal, "drive_normal"), _unit(mic_normal, "mic_normal")
         contacts = _as_contacts(contacts)
-        check_on_surface(model, np.array([dp, mp]), "drive/mic point")
+        ends = np.array([dp, mp])
+        at_contacts = np.array([c.position_m for c in contacts]).reshape(-1, 3)
+        one_pass = ONE_POINT_PASS and damping is None
+        if one_pass:
+            check_groups_on_surface(model, [(ends, "drive/mic point"), (at_contacts, "contact")])
+        else:
+            check_on_surface(model, ends, "drive/mic point")
         if damping is None:  # a given C_m is of the model's own modes: no springs then
-            check_on_surface(model, np.array([c.position_m for c in contacts]).reshape(-1, 3), "contact")
+            if not one_pass:
+                check_on_surface(model, at_contacts, "contact")
             model = contact_modal_model(model, contacts, contact_model)
 
         w_all = np.asarray(model.angular_frequencies_rad_s, dtype=float)
         r_all = len(w_all)
-        if damping is None:
+        if one_pass:   # the shapes at the drive/mic point and every contact, in one call
+            shapes = np.asarray(model.mode_shapes_at(np.concatenate([ends, at_contacts])), dtype=float)
+            Ush = shapes[:2]
+            d_all, Q_all = modal_damping_parts(model, contacts, contact_shapes=shapes[2:])
+            C_all = np.diag(d_all) + Q_all.T @ Q_all
+        elif damping is None:
             d_all, Q_all = modal_damping_parts(model, contacts)
             C_all = np.diag(d_all) + Q_all.T @ Q_all
         else:
             d_all, Q_all, C_all = None, None, np.asarray(damping, float)
-        Ush = np.asarray(model.mode_shapes_at(np.array([dp, mp])), dtype=float)  # (2, 3, r)
+        if not one_pass:
+            Ush = np.asarray(model.mode_shapes_at(ends), dtype=float)  # (2, 3, r)
         b_all = -dn @ Ush[0]
         o_all = mn @ Ush[1]
         fmax = sample_rate_hz / 2.0 if max_frequency_hz is None else float(max_frequency_hz)
