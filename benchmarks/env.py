@@ -248,17 +248,20 @@ def _own_physics_rate(env, budget_s: float) -> tuple[float, int]:
     replayed once more on a scratch ``MjData`` from the same state and model, and only the
     replays timed. The bound of the env's own physics, where *bare* steps one period from one
     state (what that state touches moves it 2-3x). Returns the rate and the number of replays
-    that did not end in the env's state bit for bit (0: the replays are the env's steps)."""
+    that did not end in the env's state bit for bit (0: the replays are the env's steps); the
+    rate is infinite when no ``mj_step`` ran (every reset and grasp replayed from memory)."""
     spec = mujoco.mjtState.mjSTATE_INTEGRATION
     original = mujoco.mj_step
     scratch: dict[int, tuple] = {}
     spent = [0.0]
     mismatches = [0]
+    calls = [0]
 
     def replayed_step(model, data, nstep=1):
         if id(model) not in scratch:  # the model is kept alive by the entry, so its id stays its own
             scratch[id(model)] = (model, mujoco.MjData(model))
         replay = scratch[id(model)][1]
+        calls[0] += 1
         state = np.empty(mujoco.mj_stateSize(model, spec))
         mujoco.mj_getState(model, data, state, spec)
         mujoco.mj_setState(model, replay, state, spec)
@@ -280,7 +283,7 @@ def _own_physics_rate(env, budget_s: float) -> tuple[float, int]:
                 env.reset()
     finally:
         mujoco.mj_step = original
-    return steps / max(spent[0], 1e-12), mismatches[0]
+    return (steps / spent[0] if calls[0] else float("inf")), mismatches[0]
 
 
 def _grasp_once(env):
@@ -386,7 +389,7 @@ _UNITS = {"steps": "steps/s", "episodes": "episodes/s", "rtf": "x real time"}
 
 def _env_line(r: dict) -> str:
     return (f"| {r['label']} | {r['on']:.0f} | {r['episodes']:.1f} | {r['off']:.0f} | {r['bare']:.0f} | "
-            f"{r['own']:.0f}{'' if not r['own_mismatches'] else ' (' + str(r['own_mismatches']) + ' replays differ)'} | "
+            f"{'no mj_step (replayed)' if r['own'] == float('inf') else format(r['own'], '.0f')}{'' if not r['own_mismatches'] else ' (' + str(r['own_mismatches']) + ' replays differ)'} | "
             f"{r['rel_err']:.1e} | {r['err_of_max']:.1e} | {r['ref_err']:.1e} | >= {r['goal']} {_UNITS[r['goal_kind']]}: "
             f"{r['value']:.0f}, {'met' if r['met'] else 'not met'} |")
 
