@@ -8,7 +8,7 @@ import numpy as np
 from .._infra.lru import CACHE_SIZES, LRU
 from .tets import boundary_faces
 
-__all__ = ["TetLocator", "SURFACE_POINTS_KEPT", "VECTORIZED_UNSURE", "closest_points_on_triangles"]
+__all__ = ["TetLocator", "CENTROID_BOUNDS", "SURFACE_POINTS_KEPT", "VECTORIZED_UNSURE", "closest_points_on_triangles"]
 
 #: Whether the points whose 16 nearest face centroids may miss the closest face are settled in
 #: one batch (True, fast) or one at a time (False, the reference): the same faces, distances and
@@ -17,6 +17,14 @@ VECTORIZED_UNSURE = True
 #: Whether closest-surface answers are also kept per point (True, fast: a batch computes only
 #: the points no earlier batch asked) or per batch only (False, the reference): the same bits.
 SURFACE_POINTS_KEPT = True
+#: Whether :meth:`TetLocator.within_surface_distance` settles points by bounds from their nearest
+#: face centroid first (True, fast: one tree query) or asks :meth:`TetLocator.closest_surface`
+#: for every point (False, the reference): the same decisions (``tests/test_locator_bounds.py``).
+#: Read at each query.
+CENTROID_BOUNDS = True
+#: A bound within this of the limit [m] does not settle its point (the full query does): far
+#: above the round-off of distances between points of an object (1e-17 m on a 0.1 m mug).
+_BOUND_MARGIN_M = 1e-9
 
 
 def closest_points_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -113,6 +121,27 @@ class TetLocator:
         if not SURFACE_POINTS_KEPT:
             return self._remembered("surface", points, self._closest_surface)
         return self._remembered("surface", points, self._closest_surface_by_point)
+
+    def within_surface_distance(self, points: np.ndarray, limit_m: float) -> np.ndarray:
+        """Whether each point (n, 3) [m] lies within ``limit_m`` of the surface, (n,) bool: the
+        same as ``~(closest_surface(points)[2] > limit_m)``.
+
+        Most points settle by bounds from their nearest face centroid at distance ``c`` (with
+        :data:`CENTROID_BOUNDS`): a centroid lies on the surface, so the surface is at most ``c``
+        away (within); and every face point lies within the largest face radius ``r`` of its
+        centroid, so the surface is at least ``c - r`` away (beyond when that exceeds the
+        limit).  Points whose bounds fall within ``_BOUND_MARGIN_M`` of the limit, or leave it
+        between them, ask :meth:`closest_surface`."""
+        points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
+        if not CENTROID_BOUNDS or len(points) == 0:
+            return ~(self.closest_surface(points)[2] > limit_m)
+        s = self.surface_data()
+        centroid_m = s["tree"].query(points, k=1)[0]
+        within = centroid_m < limit_m - _BOUND_MARGIN_M
+        unsure = np.flatnonzero(~within & ~(centroid_m - s["radius"] > limit_m + _BOUND_MARGIN_M))
+        if len(unsure):
+            within[unsure] = ~(self.closest_surface(points[unsure])[2] > limit_m)
+        return within
 
     def _closest_surface_by_point(self, points: np.ndarray):
         """``_closest_surface`` with each point's answer kept: a batch that repeats points of
