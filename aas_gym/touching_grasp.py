@@ -20,13 +20,11 @@ from aas_gym.contacts import ObjectContacts
 from sensors import Contact
 from sensors import ContactTolerance, GraspState
 from sensors._infra.lru import CACHE_SIZES, LRU, IdentityKey
-from sensors.fluid import FilledModalModel
 from sensors.modal import MaterialView, ModalModel, TouchingObjects, TouchingPartner
-from sensors.modal.basis import check_points_m
 from sensors.modal.damping import MAX_SURFACE_DISTANCE_M
 from sensors.modal.spring_modes import flexible_base
 
-__all__ = ["BOX_DISTANCE", "TOUCHING_TOLERANCE", "TouchingMemo", "box_distance_m", "box_half_extents_m", "mesh_locator",
+__all__ = ["BOX_DISTANCE", "TOUCHING_TOLERANCE", "TouchingMemo", "box_distance_m", "box_half_extents_m",
            "on_solid", "touching_grasp"]
 
 #: :func:`on_solid` on a bar measures each contact's distance to the bar's box directly (a few
@@ -131,23 +129,11 @@ def on_solid(model, contacts) -> list:
     half = box_half_extents_m(model) if BOX_DISTANCE else None
     d = None if half is None else box_distance_m(points, half)
     if d is None or not (np.all(np.isfinite(d)) and np.all(np.abs(d - MAX_SURFACE_DISTANCE_M) > _BOX_MARGIN_M)):
-        locator = mesh_locator(model)
-        if locator is not None:        # bounds settle most points (sensors.mesh.locator.CENTROID_BOUNDS)
-            within = locator.within_surface_distance(check_points_m(points), MAX_SURFACE_DISTANCE_M)
-            return [c for c, keep in zip(contacts, within) if keep]
+        within = getattr(model, "within_surface_distance_m", None)
+        if within is not None:         # bounds settle most points (sensors.mesh.locator.CENTROID_BOUNDS)
+            return [c for c, keep in zip(contacts, within(points, MAX_SURFACE_DISTANCE_M)) if keep]
         d = np.abs(np.asarray(distance(points), dtype=float)).reshape(-1)
     return [c for c, di in zip(contacts, d) if not di > MAX_SURFACE_DISTANCE_M]
-
-
-def mesh_locator(model):
-    """The ``TetLocator`` whose closest-surface query is ``model.surface_distance_m`` (a
-    ``ModalModel``, a material view of one, a filled container of either), else ``None``."""
-    for _ in range(3):
-        if isinstance(model, FilledModalModel):
-            model = model.dry
-        elif isinstance(model, MaterialView):
-            model = model.base
-    return model.locator if type(model) is ModalModel else None
 
 
 def box_half_extents_m(model) -> np.ndarray | None:

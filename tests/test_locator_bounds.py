@@ -11,10 +11,10 @@ import pytest
 
 import aas_gym  # noqa: F401  (registers the envs)
 from aas_gym import touching_grasp
-from aas_gym.touching_grasp import mesh_locator, on_solid
+from aas_gym.touching_grasp import on_solid
 from sensors.mesh import locator as locator_mod
 from sensors.mesh.locator import TetLocator
-from sensors.modal import MaterialView
+from sensors.modal import damping
 from sensors.modal.damping import MAX_SURFACE_DISTANCE_M
 from sensors.objects.catalog import get_object
 
@@ -97,20 +97,9 @@ def test_far_points_are_rejected_by_the_lower_bound(model, monkeypatch):
     assert not loc.within_surface_distance(far, LIMIT_M).any()
 
 
-def test_the_filled_mug_is_queried_through_its_dry_locator():
-    from sensors.fluid import filled
-
-    mug = get_object("mug").modal_model()
-    assert mesh_locator(mug) is mug.locator
-    assert mesh_locator(MaterialView(mug, "porcelain")) is mug.locator
-    wet = filled("mug", 0.5, interpolated=True)
-    assert mesh_locator(wet) is wet.dry.locator
-    assert mesh_locator(object()) is None
-
-
-def _probes(n_episodes: int, monkeypatch) -> tuple[list, list]:
-    """FillLevel-v0's features (one probe per reset) and whether it heard a grasp; the contacts
-    each ``on_solid`` call kept (their positions' bytes)."""
+def _probes(env_id: str, n_episodes: int, monkeypatch) -> tuple[list, list]:
+    """An env's features and whether it heard a grasp, per seeded episode (random actions from
+    a seeded action space); the contacts each ``on_solid`` call kept (their positions' bytes)."""
     kept = []
 
     def recorded(model, contacts):
@@ -119,19 +108,29 @@ def _probes(n_episodes: int, monkeypatch) -> tuple[list, list]:
         return out
 
     monkeypatch.setattr(touching_grasp, "on_solid", recorded)
-    env = gym.make("aas_gym/FillLevel-v0", disable_env_checker=True)
+    env = gym.make(env_id, disable_env_checker=True)
+    env.action_space.seed(3)
     obs, info = env.reset(seed=5)
     heard = []
     for _ in range(n_episodes):
         heard.append((obs["acoustic"].tobytes(), info["recording_grasped"]))
+        done = False
+        while not done:
+            obs, _, terminated, truncated, info = env.step(env.action_space.sample())
+            heard.append((obs["acoustic"].tobytes(), None))
+            done = terminated or truncated
         obs, info = env.reset()
     env.close()
     return heard, kept
 
 
-def test_fill_level_probes_hear_the_same_with_and_without_the_bounds(monkeypatch):
-    fast = _probes(8, monkeypatch)
+@pytest.mark.parametrize("env_id, n_episodes", [("aas_gym/FillLevel-v0", 8), ("aas_gym/GraspPosition-v0", 3)])
+def test_probes_hear_the_same_with_and_without_the_bounds(env_id, n_episodes, monkeypatch):
+    """Both surface questions of a probe (``on_solid``'s and the synthesis's check) answered by
+    bounds, and both by every point's full distance: the same contacts kept, the same bytes heard."""
+    fast = _probes(env_id, n_episodes, monkeypatch)
     monkeypatch.setattr(locator_mod, "CENTROID_BOUNDS", False)
-    reference = _probes(8, monkeypatch)
-    assert sum(success for _, success in fast[0]) >= 4 and len(fast[1]) >= 8
+    monkeypatch.setattr(damping, "ASK_WITHIN", False)
+    reference = _probes(env_id, n_episodes, monkeypatch)
+    assert sum(bool(success) for _, success in fast[0]) >= 3 and len(fast[1]) >= n_episodes
     assert fast == reference
