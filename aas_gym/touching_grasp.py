@@ -24,8 +24,8 @@ from sensors.modal import MaterialView, ModalModel, TouchingObjects, TouchingPar
 from sensors.modal.damping import MAX_SURFACE_DISTANCE_M
 from sensors.modal.spring_modes import flexible_base
 
-__all__ = ["BOX_DISTANCE", "TOUCHING_TOLERANCE", "TouchingMemo", "box_distance_m", "box_half_extents_m", "on_solid",
-           "touching_grasp"]
+__all__ = ["BOX_DISTANCE", "TOUCHING_TOLERANCE", "TouchingMemo", "box_distance_m", "box_half_extents_m",
+           "on_solid", "touching_grasp"]
 
 #: :func:`on_solid` on a bar measures each contact's distance to the bar's box directly (a few
 #: microseconds) instead of querying the faceted surface (0.3-0.6 ms a probe): that surface lies
@@ -129,6 +129,9 @@ def on_solid(model, contacts) -> list:
     half = box_half_extents_m(model) if BOX_DISTANCE else None
     d = None if half is None else box_distance_m(points, half)
     if d is None or not (np.all(np.isfinite(d)) and np.all(np.abs(d - MAX_SURFACE_DISTANCE_M) > _BOX_MARGIN_M)):
+        within = getattr(model, "within_surface_distance_m", None)
+        if within is not None:         # bounds settle most points (sensors.mesh.locator.CENTROID_BOUNDS)
+            return [c for c, keep in zip(contacts, within(points, MAX_SURFACE_DISTANCE_M)) if keep]
         d = np.abs(np.asarray(distance(points), dtype=float)).reshape(-1)
     return [c for c, di in zip(contacts, d) if not di > MAX_SURFACE_DISTANCE_M]
 

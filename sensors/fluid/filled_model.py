@@ -81,7 +81,7 @@ import scipy.linalg
 from .liquid_body import LiquidBody
 from ..materials.solids import get_material
 from ..modal.basis import band_text, material_scaling
-from ..modal.damping import modal_damping_matrix
+from ..modal.damping import modal_damping_matrix, within_surface_distance_m
 
 __all__ = ["FilledModalModel"]
 
@@ -287,6 +287,10 @@ class FilledModalModel:
     def surface_distance_m(self, points_m) -> np.ndarray:
         """Distance [m] to the container's surface (the dry model's)."""
         return self.dry.surface_distance_m(points_m)
+
+    def within_surface_distance_m(self, points_m, limit_m: float) -> np.ndarray:
+        """Whether points lie within ``limit_m`` [m] of the container's surface (the dry model's)."""
+        return within_surface_distance_m(self.dry, points_m, limit_m)
 
     def surface_normal_at(self, points_m) -> np.ndarray:
         """Outward unit normal of the container's surface (the dry model's)."""

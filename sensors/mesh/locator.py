@@ -8,7 +8,7 @@ import numpy as np
 from .._infra.lru import CACHE_SIZES, LRU
 from .tets import boundary_faces
 
-__all__ = ["TetLocator", "SURFACE_POINTS_KEPT", "VECTORIZED_UNSURE", "closest_points_on_triangles"]
+__all__ = ["TetLocator", "CENTROID_BOUNDS", "SURFACE_POINTS_KEPT", "VECTORIZED_UNSURE", "closest_points_on_triangles"]
 
 #: Whether the points whose 16 nearest face centroids may miss the closest face are settled in
 #: one batch (True, fast) or one at a time (False, the reference): the same faces, distances and
@@ -17,6 +17,14 @@ VECTORIZED_UNSURE = True
 #: Whether closest-surface answers are also kept per point (True, fast: a batch computes only
 #: the points no earlier batch asked) or per batch only (False, the reference): the same bits.
 SURFACE_POINTS_KEPT = True
+#: Whether :meth:`TetLocator.within_surface_distance` settles points by bounds from their
+#: nearest surface points first (True, fast: no search beyond 16 faces) or asks
+#: :meth:`TetLocator.closest_surface` for every point (False, the reference): the same
+#: decisions (``tests/test_locator_bounds.py``).  Read at each query.
+CENTROID_BOUNDS = True
+#: A bound within this of the limit [m] does not settle its point (the full query does): far
+#: above the round-off of distances between points of an object (1e-17 m on a 0.1 m mug).
+_BOUND_MARGIN_M = 1e-9
 
 
 def closest_points_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -87,6 +95,7 @@ class TetLocator:
         self.elements = elements
         self._surface = None
         self._tet_tree = None
+        self._sample_tree = None
         self._tinv = None
         # the same points are asked again and again (a contact set's points for its springs,
         # damping, mode shapes and loads): answers kept by the points' bytes, exact
@@ -113,6 +122,42 @@ class TetLocator:
         if not SURFACE_POINTS_KEPT:
             return self._remembered("surface", points, self._closest_surface)
         return self._remembered("surface", points, self._closest_surface_by_point)
+
+    def within_surface_distance(self, points: np.ndarray, limit_m: float) -> np.ndarray:
+        """Whether each point (n, 3) [m] lies within ``limit_m`` of the surface, (n,) bool: the
+        same as ``~(closest_surface(points)[2] > limit_m)``.
+
+        Most points settle by bounds (with :data:`CENTROID_BOUNDS`), cheapest first: the
+        nearest of points on the surface (face centroids, corners, edge midpoints) is at least
+        as far as the surface (within); every face point lies within the largest face radius
+        ``r`` of its centroid, so the surface is at least ``c - r`` away from a point whose
+        nearest centroid is ``c`` away (beyond); the nearest of the faces with the 16 nearest
+        centroids is at least as far as the nearest face (within).  Points whose bounds fall
+        within ``_BOUND_MARGIN_M`` of the limit, or leave it between them, ask
+        :meth:`closest_surface`."""
+        points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
+        if not CENTROID_BOUNDS or len(points) == 0:
+            return ~(self.closest_surface(points)[2] > limit_m)
+        within = self._surface_samples().query(points, k=1)[0] < limit_m - _BOUND_MARGIN_M
+        rest = np.flatnonzero(~within)
+        if len(rest):
+            dc, _, _, dist = self._nearest_candidates(points[rest])
+            within[rest] = dist.min(axis=1) < limit_m - _BOUND_MARGIN_M
+            beyond = dc[:, 0] - self.surface_data()["radius"] > limit_m + _BOUND_MARGIN_M
+            unsure = rest[~within[rest] & ~beyond]
+            if len(unsure):
+                within[unsure] = ~(self.closest_surface(points[unsure])[2] > limit_m)
+        return within
+
+    def _surface_samples(self):
+        """A k-d tree of points on the surface: each face's centroid, corners and edge midpoints."""
+        if self._sample_tree is None:
+            from scipy.spatial import cKDTree
+
+            tri = self.surface_data()["tri"]
+            mids = [(tri[:, i] + tri[:, (i + 1) % 3]) / 2 for i in range(3)]
+            self._sample_tree = cKDTree(np.concatenate([tri.mean(axis=1), np.unique(tri.reshape(-1, 3), axis=0), *mids]))
+        return self._sample_tree
 
     def _closest_surface_by_point(self, points: np.ndarray):
         """``_closest_surface`` with each point's answer kept: a batch that repeats points of
@@ -141,17 +186,24 @@ class TetLocator:
             self._answers.put(key, hit)
         return hit
 
-    def _closest_surface(self, points: np.ndarray):
+    def _nearest_candidates(self, points: np.ndarray):
+        """The faces with the k = 16 nearest centroids of each point: centroid distances and
+        faces (n, k), ascending; the closest point on each (n, k, 3) and its distance (n, k)."""
         s = self.surface_data()
-        n_faces = len(s["faces"])
-        k = min(16, n_faces)
+        k = min(16, len(s["faces"]))
         dc, cand = s["tree"].query(points, k=k)
         dc, cand = dc.reshape(len(points), k), cand.reshape(len(points), k)
         tri = s["tri"][cand]  # (n, k, 3, 3)
         p = np.repeat(points, k, axis=0)
         q = closest_points_on_triangles(p, tri[:, :, 0].reshape(-1, 3), tri[:, :, 1].reshape(-1, 3),
                                         tri[:, :, 2].reshape(-1, 3)).reshape(len(points), k, 3)
-        d = np.linalg.norm(q - points[:, None], axis=2)
+        return dc, cand, q, np.linalg.norm(q - points[:, None], axis=2)
+
+    def _closest_surface(self, points: np.ndarray):
+        s = self.surface_data()
+        n_faces = len(s["faces"])
+        dc, cand, q, d = self._nearest_candidates(points)
+        k = cand.shape[1]
         best = np.argmin(d, axis=1)
         rows = np.arange(len(points))
         face, dist, closest = cand[rows, best], d[rows, best], q[rows, best]

@@ -13,7 +13,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from .._infra.checks import holds_bool
-from .damping import modal_damping_matrix
+from .damping import modal_damping_matrix, within_surface_distance_m
 
 #: Object-frame points farther than this from the origin [m] are refused: no object is that
 #: large, and squared distances of points near 1e308 overflow the point location.
@@ -49,7 +49,8 @@ class ModalBasis(Protocol):
         mode_shapes_at(points_m): (n, 3, r) mode shapes at points of the object frame.
 
     Optional members the code uses when present: ``surface_distance_m(points_m)`` (contacts
-    off the surface are refused), ``mass_kg`` (the fingertip drive model), ``n_modes``,
+    off the surface are refused) and ``within_surface_distance_m(points_m, limit_m)`` (the same
+    decisions, cheaper: ``sensors.modal.damping.within_surface_distance_m``), ``mass_kg`` (the fingertip drive model), ``n_modes``,
     ``decay_rates_per_s`` (decay rates without contacts [1/s]), ``added_damping_per_s`` ((r,)
     modal damping [1/s] added to the diagonal alpha + beta w^2, e.g. a liquid's), and a
     ``with_material(material)`` method, which :func:`with_material` calls, for models that know
@@ -108,6 +109,9 @@ class MaterialView:
 
     def surface_distance_m(self, points_m) -> np.ndarray:
         return self.base.surface_distance_m(points_m)
+
+    def within_surface_distance_m(self, points_m, limit_m: float) -> np.ndarray:
+        return within_surface_distance_m(self.base, points_m, limit_m)
 
     @property
     def mass_kg(self) -> float:

@@ -28,6 +28,26 @@ class OffSurfaceError(ValueError):
     (a wrong frame, or a collision hull that over-covers the solid where it was touched)."""
 
 
+#: Whether :func:`check_groups_on_surface` asks the model which points lie within the limit
+#: (True, fast: ``within_surface_distance_m``, bounds settle most points, the distance only for
+#: the error message) or every point's distance (False, the reference): the same decisions and
+#: errors, message included (``tests/test_surface_check.py``).  Read at each check.
+ASK_WITHIN = True
+
+
+def within_surface_distance_m(model, points_m, limit_m: float) -> np.ndarray:
+    """Whether each point (n, 3) [m] lies within ``limit_m`` of ``model``'s surface, (n,) bool:
+    ``|model.surface_distance_m(points_m)| <= limit_m`` (a NaN distance is not within), asked of
+    ``model.within_surface_distance_m`` where the model has one (a ``ModalModel`` settles most
+    points by bounds, ``sensors.mesh.locator.CENTROID_BOUNDS``), of its distances otherwise.
+    The models that wrap another (material views, filled containers, springs, touching
+    objects) delegate their ``within_surface_distance_m`` here with the model they wrap."""
+    within = getattr(model, "within_surface_distance_m", None)
+    if within is not None:
+        return np.asarray(within(points_m, limit_m), dtype=bool).reshape(-1)
+    return np.abs(np.asarray(model.surface_distance_m(points_m), dtype=float)).reshape(-1) <= limit_m
+
+
 def check_on_surface(model, points_m: np.ndarray, what: str = "contact",
                      max_distance_m: float = MAX_SURFACE_DISTANCE_M) -> None:
     """Raise :class:`OffSurfaceError` (a ``ValueError``) if a point is farther than
@@ -40,8 +60,8 @@ def check_on_surface(model, points_m: np.ndarray, what: str = "contact",
 
 def check_groups_on_surface(model, groups, max_distance_m: float = MAX_SURFACE_DISTANCE_M) -> None:
     """:func:`check_on_surface` of several point groups ``[(points_m, what), ...]`` with one
-    distance query (a point's distance does not depend on the batch it is asked in): the
-    first point too far, in the groups' order, raises the error its own check would."""
+    query (a point's distance does not depend on the batch it is asked in): the first point
+    too far, in the groups' order, raises the error its own check would."""
     surf = getattr(model, "surface_distance_m", None)
     if surf is None:
         return
@@ -50,13 +70,24 @@ def check_groups_on_surface(model, groups, max_distance_m: float = MAX_SURFACE_D
     if not labels:
         return
     pts = np.concatenate(pts)
+    if ASK_WITHIN:
+        bad = np.flatnonzero(~within_surface_distance_m(model, pts, max_distance_m))
+        if bad.size:    # only the first failing point's distance is needed: for the message
+            i = int(bad[0])
+            _raise_off_surface(labels[i], pts[i], abs(float(np.asarray(surf(pts[i:i + 1]), dtype=float).reshape(-1)[0])),
+                               max_distance_m)
+        return
     d = np.abs(np.asarray(surf(pts), dtype=float).reshape(-1))
     bad = np.flatnonzero(~(d <= max_distance_m))
     if bad.size:
         i = int(bad[0])
-        raise OffSurfaceError(
-            f"{labels[i]} at {pts[i].tolist()} m is {d[i] * 1e3:.3g} mm from the object surface "
-            f"(limit {max_distance_m * 1e3:.3g} mm): is it in the object frame?")
+        _raise_off_surface(labels[i], pts[i], d[i], max_distance_m)
+
+
+def _raise_off_surface(what: str, point_m: np.ndarray, distance_m: float, max_distance_m: float):
+    raise OffSurfaceError(
+        f"{what} at {point_m.tolist()} m is {distance_m * 1e3:.3g} mm from the object surface "
+        f"(limit {max_distance_m * 1e3:.3g} mm): is it in the object frame?")
 
 
 def contact_damping_factor(model, contacts: Sequence[Contact], shapes=None) -> np.ndarray:

@@ -175,6 +175,12 @@ class ModalModel:
         p = self._points(points_m)
         return self.locator.closest_surface(p)[2]
 
+    def within_surface_distance_m(self, points_m, limit_m: float) -> np.ndarray:
+        """Whether each point lies within ``limit_m`` [m] of the surface, (n,) bool: the
+        decisions of ``surface_distance_m(points_m) <= limit_m``, most settled by bounds
+        without the full distance query (``sensors.mesh.locator.CENTROID_BOUNDS``)."""
+        return self.locator.within_surface_distance(self._points(points_m), limit_m)
+
     def surface_normal_at(self, points_m) -> np.ndarray:
         """Outward unit surface normal at the surface point nearest to each point, (n, 3).
 

@@ -28,6 +28,7 @@ import numpy as np
 from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from .contact import Contact
 from .contact_stiffness import contact_stiffnesses_n_per_m
+from .damping import within_surface_distance_m
 from . import static_correction
 from ..fem.assembly import shape_functions
 from .basis import check_points_m
@@ -258,6 +259,9 @@ class SpringModes:
 
     def surface_distance_m(self, points_m) -> np.ndarray:
         return self.base.surface_distance_m(points_m)
+
+    def within_surface_distance_m(self, points_m, limit_m: float) -> np.ndarray:
+        return within_surface_distance_m(self.base, points_m, limit_m)
 
     @property
     def n_modes(self) -> int:

@@ -38,6 +38,7 @@ import numpy as np
 from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from .contact import Contact
 from .contact_stiffness import contact_stiffnesses_n_per_m
+from .damping import within_surface_distance_m
 from .coupled_bodies import BodyLink, CoupledBodies
 from .spring_modes import contact_springs
 
@@ -134,6 +135,9 @@ class TouchingObjects:
     def surface_distance_m(self, points_m) -> np.ndarray:
         return self.model.surface_distance_m(points_m)
 
+    def within_surface_distance_m(self, points_m, limit_m: float) -> np.ndarray:
+        return within_surface_distance_m(self.model, points_m, limit_m)
+
     def __repr__(self) -> str:
         return f"TouchingObjects({self.model!r} touching {len(self.partners)} object(s))"
 
@@ -211,6 +215,9 @@ class CoupledGraspModes:
 
     def surface_distance_m(self, points_m) -> np.ndarray:
         return self.base.surface_distance_m(points_m)
+
+    def within_surface_distance_m(self, points_m, limit_m: float) -> np.ndarray:
+        return within_surface_distance_m(self.base, points_m, limit_m)
 
     @property
     def n_modes(self) -> int:
