@@ -56,3 +56,15 @@ def test_vectorized_phi12_equals_reference(shape, restore_flag):
         assert a.shape == b.shape == np.shape(x)
         # the sums' order differs: agreement to rounding (the series' terms are <= 1 at |x| < 1)
         assert np.all(np.abs(a - b) <= 1e-15 * np.abs(b))
+
+
+def test_vectorized_phi12_value_depends_on_its_argument_only(restore_flag):
+    """A mode's hold gains must not depend on how many modes share its part (reproducible
+    features whatever the system's size)."""
+    lti.VECTORIZED_PHI12 = True
+    x = _arguments()
+    full = lti.phi12(x)
+    for start, size in [(0, 1), (5, 2), (17, 3), (40, 9), (100, 33)]:
+        part = lti.phi12(x[start:start + size].copy())
+        for a, b in zip(part, full):
+            assert np.array_equal(a, b[start:start + size])

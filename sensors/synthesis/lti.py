@@ -83,8 +83,9 @@ DIRECT_CONVOLUTION_PRODUCTS = 1 << 18
 
 #: Whether phi1/phi2 (each eigen-part's hold gains) sum their Taylor series as one matrix
 #: product of the powers of x with the coefficients (True, fast: 8 numpy calls instead of ~150,
-#: 0.1 ms less per part) or term by term (False, the reference).  The sums' order differs, so
-#: the two agree to rounding (~1e-16 relative), not bit for bit; both are checked against
+#: 0.06-0.08 ms less per part) or term by term (False, the reference).  The sums' order differs,
+#: so the two agree to rounding (~4e-16 relative), not bit for bit; each value depends on its own
+#: x only (not on the array's length), and both are checked against
 #: ``scipy.linalg.expm`` of the augmented matrix in ``tests/test_lti_phi12.py``.  Read at each call.
 VECTORIZED_PHI12 = True
 
@@ -109,8 +110,9 @@ def phi12(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         powers = np.empty((_TAYLOR_TERMS, flat.shape[1]), complex)  # row k: x^k
         powers[:1] = 1.0
         np.cumprod(np.broadcast_to(flat, (_TAYLOR_TERMS - 1, flat.shape[1])), axis=0, out=powers[1:])
-        # real coefficients times the (re, im) pairs: one real product for both series
-        series = (_TAYLOR_COEFFS @ powers.view(float)).view(complex)  # (2, n)
+        # real coefficients times the (re, im) pairs: one real product for both series, by
+        # einsum (in term order per element; BLAS would round by the array's width)
+        series = np.einsum("jk,kn->jn", _TAYLOR_COEFFS, powers.view(float)).view(complex)  # (2, n)
         p1, p2 = series[0].reshape(x.shape), series[1].reshape(x.shape)
         em1 = np.expm1(xl)
         return np.where(small, p1, em1 / xl), np.where(small, p2, (em1 - xl) / (xl * xl))
