@@ -49,6 +49,7 @@ latter adds only the hold's images (see ``sensors.synthesis.bandlimit``).
 from __future__ import annotations
 
 import copy
+import math
 
 import numpy as np
 
@@ -56,7 +57,7 @@ from .mkl_eigen import mkl_eig
 
 __all__ = ["DiscreteSystem", "EigenPart", "DensePart", "SteadyState", "SETTLE_E_FOLDS", "MAX_EIGVEC_COND", "lti_system", "lti_parts",
            "force_signal", "hold_gain", "bandlimited_samples", "one_blas_thread", "scipy_linalg",
-           "DIRECT_CONVOLUTION_PRODUCTS", "MKL_EIGEN"]
+           "DIRECT_CONVOLUTION_PRODUCTS", "MKL_EIGEN", "VECTORIZED_PHI12", "phi12"]
 
 _HOLDS = ("foh", "zoh")
 #: cond(V) above this: the complex-mode sums lose more than ~1e-8 relative -> dense fallback.
@@ -80,17 +81,41 @@ MKL_EIGEN = True
 #: reference path; ``tests/test_direct_convolution.py``).  Read at each call.
 DIRECT_CONVOLUTION_PRODUCTS = 1 << 18
 
+#: Whether phi1/phi2 (each eigen-part's hold gains) sum their Taylor series as one matrix
+#: product of the powers of x with the coefficients (True, fast: 8 numpy calls instead of ~150,
+#: 0.06-0.08 ms less per part) or term by term (False, the reference).  The sums' order differs,
+#: so the two agree to rounding (~4e-16 relative), not bit for bit; each value depends on its own
+#: x only (not on the array's length), and both are checked against
+#: ``scipy.linalg.expm`` of the augmented matrix in ``tests/test_lti_phi12.py``.  Read at each call.
+VECTORIZED_PHI12 = True
+
+# Taylor terms of phi1, phi2 at |x| < 1: the 25th is below 1/26! ~ 2.5e-27 of the first.
+_TAYLOR_TERMS = 25
+# (2, terms): 1/(k+1)! and 1/(k+2)!, correctly rounded from exact integers
+_TAYLOR_COEFFS = np.array([[1.0 / math.factorial(k + j) for k in range(_TAYLOR_TERMS)] for j in (1, 2)])
+
 
 # ----------------------------------------------------------------------------------------
 # helpers
 # ----------------------------------------------------------------------------------------
 
-def _phi12(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def phi12(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """phi1(x) = (e^x - 1)/x and phi2(x) = (e^x - 1 - x)/x^2, accurate for all complex x."""
     x = np.asarray(x, dtype=complex)
     small = np.abs(x) < 1.0
     xs = np.where(small, x, 0.0)
     xl = np.where(small, 1.0, x)
+    if VECTORIZED_PHI12:
+        flat = xs.reshape(1, -1)
+        powers = np.empty((_TAYLOR_TERMS, flat.shape[1]), complex)  # row k: x^k
+        powers[:1] = 1.0
+        np.cumprod(np.broadcast_to(flat, (_TAYLOR_TERMS - 1, flat.shape[1])), axis=0, out=powers[1:])
+        # real coefficients times the (re, im) pairs: one real product for both series, by
+        # einsum (in term order per element; BLAS would round by the array's width)
+        series = np.einsum("jk,kn->jn", _TAYLOR_COEFFS, powers.view(float)).view(complex)  # (2, n)
+        p1, p2 = series[0].reshape(x.shape), series[1].reshape(x.shape)
+        em1 = np.expm1(xl)
+        return np.where(small, p1, em1 / xl), np.where(small, p2, (em1 - xl) / (xl * xl))
     # Taylor series: phi1 = sum x^k/(k+1)!, phi2 = sum x^k/(k+2)!; 25 terms -> < 1e-25 at |x|<1
     p1 = np.zeros_like(x)
     p2 = np.zeros_like(x)
@@ -221,7 +246,7 @@ class EigenPart:
         self.T = T
         x = lam * T
         self.a = np.exp(x)
-        phi1, phi2 = _phi12(x)
+        phi1, phi2 = phi12(x)
         if hold == "foh":
             self.b0, self.b1 = T * (phi1 - phi2), T * phi2
         else:
