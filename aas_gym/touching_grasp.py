@@ -20,20 +20,11 @@ from aas_gym.contacts import ObjectContacts
 from sensors import Contact
 from sensors import ContactTolerance, GraspState
 from sensors._infra.lru import CACHE_SIZES, LRU, IdentityKey
-from sensors.modal import MaterialView, ModalModel, TouchingObjects, TouchingPartner
+from sensors.modal import TouchingObjects, TouchingPartner
 from sensors.modal.damping import MAX_SURFACE_DISTANCE_M
 from sensors.modal.spring_modes import flexible_base
 
-__all__ = ["BOX_DISTANCE", "TOUCHING_TOLERANCE", "TouchingMemo", "box_distance_m", "box_half_extents_m",
-           "on_solid", "touching_grasp"]
-
-#: :func:`on_solid` on a bar measures each contact's distance to the bar's box directly (a few
-#: microseconds) instead of querying the faceted surface (0.3-0.6 ms a probe): that surface lies
-#: on the box's faces, so the two distances differ by rounding only and keep the same contacts
-#: (a distance within ``_BOX_MARGIN_M`` of the limit, or not finite, still asks the surface).
-#: False: every model asks its surface (the reference; ``tests/test_on_solid_box.py``).
-BOX_DISTANCE = True
-_BOX_MARGIN_M = 1e-9
+__all__ = ["TOUCHING_TOLERANCE", "TouchingMemo", "on_solid", "touching_grasp"]
 
 #: When the contacts with a touching object count as unchanged, so that the coupled grasp
 #: (one component mode synthesis, ~0.1-0.5 s) is reused: coarser than the stream's default
@@ -119,39 +110,18 @@ def on_solid(model, contacts) -> list:
     let the hull touch the table where the real solid stands clear of it (the mug's handle):
     such a contact presses nothing real and lies beyond the sensor's surface tolerance
     (``MAX_SURFACE_DISTANCE_M``), where the synthesis refuses it. Every contact within the
-    tolerance is kept unchanged, a non-finite distance too (the synthesis names it); the
-    fingertips are not filtered here (an off-surface pad stays an error)."""
+    tolerance is kept unchanged (a model that offers distances only: a non-finite one too, which
+    the synthesis names); the fingertips are not filtered here (an off-surface pad stays an error)."""
     contacts = list(contacts)
     distance = getattr(model, "surface_distance_m", None)
     if distance is None or not contacts:
         return contacts
     points = np.array([c.position_m for c in contacts], dtype=float)
-    half = box_half_extents_m(model) if BOX_DISTANCE else None
-    d = None if half is None else box_distance_m(points, half)
-    if d is None or not (np.all(np.isfinite(d)) and np.all(np.abs(d - MAX_SURFACE_DISTANCE_M) > _BOX_MARGIN_M)):
-        within = getattr(model, "within_surface_distance_m", None)
-        if within is not None:         # bounds settle most points (sensors.mesh.locator.CENTROID_BOUNDS)
-            return [c for c, keep in zip(contacts, within(points, MAX_SURFACE_DISTANCE_M)) if keep]
-        d = np.abs(np.asarray(distance(points), dtype=float)).reshape(-1)
+    within = getattr(model, "within_surface_distance_m", None)
+    if within is not None:             # bounds settle most points (sensors.mesh.locator.CENTROID_BOUNDS)
+        return [c for c, keep in zip(contacts, within(points, MAX_SURFACE_DISTANCE_M)) if keep]
+    d = np.abs(np.asarray(distance(points), dtype=float)).reshape(-1)
     return [c for c, di in zip(contacts, d) if not di > MAX_SURFACE_DISTANCE_M]
-
-
-def box_half_extents_m(model) -> np.ndarray | None:
-    """Half sizes [m] of a bar's solid, a box centred on its model frame's origin (x along the
-    bar), for a bar's ``ModalModel`` or a material view of one; ``None`` for any other model."""
-    base = model.base if isinstance(model, MaterialView) else model
-    if type(base) is not ModalModel or base.kind != "bar":
-        return None
-    dims = base.dimensions_m
-    return np.array([dims["length_m"], dims["width_m"], dims["height_m"]]) / 2
-
-
-def box_distance_m(points_m: np.ndarray, half_m: np.ndarray) -> np.ndarray:
-    """Unsigned distance [m] of each point (n, 3) to the surface of the box of half sizes ``half_m``
-    centred on the origin: past the faces it sticks out of, or to the nearest face from inside."""
-    q = np.abs(points_m) - half_m
-    out = q.max(axis=1)
-    return np.where(out > 0, np.linalg.norm(np.maximum(q, 0.0), axis=1), -out)
 
 
 def _pose_in(model: mujoco.MjModel, data: mujoco.MjData, body: str, other: str):
