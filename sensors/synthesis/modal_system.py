@@ -233,16 +233,14 @@ class ModalSystem(DiscreteSystem):
         r_all = len(w_all)
         if one_pass:   # the shapes at the drive/mic point and every contact, in one call
             shapes = np.asarray(model.mode_shapes_at(np.concatenate([ends, at_contacts])), dtype=float)
-            Ush = shapes[:2]
-            d_all, Q_all = modal_damping_parts(model, contacts, contact_shapes=shapes[2:])
-            C_all = np.diag(d_all) + Q_all.T @ Q_all
-        elif damping is None:
-            d_all, Q_all = modal_damping_parts(model, contacts)
+            Ush, contact_shapes = shapes[:2], shapes[2:]
+        else:
+            Ush, contact_shapes = np.asarray(model.mode_shapes_at(ends), dtype=float), None  # (2, 3, r)
+        if damping is None:
+            d_all, Q_all = modal_damping_parts(model, contacts, contact_shapes=contact_shapes)
             C_all = np.diag(d_all) + Q_all.T @ Q_all
         else:
             d_all, Q_all, C_all = None, None, np.asarray(damping, float)
-        if not one_pass:
-            Ush = np.asarray(model.mode_shapes_at(ends), dtype=float)  # (2, 3, r)
         b_all = -dn @ Ush[0]
         o_all = mn @ Ush[1]
         fmax = sample_rate_hz / 2.0 if max_frequency_hz is None else float(max_frequency_hz)
