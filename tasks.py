@@ -182,10 +182,6 @@ def main(argv: list[str]) -> int:
     # default, most tests first, which left the few-test cold builds for last).
     if "--fast" in rest:
         rest = [a for a in rest if a != "--fast"] + ["-m", "not slow"]
-    # glibc maps allocations of 128 kB and more on their own, so a worker's freed arrays go back to
-    # the system instead of fragmenting its heap: from an empty cache, 2.95 against 5.20 GB peak
-    # per worker, 11 min 07 s against 10 min 01 s (2026-11-27, quiet, 1316 tests). Results unchanged.
-    env.setdefault("MALLOC_MMAP_THRESHOLD_", "131072")
     return subprocess.call([str(py), "-m", "pytest", "-n", "2", "--dist", "loadfile", "--no-loadscope-reorder", *rest],
                            cwd=ROOT, env=env)
 
