@@ -79,17 +79,28 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     try:
         return int(func(args) or 0)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt,) + _USAGE_ERRORS + _FAILURES as exc:
         if args.debug:
             raise
-        hint = getattr(args, "interrupt_hint", None)
-        print(f"aas {args.command}: interrupted" + (f": {hint}" if hint else ""), file=sys.stderr)
-        return 130
-    except _USAGE_ERRORS + _FAILURES as exc:
-        if args.debug:
-            raise
+        if _interrupt_in(exc):
+            hint = getattr(args, "interrupt_hint", None)
+            print(f"aas {args.command}: interrupted" + (f": {hint}" if hint else ""), file=sys.stderr)
+            return 130
         print(f"aas {args.command}: {_one_line(exc)}", file=sys.stderr)
         return 2 if isinstance(exc, _USAGE_ERRORS) and not isinstance(exc, _FAILURES) else 1
+
+
+def _interrupt_in(exc: BaseException | None) -> bool:
+    """Whether ``exc`` is a Ctrl-C or was raised by one: Python wraps an interrupt that lands in
+    some hooks in another error (a descriptor's ``__set_name__`` while a lazily imported module
+    defines a class: "Error calling __set_name__ on ...", a RuntimeError)."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 def _one_line(exc: BaseException) -> str:

@@ -62,6 +62,34 @@ def test_quick_runs_have_their_own_default_folder():
     assert args.out is None  # resolved to outputs/quick by the command
 
 
+def test_an_interrupt_that_python_wrapped_still_says_interrupted(monkeypatch, capsys):
+    """A Ctrl-C inside a descriptor's ``__set_name__`` (a lazily imported module defining a class)
+    reaches the CLI as a RuntimeError caused by the KeyboardInterrupt."""
+    import argparse
+
+    from aas_gym import cli
+
+    def command(args):
+        args.interrupt_hint = "rerun the same command to resume"
+
+        class Field:
+            def __set_name__(self, owner, name):
+                raise KeyboardInterrupt
+
+        class Owner:  # noqa: F841  (defining it is what raises)
+            field = Field()
+
+    def parser():
+        p = argparse.ArgumentParser(prog="aas")
+        p.add_argument("--debug", action="store_true")
+        p.add_subparsers(dest="command").add_parser("generate").set_defaults(func=command)
+        return p
+
+    monkeypatch.setattr(cli, "build_parser", parser)
+    assert cli.main(["generate"]) == 130
+    assert capsys.readouterr().err.strip() == "aas generate: interrupted: rerun the same command to resume"
+
+
 def test_ctrl_c_during_generate_says_how_to_resume(tmp_path):
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     proc = subprocess.Popen([sys.executable, "-m", "aas_gym.cli", "generate", str(tmp_path / "d"), "--workers", "1",
