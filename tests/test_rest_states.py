@@ -116,3 +116,13 @@ def test_rest_states_is_off_by_default_and_the_reference_settles_whole():
     assert len(env._scene.rest) == 0
     runs = [k[2] for k in env._scene.memo._lru._entries]
     assert any(r[0] == "settle" for r in runs)
+
+
+def test_exact_fills_settle_as_the_reference(monkeypatch):
+    """``interpolated_fill=False``: a grid fill would cost an exact wet solve, so the reference settles."""
+    monkeypatch.setattr(rest_states, "REST_STATES", True)
+    env = gym.make("aas_gym/FillLevel-v0", disable_env_checker=True, acoustic={"enabled": False},
+                   interpolated_fill=False).unwrapped
+    env.reset(seed=1)
+    assert len(env._scene.rest) == 0
+    assert any(k[2][0] == "settle" for k in env._scene.memo._lru._entries)
