@@ -71,13 +71,18 @@ class RestStates:
         return self._runs.get_or_build((start.tobytes(), key, round(f, 12), settle_s), run)
 
     def state(self, model: mujoco.MjModel, data: mujoco.MjData, start: np.ndarray, fill: float, key,
-              set_fill: Callable[[float], None], settle_s: float) -> np.ndarray:
+              set_fill: Callable[[float], None], settle_s: float, free_dofs: np.ndarray) -> np.ndarray | None:
         """The interpolated canonical rest (see the class); ``key`` names what else the liquid
-        depends on (liquid, compressibility).  Leaves ``data`` and the model's liquid undefined."""
+        depends on (liquid, compressibility).  None if a grid fill's settle did not end at rest
+        (``free_dofs`` faster than ``REST_SPEED``: a glass rocks again after resting at 0.1 s),
+        where the reference's state is not a rest.  Leaves ``data`` and the model's liquid undefined."""
         lo = min(math.floor(fill / GRID_FILL), max(0, math.ceil(1.0 / GRID_FILL) - 1))
         f0, f1 = lo * GRID_FILL, min(1.0, (lo + 1) * GRID_FILL)
         s0 = self._grid_state(model, data, start, key, f0, set_fill, settle_s)
         s1 = self._grid_state(model, data, start, key, f1, set_fill, settle_s)
+        qvel = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME) + model.nq + free_dofs
+        if max(np.abs(s0[qvel]).max(initial=0.0), np.abs(s1[qvel]).max(initial=0.0)) >= REST_SPEED:
+            return None
         w = (fill - f0) / (f1 - f0)
         return (1.0 - w) * s0 + w * s1
 

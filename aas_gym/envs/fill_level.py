@@ -162,12 +162,14 @@ class FillLevelEnv(AasEnv):
 
         key = (str(liquid), self.compressible, self.interpolated_fill, m.actuator_forcerange.tobytes(),
                m.opt.timestep)
-        rest = sc.rest.state(m, d, start, self._truth["fill_fraction"], key, set_fill, settle_s)
+        dofs = np.concatenate([np.arange(v, v + 6) for _, v in sc.free_joints])
+        rest = sc.rest.state(m, d, start, self._truth["fill_fraction"], key, set_fill, settle_s, dofs)
         if edited:                                   # a grid fill was settled: this episode's liquid back
             self._set_liquid_mass(bid, self._wet.liquid)
+        if rest is None:                             # the reference does not end at rest: it settles
+            return scenario.settle_steps(m, settle_s)
         mujoco.mj_setState(m, d, rest, _STATE)
         _from_canonical(m, d, sc.free_joints, self._layout, forward=False)
-        dofs = np.concatenate([np.arange(v, v + 6) for _, v in sc.free_joints])
         return settle_from(m, d, dofs, scenario.settle_steps(m, settle_s), rest_states.MIN_STEPS)
 
     def _reset_episode(self, options: dict):
