@@ -129,19 +129,18 @@ class FillLevelEnv(AasEnv):
 
     def _settle_near_rest(self, settle_s: float) -> bool:
         """A lone container settles from its interpolated canonical rest (``aas_gym.rest_states``,
-        with ``REST_STATES``), once per placement state and fill (``PhysicsMemo``).  Not with
-        ``interpolated_fill=False``: a grid fill would cost an exact wet solve (0.3-0.6 s)."""
+        with ``REST_STATES``): a few steps, not kept in the ``PhysicsMemo`` (a new fill each
+        episode; an entry would cost more than the steps).  Not with ``interpolated_fill=False``:
+        a grid fill would cost an exact wet solve (0.3-0.6 s)."""
         sc, m, d = self._scene, self.model, self.data
         if not rest_states.REST_STATES or len(sc.objects) != 1 or not self.interpolated_fill:
             return False
         placed = np.empty(mujoco.mj_stateSize(m, _STATE))
         mujoco.mj_getState(m, d, placed, _STATE)
-        liquid = (str(self.liquids[self._truth["liquid_index"]]), self.compressible, self.interpolated_fill)
-        steps = sc.memo.run(d, ("rest states", settle_s, rest_states.GRID_FILL, liquid),
-                            lambda: self._settle_from_rest_state(settle_s))
+        steps = self._settle_from_rest_state(settle_s)
         if steps < scenario.settle_steps(m, settle_s):
             return True
-        mujoco.mj_setState(m, d, placed, _STATE)     # not at rest (never seen): the reference settles
+        mujoco.mj_setState(m, d, placed, _STATE)     # no rest (a rocking glass): the reference settles
         return False
 
     def _settle_from_rest_state(self, settle_s: float) -> int:
