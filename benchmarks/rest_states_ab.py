@@ -1,6 +1,6 @@
 """A/B in one process: FillLevel-v0 with ``aas_gym.rest_states.REST_STATES`` on and off.
 
-    OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 python benchmarks/rest_states_ab.py [--blocks 6] [--block-s 3]
+    OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 python benchmarks/rest_states_ab.py [--blocks 6] [--block-s 3] [--only FillLevel]
 
 Default config (the mug, water, fill uniform in 0-0.9, default randomization), resets and the
 one answering step included, episodes per CPU second with sensing on and off; the two paths
@@ -46,10 +46,13 @@ def main() -> None:
     p.add_argument("--blocks", type=int, default=6)
     p.add_argument("--block-s", type=float, default=3.0)
     p.add_argument("--warmup-s", type=float, default=8.0)
+    p.add_argument("--only", default="", help="run only the envs whose name contains this")
     args = p.parse_args()
     print("| env | sensing | REST_STATES on [/s] | off [/s] | on / off |")
     print("|---|---|---|---|---|")
     for label, env_id, kwargs, unit in CASES:
+        if args.only not in label:
+            continue
         env = gym.make(env_id, disable_env_checker=True, **kwargs)
         seed = 0
         for flag in (True, False):
