@@ -18,6 +18,7 @@ A scenario is drawn from a numpy Generator in a fixed order:
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 
@@ -188,8 +189,11 @@ def _place_on_surface_target(data, objects, free_joints, rng, xy, yaw) -> Layout
     :data:`MIN_LEAN_REACH_M` from the centre (a bottle's neck) leaves no room for the fingers
     beside a bar lying on it: there the bar lies on the table, its end against the base."""
     solid = objects[0].solid()
-    height = rest_height_m(solid)
+    height = _rest_height_m(solid)
     _set_free_pose(data, free_joints[0], [xy[0], xy[1], height], yaw_rest_quat(solid, yaw))
+    if len(objects) == 1:                 # nothing leans on it: its rim is not needed
+        rng.uniform(0, 2 * math.pi)       # the side the others would lean from: the stream stays the same
+        return Layout((float(xy[0]), float(xy[1])), yaw, (), ())
     c, s = math.cos(yaw), math.sin(yaw)
     rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ rest_rotation(solid)
     origin = np.array([xy[0], xy[1], height])
@@ -213,6 +217,19 @@ def _place_on_surface_target(data, objects, free_joints, rng, xy, yaw) -> Layout
         _set_free_pose(data, free_joints[i], centre, euler_to_quat(float(angle)))
         contacts.append(rot.T @ (np.array([edge[0], edge[1], obj.half_extents_m[2]]) - origin))
     return Layout((float(xy[0]), float(xy[1])), yaw, (), tuple(contacts))
+
+
+_REST_HEIGHTS: dict = {}
+
+
+def _rest_height_m(solid) -> float:
+    """``rest_height_m(solid)``, computed once per solid (a pass over its surface vertices)."""
+    held = _REST_HEIGHTS.get(id(solid))
+    if held is None or held[0]() is not solid:
+        if len(_REST_HEIGHTS) > 256:
+            _REST_HEIGHTS.clear()
+        held = _REST_HEIGHTS[id(solid)] = (weakref.ref(solid), rest_height_m(solid))
+    return held[1]
 
 
 def place_beside(data: mujoco.MjData, objects: Sequence[ObjectSpec], free_joints: Sequence[tuple[int, int]],

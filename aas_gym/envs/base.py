@@ -26,6 +26,7 @@ from aas_gym.envs.info import contacts_info
 from aas_gym.object_names import DEFAULT_OBJECT_NAMES
 from aas_gym import scenario
 from aas_gym.physics_memo import PhysicsMemo
+from aas_gym.rest_states import RestStates
 from aas_gym.scene import build_scene
 from aas_gym.scenario import (DomainRandomization, choose_objects, default_distractors, place_objects, settle,
                               target_grasp)
@@ -82,6 +83,7 @@ class _Scene:
         self.carriage = type(self.hand) is Hand
         # settled placements and grasps by start state (a reset redoes only what differs)
         self.memo = PhysicsMemo(self.model)
+        self.rest = RestStates()       # a lone target's canonical rests per fill (aas_gym.rest_states)
         self.canonical_quat = canonical_quat(objects[0])   # the target's at yaw 0 (canonical_settle)
         self.sensor = SimAcousticSensor(self.model, self.data, on_no_grasp="silence")
         self.bodies = self.sensor.bodies
@@ -434,7 +436,9 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         self._layout = place_objects(m, d, sc.objects, sc.free_joints, self.np_random, self.randomization,
                                      far_end_only=self._far_end_only)
         self._placement = self._at_rest = None
-        if self._settle_canonical:
+        if self._settle_near_rest(settle_s):
+            self._at_rest = scenario.SceneState.of(m, d)     # at rest: the first release is skipped
+        elif self._settle_canonical:
             self._placement = settle_placed(sc.memo, m, d, sc.free_joints, self._layout, settle_s, sc.canonical_quat)
         elif self._settle_until_rest:      # aas_gym.scenario.SETTLE_UNTIL_REST; the key says which
             rest = scenario.SETTLE_UNTIL_REST
@@ -444,6 +448,12 @@ class AasEnv(AcousticEnvMixin, gym.Env):
             self._at_rest = scenario.SceneState.of(m, d) if steps < scenario.settle_steps(m, settle_s) else None
         else:
             sc.memo.run(d, ("settle", settle_s), lambda: settle(m, d, settle_s))
+
+    def _settle_near_rest(self, settle_s: float) -> bool:
+        """Settle the placed scene from a predicted rest until at rest, if this env can (True);
+        else leave it as placed (False: ``_place_objects`` settles it).  FillLevel-v0's lone
+        container does (``aas_gym.rest_states``)."""
+        return False
 
     def _episode_grip_force(self) -> float:
         r = self.randomization.grip_force_rel

@@ -6,7 +6,10 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
+from aas_gym import rest_states, scenario
+from aas_gym.canonical_settle import _from_canonical, _to_canonical
 from aas_gym.envs.base import AasEnv
+from aas_gym.rest_states import settle_from
 from sensors._infra.lru import CACHE_SIZES, LRU
 from sensors.task import check_action, check_choice, check_integer, check_number
 
@@ -16,6 +19,7 @@ CONTAINERS = ("mug", "glass", "can", "bottle")
 #: Task ``"fill"`` succeeds when the estimate is within this of the true fill fraction
 #: (5 percentage points of the container's height).
 FILL_SUCCESS_TOLERANCE = 0.05
+_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 
 
 class FillLevelEnv(AasEnv):
@@ -122,6 +126,50 @@ class FillLevelEnv(AasEnv):
         self._truth = {"fill_fraction": fill, "liquid": str(self.liquids[k]), "liquid_index": k,
                        "liquid_mass_kg": float(self._wet.liquid.mass_kg), "liquid_model": self._wet.liquid_model}
         super()._place_objects(settle_s)
+
+    def _settle_near_rest(self, settle_s: float) -> bool:
+        """A lone container settles from its interpolated canonical rest (``aas_gym.rest_states``,
+        with ``REST_STATES``): a few steps, not kept in the ``PhysicsMemo`` (a new fill each
+        episode; an entry would cost more than the steps).  Not with ``interpolated_fill=False``:
+        a grid fill would cost an exact wet solve (0.3-0.6 s)."""
+        sc, m, d = self._scene, self.model, self.data
+        if not rest_states.REST_STATES or len(sc.objects) != 1 or not self.interpolated_fill:
+            return False
+        placed = np.empty(mujoco.mj_stateSize(m, _STATE))
+        mujoco.mj_getState(m, d, placed, _STATE)
+        steps = self._settle_from_rest_state(settle_s)
+        if steps < scenario.settle_steps(m, settle_s):
+            return True
+        mujoco.mj_setState(m, d, placed, _STATE)     # no rest (a rocking glass): the reference settles
+        return False
+
+    def _settle_from_rest_state(self, settle_s: float) -> int:
+        from sensors.fluid import container, filled
+
+        sc, m, d = self._scene, self.model, self.data
+        _to_canonical(d, sc.free_joints, self._layout, sc.canonical_quat)
+        start = np.empty(mujoco.mj_stateSize(m, _STATE))
+        mujoco.mj_getState(m, d, start, _STATE)
+        liquid, bid = self.liquids[self._truth["liquid_index"]], sc.body_ids[0]
+        held = self._containers.get_or_build(sc.objects[0], lambda: container(sc.objects[0].solid()))
+        edited = []
+
+        def set_fill(f: float) -> None:
+            edited.append(f)
+            wet = filled(held, f, liquid=liquid, compressible=self.compressible, interpolated=self.interpolated_fill)
+            self._set_liquid_mass(bid, wet.liquid)
+
+        key = (str(liquid), self.compressible, self.interpolated_fill, m.actuator_forcerange.tobytes(),
+               m.opt.timestep)
+        dofs = np.concatenate([np.arange(v, v + 6) for _, v in sc.free_joints])
+        rest = sc.rest.state(m, d, start, self._truth["fill_fraction"], key, set_fill, settle_s, dofs)
+        if edited:                                   # a grid fill was settled: this episode's liquid back
+            self._set_liquid_mass(bid, self._wet.liquid)
+        if rest is None:                             # the reference does not end at rest: it settles
+            return scenario.settle_steps(m, settle_s)
+        mujoco.mj_setState(m, d, rest, _STATE)
+        _from_canonical(m, d, sc.free_joints, self._layout, forward=False)
+        return settle_from(m, d, dofs, scenario.settle_steps(m, settle_s), rest_states.MIN_STEPS)
 
     def _reset_episode(self, options: dict):
         grasp = self._grasp(self._grasp_position(), self._episode_grip_force())

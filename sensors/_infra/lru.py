@@ -54,6 +54,7 @@ CACHE_SIZES: dict[str, int] = {
     "sim.grasp_sets": 64,            # antipodal grasps of surface objects the hand can take
     "env.scenes": 8,                 # compiled MuJoCo scenes per env
     "env.containers": 8,             # FillLevel-v0: its targets' fluid containers (sensors.fluid.container)
+    "env.rest_states": 1024,         # FillLevel-v0: canonical rest states per container, liquid, grid fill
     "env.physics_runs": 128,         # settled placements and grasps per scene (~0.5 MB each)
     "dataset.scenes": 16,            # compiled MuJoCo scenes of one dataset worker
     "signals.noise_folders": 4,      # folders of background-noise recordings (corruption)
