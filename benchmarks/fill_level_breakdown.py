@@ -2,7 +2,7 @@
 the first release and the scripted grasp, and the Python around them.
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 python benchmarks/fill_level_breakdown.py [--sensing on|off]
-        [--rest-states] [--episodes 40] [--profile 25]
+        [--reference] [--episodes 40] [--profile 25]
 
 Every ``mujoco.mj_step`` call is counted and timed under the phase that made it (``settle`` and
 ``aas_gym.rest_states.settle_from``, ``release``, ``planar_grasp``, and the rest grid's canonical
@@ -30,12 +30,12 @@ from aas_gym.envs import base
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--sensing", choices=("on", "off"), default="off")
-    p.add_argument("--rest-states", action="store_true", help="aas_gym.rest_states.REST_STATES = True")
+    p.add_argument("--reference", action="store_true", help="aas_gym.rest_states.REST_STATES = False (the whole settle)")
     p.add_argument("--episodes", type=int, default=40)
     p.add_argument("--warmup", type=int, default=200, help="episodes first (caches, the rest grid)")
     p.add_argument("--profile", type=int, default=0)
     args = p.parse_args()
-    rest_states.REST_STATES = args.rest_states
+    rest_states.REST_STATES = not args.reference
     env = gym.make("aas_gym/FillLevel-v0", disable_env_checker=True,
                    acoustic={"enabled": args.sensing == "on"}).unwrapped
     for s in range(args.warmup):
@@ -71,7 +71,7 @@ def main() -> None:
     for s in range(n):
         env.reset(seed=s)
     total = time.process_time() - t0
-    print(f"FillLevel-v0, sensing {args.sensing}, REST_STATES {args.rest_states}: {total / n * 1e3:.2f} ms/episode")
+    print(f"FillLevel-v0, sensing {args.sensing}, REST_STATES {not args.reference}: {total / n * 1e3:.2f} ms/episode")
     for k in steps:
         print(f"  {k:8s} {steps[k] / n:6.1f} mj_step  {cpu[k] / n * 1e3:6.2f} ms")
     print(f"  other    {(total - sum(cpu.values())) / n * 1e3:6.2f} ms (no mj_step)")

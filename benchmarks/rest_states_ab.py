@@ -64,7 +64,7 @@ def main() -> None:
                 rest_states.REST_STATES = flag
                 n, dt, seed = _run(env, args.block_s, seed)
                 rates[flag].append(n / dt)
-        rest_states.REST_STATES = False
+        rest_states.REST_STATES = True    # the default
         on, off = (sorted(rates[f])[len(rates[f]) // 2] for f in (True, False))
         sensing = "off" if kwargs.get("acoustic", {}).get("enabled", True) is False else "on"
         print(f"| {label} | {sensing} | {on:.1f} {unit} | {off:.1f} {unit} | {on / off:.2f} |", flush=True)

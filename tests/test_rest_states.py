@@ -110,8 +110,13 @@ def test_a_grid_fill_is_the_canonical_settle_and_between_them_linear():
     assert len(states) <= 3                               # the grid fills around 2 and 3 (rounding of 3 / grid)
 
 
-def test_rest_states_is_off_by_default_and_the_reference_settles_whole():
-    assert rest_states.REST_STATES is False
+def test_rest_states_is_the_default_and_the_reference_settles_whole(monkeypatch):
+    assert rest_states.REST_STATES is True
+    env = _env()
+    env.reset(seed=1)
+    assert len(env._scene.rest) == 2                      # the grid fills around this one
+    assert not any(k[2][0] == "settle" for k in env._scene.memo._lru._entries)
+    monkeypatch.setattr(rest_states, "REST_STATES", False)
     env = _env()
     env.reset(seed=1)
     assert len(env._scene.rest) == 0

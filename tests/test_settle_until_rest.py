@@ -9,8 +9,9 @@ asserted 1e-9 m) and the fingertip forces within 2e-9 relative (asserted 1e-6). 
 features of a FillLevel-v0 grasp are far more sensitive to the settle than issue 27's 1e-6 bound:
 the reference itself, settled 10 ms longer, moves single features by up to 1e-5 relative (seed
 6; 42 % on seed 10, where the container's pose moves 5e-7 m). The early stop moved them by at most
-5.1e-5 on seeds 0-9 (7.5e-4 on seed 10): asserted 1e-4 on seeds 0-6, and the reference's own
-sensitivity beyond 1e-6 asserted beside it, so the bound is not looser than the yardstick says.
+5.1e-5 on seeds 0-9 (7.5e-4 on seed 10): asserted 1e-4 on seeds 0-6. (That the reference's own
+sensitivity exceeds 1e-6 is not asserted: on another CPU, seeds 0-6 gave 2.3e-7, the rounding of
+a chaotic contact set differing by machine.)
 """
 
 import gymnasium as gym
@@ -19,7 +20,7 @@ import numpy as np
 import pytest
 
 import aas_gym  # noqa: F401  (registers the envs)
-from aas_gym import scenario
+from aas_gym import rest_states, scenario
 from aas_gym.envs import base
 from grasp_snapshot import grasped_state
 from sensors.task import HOME_TCP, MAX_OPENING_M
@@ -51,6 +52,7 @@ def test_the_settle_stops_at_rest_within_the_whole_settles_own_sensitivity(monke
     def settled_longer(m, d, duration_s=0.4, until_rest=False):   # the reference, 10 ms longer
         return whole(m, d, duration_s + 0.01, until_rest)
 
+    monkeypatch.setattr(rest_states, "REST_STATES", False)   # the settles this file compares
     for seed in SEEDS:
         monkeypatch.setattr(scenario, "SETTLE_UNTIL_REST", True)
         monkeypatch.setattr(base, "settle", counted)
@@ -68,7 +70,6 @@ def test_the_settle_stops_at_rest_within_the_whole_settles_own_sensitivity(monke
         np.testing.assert_allclose(a["forces"], b["forces"], rtol=1e-6, atol=0)
         assert _feature_error(a, b) <= 1e-4, seed
         own.append(_feature_error(c, b))
-    assert max(own) > 1e-6, own                           # the whole settle's own sensitivity
     # it stopped early every time (0.4 s is 200 steps), and the first release was skipped
     assert steps and max(steps) < 100, steps
     runs = [k[2] for k in fast._scene.memo._lru._entries]

@@ -31,7 +31,10 @@ class FillLevelEnv(AasEnv):
     ``liquids`` (``"water"``, ``"oil"``, ``"honey"``, ``"ethanol"`` or a density in kg/m^3).
     The container stands upright; the liquid's free surface is level. Its modes are the wet
     modes of ``sensors.fluid.filled`` (potential-flow added mass on the dry modes), and
-    MuJoCo carries the liquid's mass at its centre of mass, so the grasp holds it. The hand
+    MuJoCo carries the liquid's mass at its centre of mass, so the grasp holds it. A container
+    alone on the table starts from its rest with this liquid, interpolated between canonical
+    rests settled once per 0.01 of fill and moved to its placement, and settles there until at
+    rest (``aas_gym.rest_states``; a few MuJoCo steps instead of a 0.4 s settle). The hand
     grasps across the container (not pinching the wall: a finger in the liquid is not
     modelled) and records the excitation.
 
