@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .spring_modes import MIN_MODE_FREQUENCY_HZ, SpringModes, flexible_base
+from .spring_modes import MIN_MODE_FREQUENCY_HZ, SpringModes, flexible_base, warn_no_mesh
 from .static_correction import contact_flexibility
 
 __all__ = ["MAX_COUPLED_COORDINATES", "BodyLink", "CoupledBodies", "CoupledSizeError", "check_coupled_size",
@@ -107,11 +107,12 @@ class CoupledBodies:
         blocks = []
         for (model, R, t), springs in zip(self.bodies, springs_per_body):
             flex = flexible_base(model)
-            if flex is None:
-                raise TypeError(f"a {type(model).__name__} has no mesh: component mode synthesis needs a "
-                                "ModalModel (or a MaterialView of one)")
-            base, fs, ss = flex
-            part = SpringModes(model, springs, fs, ss, contact_flexibility(base))
+            if flex is None:     # a filled container: its (wet) modes without static correction
+                warn_no_mesh(model)
+                part = SpringModes(model, springs)
+            else:
+                base, fs, ss = flex
+                part = SpringModes(model, springs, fs, ss, contact_flexibility(base))
             self._parts.append(part)
             blocks.append(part.free_stiffness)
         sizes = [b.shape[0] for b in blocks]

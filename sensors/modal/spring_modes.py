@@ -334,6 +334,23 @@ def flexible_base(model):
     return None
 
 
+def warn_no_mesh(model) -> None:
+    """Say once per model type that its springs go without static correction (no mesh)."""
+    name = type(model).__name__
+    if name in _WARNED:
+        return
+    _WARNED.add(name)
+    if hasattr(model, "rigid_mode_shapes_at"):
+        log.warning("a %s has no mesh: its contact springs hold its rigid-body and elastic modes without "
+                    "static correction (attachment vectors), so stiff springs come out stiffer (against "
+                    "the dry mesh path: 0.6 %% for FillLevel-v0's grasp of the empty mug, 12 %% with "
+                    "1e7 N/m table springs under a small can)", name)
+    else:
+        log.warning("a %s has no mesh: its contact springs act on its elastic modes only, without "
+                    "rigid-body modes or static correction (a grounded 1e7 N/m spring can be ~10 %% off)",
+                    name)
+
+
 def spring_modes(model, contacts):
     """``model`` with the springs of ``contacts`` (a :class:`SpringModes`), or ``model``
     itself when no contact is a spring.  Cached per (model, springs)."""
@@ -350,18 +367,7 @@ def spring_modes(model, contacts):
     flex = flexible_base(model)
     at = np.array([c.position_m for c in contacts]).reshape(-1, 3)
     if flex is None:
-        name = type(model).__name__
-        if name not in _WARNED:
-            _WARNED.add(name)
-            if hasattr(model, "rigid_mode_shapes_at"):
-                log.warning("a %s has no mesh: its contact springs hold its rigid-body and elastic modes without "
-                            "static correction (attachment vectors), so stiff springs come out stiffer (against "
-                            "the dry mesh path: 0.6 %% for FillLevel-v0's grasp of the empty mug, 12 %% with "
-                            "1e7 N/m table springs under a small can)", name)
-            else:
-                log.warning("a %s has no mesh: its contact springs act on its elastic modes only, without "
-                            "rigid-body modes or static correction (a grounded 1e7 N/m spring can be ~10 %% off)",
-                            name)
+        warn_no_mesh(model)
         out = SpringModes(model, springs, also_at=at)
     else:
         base, fs, ss = flex
