@@ -63,7 +63,7 @@ from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
 from .basis import check_points_m
 
-__all__ = ["GRAM_PRODUCTS", "MAX_ATTACHMENT_VECTORS", "MIN_PROJECTED_COLUMNS", "MIN_SOLVE_COLUMNS", "REUSE_UNIT_LOADS", "SINGLE_ELASTIC_PROJECTION", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
+__all__ = ["GRAM_PRODUCTS", "KEEP_NODE_ROWS", "MAX_ATTACHMENT_VECTORS", "MIN_PROJECTED_COLUMNS", "MIN_SOLVE_COLUMNS", "REUSE_UNIT_LOADS", "SINGLE_ELASTIC_PROJECTION", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
            "RitzGeometry", "contact_flexibility", "located_once", "nodal_at"]
 
 #: The most attachment vectors (constrained directions, up to 3 per contact) one contact set
@@ -103,6 +103,13 @@ SINGLE_ELASTIC_PROJECTION = True
 #: aluminium tube, 22k dof), 1.08x on the wood bar.
 MIN_SOLVE_COLUMNS = 4
 MIN_PROJECTED_COLUMNS = 9
+#: Whether the kept solves' rows at kept nodes are also kept in a small dense block array
+#: (:meth:`UnitLoadStore.rows`, True, fast) or gathered from the n_dof-long columns each time
+#: (False, the reference).  A contact set's attachment vectors at its loaded nodes and its
+#: springs' element nodes are such rows; gathered from ``Y`` (tens of MB, column-major) nearly
+#: every value is a cache miss, from the block array a few kB are read.  The same values
+#: (copies): the same products, bit for bit (``tests/test_unit_load_rows.py``).  Read at each call.
+KEEP_NODE_ROWS = True
 
 
 @contextlib.contextmanager
@@ -301,7 +308,7 @@ class ContactFlexibility:
         cols = store.columns(distinct)
         CHB = C.T @ store.relief_gram[cols] @ B
         G = C.T @ store.products(cols, cols) @ C - CHB - CHB.T + B.T @ self.relief_gram @ B   # X^T M X
-        Xd = store.Y[np.ix_(dofs, cols)] @ C - self.relief[dofs] @ B                         # X at the loaded dofs
+        Xd = store.rows(distinct, cols) @ C - self.relief[dofs] @ B                           # X at the loaded dofs
         XKU = C.T @ store.KU[cols] - B.T @ self.relief_ku
         d, Q = np.linalg.eigh(0.5 * (G + G.T))
         keep = d > _DEPENDENT * max(float(d.max()), 1e-300)
@@ -395,7 +402,7 @@ class AttachmentBasis:
             store = flex.unit_loads
             cols = store.columns(own)
             dofs = (3 * missing[:, None] + np.arange(3)).ravel()
-            rows = (store.Y[np.ix_(dofs, cols)] @ C - flex.relief[dofs] @ B) @ T
+            rows = (store.rows(missing, cols) @ C - flex.relief[dofs] @ B) @ T
             kept = np.concatenate([kept, missing])
             order = np.argsort(kept, kind="stable")
             kept, values = kept[order], np.concatenate([values, rows.reshape(-1, 3, rows.shape[1])])[order]
@@ -445,6 +452,11 @@ class UnitLoadStore:
         self.known = np.zeros((self.capacity, self.capacity), bool)    # slot pairs whose gram is made
         self.relief_gram = np.zeros((3 * self.capacity, 6))
         self.slot_node = np.full(self.capacity, -1)      # the node each slot holds (-1: none)
+        # KEEP_NODE_ROWS: node_rows[3 i:3 i+3, 3 j:3 j+3] = Y at the node of slot i, columns of
+        # slot j, where row_known[i, j]; node_slot: the slot of each node (-1: none)
+        self.node_rows = np.zeros((3 * self.capacity, 3 * self.capacity))
+        self.row_known = np.zeros((self.capacity, self.capacity), bool)
+        self.node_slot = np.full(flex.n_dof // 3, -1)
 
     def columns(self, nodes: np.ndarray) -> np.ndarray:
         """The store columns (3 per node, in order) of ``nodes`` (distinct, at most
@@ -478,12 +490,45 @@ class UnitLoadStore:
                 self.Y[:, 3 * k:3 * k + 3] = Y[:, 3 * i:3 * i + 3]
                 self.MY[:, 3 * k:3 * k + 3] = MY[:, 3 * i:3 * i + 3]
                 self.KU[3 * k:3 * k + 3] = KU[3 * i:3 * i + 3]
+                old = self.slot_node[k]
+                if old >= 0 and self.node_slot[old] == k:
+                    self.node_slot[old] = -1
+                self.node_slot[n] = k
                 self.slot_node[k] = n
                 self.known[k, :] = self.known[:, k] = False
+                self.row_known[k, :] = self.row_known[:, k] = False
                 self.relief_gram[3 * k:3 * k + 3] = self.Y[:, 3 * k:3 * k + 3].T @ flex.mass_relief
                 slot[n] = k
         ks = np.array([slot[n] for n in nodes.tolist()])
         return (3 * ks[:, None] + np.arange(3)).ravel()
+
+    def rows(self, nodes: np.ndarray, columns: np.ndarray) -> np.ndarray:
+        """``Y[np.ix_(dofs, columns)]`` (3 rows per node of ``nodes``, kept ``columns`` from
+        :meth:`columns`): the same values, from the block array ``node_rows`` for nodes that
+        hold a slot (:data:`KEEP_NODE_ROWS`; blocks not kept yet are copied in first)."""
+        nodes = np.asarray(nodes, dtype=np.intp)
+        three = np.arange(3)
+        dofs = (3 * nodes[:, None] + three).ravel()
+        if not KEEP_NODE_ROWS:
+            return self.Y[np.ix_(dofs, columns)]
+        slot = self.node_slot[nodes]
+        held = slot >= 0
+        col_slots = columns[::3] // 3
+        if held.any():
+            rs = slot[held]
+            new = ~self.row_known[np.ix_(rs, col_slots)].all(axis=1)
+            if new.any():                 # copy these nodes' rows of every asked column in
+                r_new = (3 * rs[new][:, None] + three).ravel()
+                y_new = (3 * nodes[held][new][:, None] + three).ravel()
+                self.node_rows[np.ix_(r_new, columns)] = self.Y[np.ix_(y_new, columns)]
+                self.row_known[np.ix_(rs[new], col_slots)] = True
+        if held.all():
+            return self.node_rows[np.ix_((3 * slot[:, None] + three).ravel(), columns)]
+        out = np.empty((len(dofs), len(columns)))
+        held3 = np.repeat(held, 3)
+        out[held3] = self.node_rows[np.ix_((3 * slot[held][:, None] + three).ravel(), columns)]
+        out[~held3] = self.Y[np.ix_(dofs[~held3], columns)]
+        return out
 
     def products(self, columns_a: np.ndarray, columns_b: np.ndarray) -> np.ndarray:
         """``gram[columns_a, columns_b]`` (Y^T M Y between kept columns, from :meth:`columns`),

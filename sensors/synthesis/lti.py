@@ -89,6 +89,22 @@ DIRECT_CONVOLUTION_PRODUCTS = 1 << 18
 #: ``scipy.linalg.expm`` of the augmented matrix in ``tests/test_lti_phi12.py``.  Read at each call.
 VECTORIZED_PHI12 = True
 
+#: Whether a modal system's input gains V^-1 B come from its eigenvectors' S-orthogonality when
+#: the caller names a signature S with S A symmetric (True, fast), or from an LU factorization
+#: of V (False, the reference).  A = [[0, W], [-W, -C]] with C symmetric has A^T = S A S,
+#: S = diag(I, -I), so S v_j is a left eigenvector and v_j^T S v_k = 0 for distinct
+#: eigenvalues: V^-1 B = (v_k^T S B / v_k^T S v_k)_k, O(n^2) instead of the complex LU, its
+#: condition estimate and solve (0.44 of 3.4 ms of a FillLevel-v0 system).  Taken only where
+#: the reference takes complex modes too (its 1-norm condition number of V is at most
+#: sqrt(n) sum_k 1 / |v_k^T S v_k| < MAX_EIGVEC_COND / 2, a bound the reference's estimate cannot
+#: exceed) and where V g reproduces B to 1e-13 (a repeated eigenvalue's vectors need not be
+#: S-orthogonal: the LU then decides).  The inverse's rows for state maps stay the reference's
+#: (lazy LU).  The gains agree to rounding (``tests/test_symmetric_gains.py``: 1e-11 of the
+#: largest, and the transfer function to 1e-9 of the dense one).  Read at each call.
+SYMMETRIC_GAINS = True
+# V g against B, relative to the largest of |B| and the sum of |v_k g_k| (rounding: ~1e-16).
+_GAINS_RESIDUAL = 1e-13
+
 # Taylor terms of phi1, phi2 at |x| < 1: the 25th is below 1/26! ~ 2.5e-27 of the first.
 _TAYLOR_TERMS = 25
 # (2, terms): 1/(k+1)! and 1/(k+2)!, correctly rounded from exact integers
@@ -742,14 +758,15 @@ def scipy_linalg():
     return scipy.linalg
 
 
-def lti_parts(A, B, Cout, D, T, hold, passive=False):
+def lti_parts(A, B, Cout, D, T, hold, passive=False, signature=None):
     """The parts of x' = A x + B u, y = Cout x + D u sampled every T seconds (see
-    :func:`_lti_parts_one_thread`), computed on one BLAS thread."""
+    :func:`_lti_parts_one_thread`), computed on one BLAS thread.  ``signature``: a diagonal
+    of +-1 with diag(signature) A symmetric, if the caller knows one (:data:`SYMMETRIC_GAINS`)."""
     with one_blas_thread():
-        return _lti_parts_one_thread(A, B, Cout, D, T, hold, passive)
+        return _lti_parts_one_thread(A, B, Cout, D, T, hold, passive, signature)
 
 
-def _lti_parts_one_thread(A, B, Cout, D, T, hold, passive=False):
+def _lti_parts_one_thread(A, B, Cout, D, T, hold, passive=False, signature=None):
     """Complex-mode part of x' = A x + B u, y = Cout x + D u, or the dense part if the
     eigenvector matrix is ill-conditioned (defective or nearly repeated eigenvalues).
 
@@ -763,6 +780,10 @@ def _lti_parts_one_thread(A, B, Cout, D, T, hold, passive=False):
     if passive:
         lam = np.minimum(lam.real, 0.0) + 1j * lam.imag
     V = V / np.linalg.norm(V, axis=0)
+    if signature is not None and SYMMETRIC_GAINS:
+        part = _symmetric_gains_part(idx, A, lam, V, np.asarray(signature, float), B, Cout, D, T, hold)
+        if part is not None:
+            return [part]
     lu, piv = sla.lu_factor(V, check_finite=False)
     gecon = sla.get_lapack_funcs("gecon", (lu,))
     rcond, _ = gecon(lu, np.linalg.norm(V, 1), norm="1")
@@ -775,17 +796,47 @@ def _lti_parts_one_thread(A, B, Cout, D, T, hold, passive=False):
     return [EigenPart(idx, lam[keep], V[:, keep], vinv, B, Cout, D, T, hold, g=g)]
 
 
+def _symmetric_gains_part(idx, A, lam, V, S, B, Cout, D, T, hold):
+    """The complex-mode part with V^-1 B from S-orthogonality (:data:`SYMMETRIC_GAINS`), or
+    None where that does not apply (the LU path decides then)."""
+    SA = S[:, None] * A
+    if not np.array_equal(SA, SA.T):
+        return None
+    n = len(lam)
+    keep = lam.imag >= 0
+    Vk = V[:, keep]
+    SV = S[:, None] * Vk
+    den = np.einsum("ik,ik->k", SV, Vk)                    # v_k^T S v_k (no conjugate)
+    with np.errstate(divide="ignore"):
+        cond = 1.0 / np.abs(den)                           # each eigenvalue's condition number
+    weight = np.where(lam[keep].imag > 0, 2.0, 1.0)        # a pair's conjugate has the same
+    if not (np.all(np.isfinite(cond)) and math.sqrt(n) * float(weight @ cond) < 0.5 * MAX_EIGVEC_COND):
+        return None
+    g = (B @ SV) / den
+    # B = sum over all eigenvalues of v_j g_j = sum_k weight_k Re(v_k g_k) (B real: a conjugate's gain is conj)
+    wg = weight * g
+    recon = Vk.real @ wg.real - Vk.imag @ wg.imag
+    scale = max(float(np.abs(B).max(initial=0.0)), float(np.abs(wg).sum()))
+    if not np.abs(recon - B).max(initial=0.0) <= _GAINS_RESIDUAL * scale:
+        return None
+    return EigenPart(idx, lam[keep], Vk, _LazyInverseRows(None, None, keep, V), B, Cout, D, T, hold, g=g)
+
+
 class _LazyInverseRows:
     """Rows ``keep`` of V^-1 from V's LU factors, computed on first use."""
 
-    def __init__(self, lu, piv, keep):
+    def __init__(self, lu, piv, keep, V=None):
         self.lu, self.piv, self.keep, self._rows = lu, piv, keep, None
+        self._V = V                   # factored on first use where the part was made without LU
 
     def get(self):
         if self._rows is None:
-            n = self.lu.shape[0]
             with one_blas_thread():   # as lti_parts: small, one thread
-                self._rows = scipy_linalg().lu_solve((self.lu, self.piv), np.eye(n), check_finite=False)[self.keep]
+                sla = scipy_linalg()
+                if self.lu is None:
+                    self.lu, self.piv = sla.lu_factor(self._V, check_finite=False)
+                n = self.lu.shape[0]
+                self._rows = sla.lu_solve((self.lu, self.piv), np.eye(n), check_finite=False)[self.keep]
         return self._rows
 
 

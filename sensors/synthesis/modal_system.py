@@ -330,7 +330,8 @@ def _build_parts(su: _Setup, method: str, output: str, T: float, hold: str):
             lam, V, W = modes
             lam = np.minimum(lam.real, 0.0) + 1j * lam.imag  # passive, as in lti_parts
             return [EigenPart(np.arange(2 * r), lam, V, W, B, Cout, D, T, hold)]
-    return lti_parts(A, B, Cout, D, T, hold, passive=True)
+    # diag(1, -1) A is symmetric when C is: the input gains from the modes' S-orthogonality
+    return lti_parts(A, B, Cout, D, T, hold, passive=True, signature=np.repeat([1.0, -1.0], r))
 
 
 def _diagonal_parts(su: _Setup, output: str, T: float, hold: str):
