@@ -6,7 +6,9 @@ path for 3 right-hand sides (one node) than for 4 or more, and BLAS another for 
 of 1-2 nodes than of 3 or more: both round differently (a kept solve 1.5e-12 apart, measured
 on the paper's aluminium tube).  A probe's features would then depend on the probes before it, and a
 dataset shard on what ran before in its process.  The store pads every call to a width where
-each column's result is that column's alone (``static_correction.MIN_SOLVE_COLUMNS``, ``MIN_PROJECTED_COLUMNS``).
+each column's result is that column's alone (``static_correction.MIN_SOLVE_COLUMNS``, ``MIN_PROJECTED_COLUMNS``) and solves
+whole blocks of right-hand sides (``SOLVE_COLUMN_BLOCK``: on AVX2 machines PARDISO rounds a last,
+partial block of 4 otherwise).
 
 Tolerances: bit for bit between batches; each column within 1e-9 of SciPy's independent sparse
 LU solve, projected (as ``tests/test_unit_load_projection.py``).

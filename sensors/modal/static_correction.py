@@ -63,7 +63,7 @@ from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
 from .basis import check_points_m
 
-__all__ = ["GRAM_PRODUCTS", "KEEP_NODE_ROWS", "MAX_ATTACHMENT_VECTORS", "MIN_PROJECTED_COLUMNS", "MIN_SOLVE_COLUMNS", "REUSE_UNIT_LOADS", "SINGLE_ELASTIC_PROJECTION", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
+__all__ = ["GRAM_PRODUCTS", "KEEP_NODE_ROWS", "MAX_ATTACHMENT_VECTORS", "MIN_PROJECTED_COLUMNS", "MIN_SOLVE_COLUMNS", "SOLVE_COLUMN_BLOCK", "REUSE_UNIT_LOADS", "SINGLE_ELASTIC_PROJECTION", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
            "RitzGeometry", "contact_flexibility", "located_once", "nodal_at"]
 
 #: The most attachment vectors (constrained directions, up to 3 per contact) one contact set
@@ -103,6 +103,12 @@ SINGLE_ELASTIC_PROJECTION = True
 #: aluminium tube, 22k dof), 1.08x on the wood bar.
 MIN_SOLVE_COLUMNS = 4
 MIN_PROJECTED_COLUMNS = 9
+#: A solve call's width is a multiple of this: on AVX2 machines (AMD EPYC, measured) PARDISO
+#: takes right-hand sides in blocks of 4 and rounds the columns of a last, partial block
+#: otherwise, so a node's columns changed with their place in the call (the wood bar: the
+#: node in columns 4-5 of a 6-wide call, 6-8 of a 9-wide one); in whole blocks they did not.
+#: 8 covers blocks of 4 and 8.
+SOLVE_COLUMN_BLOCK = 8
 #: Whether the kept solves' rows at kept nodes are also kept in a small dense block array
 #: (:meth:`UnitLoadStore.rows`, True, fast) or gathered from the n_dof-long columns each time
 #: (False, the reference).  A contact set's attachment vectors at its loaded nodes and its
@@ -469,12 +475,13 @@ class UnitLoadStore:
         missing = [n for n in nodes.tolist() if n not in slot]
         if missing:
             flex = self.flex
-            # zero columns pad a narrow call: each column's bytes are then its own (MIN_SOLVE_COLUMNS)
+            # zero columns pad a narrow call: each column's bytes are then its own (MIN_SOLVE_COLUMNS, SOLVE_COLUMN_BLOCK)
             m = 3 * len(missing)
-            B = np.zeros((flex.n_dof, max(m, MIN_SOLVE_COLUMNS)), order="F")
+            width = -(-max(m, MIN_SOLVE_COLUMNS) // SOLVE_COLUMN_BLOCK) * SOLVE_COLUMN_BLOCK
+            B = np.zeros((flex.n_dof, width), order="F")
             rows = (3 * np.asarray(missing)[:, None] + np.arange(3)).ravel()
             B[rows, np.arange(m)] = 1.0
-            X = np.zeros((flex.n_dof, max(m, MIN_PROJECTED_COLUMNS)), order="F")
+            X = np.zeros((flex.n_dof, max(width, MIN_PROJECTED_COLUMNS)), order="F")
             X[:, :B.shape[1]] = np.asarray(flex.factor.solve(B)).reshape(flex.n_dof, -1)
             Y = flex.unit_load_projected(X)
             KU = Y.T @ flex.KU
