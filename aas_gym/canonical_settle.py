@@ -47,7 +47,7 @@ from aas_gym.physics_memo import EDITED_MODEL_FIELDS, PhysicsMemo
 from aas_gym.scenario import Layout, settle
 from sensors.objects.catalog import ObjectSpec
 
-__all__ = ["CANONICAL_SETTLE", "SettledPlacement", "canonical_quat", "run_after_settle", "settle_placed"]
+__all__ = ["CANONICAL_SETTLE", "SettledPlacement", "canonical_quat", "from_canonical", "run_after_settle", "settle_placed", "to_canonical"]
 
 #: Whether :func:`settle_placed` settles the canonical placement and moves it (True, fast) or
 #: settles the objects where they were placed (False: the reference; the first release then
@@ -100,11 +100,11 @@ def settle_placed(memo: PhysicsMemo, model: mujoco.MjModel, data: mujoco.MjData,
     if not CANONICAL_SETTLE:                            # the reference
         memo.run(data, ("settle", settle_s), lambda: settle(model, data, settle_s))
         return None
-    _to_canonical(data, free_joints, layout, target_quat)
+    to_canonical(data, free_joints, layout, target_quat)
     start = np.empty(mujoco.mj_stateSize(model, _STATE))
     mujoco.mj_getState(model, data, start, _STATE)
     memo.run(data, ("settle", settle_s), lambda: settle(model, data, settle_s))
-    _from_canonical(model, data, free_joints, layout)
+    from_canonical(model, data, free_joints, layout)
     settled = np.empty(start.size)
     mujoco.mj_getState(model, data, settled, _STATE)
     return SettledPlacement(start, float(settle_s), tuple(free_joints), layout, settled, _model_fields(model))
@@ -127,7 +127,7 @@ def run_after_settle(memo: PhysicsMemo, model: mujoco.MjModel, data: mujoco.MjDa
     if not grasp.LEAN_SCRIPT:                           # the reference: two replays, then a forward
         settle_run()
         result = memo.run(data, args, section)
-        _from_canonical(model, data, placement.free_joints, placement.layout)
+        from_canonical(model, data, placement.free_joints, placement.layout)
         return result
 
     def settle_then_section():
@@ -137,11 +137,11 @@ def run_after_settle(memo: PhysicsMemo, model: mujoco.MjModel, data: mujoco.MjDa
     # settle and section kept as one run (keyed by the section's arguments, then the settle's):
     # one replay from the start state
     result = memo.run(data, (*args, settle_args), settle_then_section)
-    _from_canonical(model, data, placement.free_joints, placement.layout, forward=forward)
+    from_canonical(model, data, placement.free_joints, placement.layout, forward=forward)
     return result
 
 
-def _to_canonical(data: mujoco.MjData, free_joints, layout: Layout, target_quat: np.ndarray) -> None:
+def to_canonical(data: mujoco.MjData, free_joints, layout: Layout, target_quat: np.ndarray) -> None:
     """Move the placed objects to the canonical placement (target at the origin, yaw 0), the
     target's orientation set to ``target_quat`` where it is that up to rounding."""
     x, y = layout.target_xy_m
@@ -155,8 +155,8 @@ def _to_canonical(data: mujoco.MjData, free_joints, layout: Layout, target_quat:
         quat[:] = target_quat                           # (q and -q: one rotation); else a run of its own
 
 
-def _from_canonical(model: mujoco.MjModel, data: mujoco.MjData, free_joints, layout: Layout,
-                    forward: bool = True) -> None:
+def from_canonical(model: mujoco.MjModel, data: mujoco.MjData, free_joints, layout: Layout,
+                   forward: bool = True) -> None:
     """Move a canonical end state back to the placement (poses, contacts and forces of the
     moved state recomputed, unless ``forward`` is False); as it is for a placement that was
     canonical."""

@@ -111,7 +111,9 @@ class SimAcousticStream:
         present = [x * x + y * y + z * z > atol * atol for x, y, z in v[:n]]
         return present + (sd[self._grasp_adr] > 0).tolist(), v
 
-    def _changed(self, present: list, v: list) -> bool:
+    def signature_changed(self, present: list, v: list) -> bool:
+        """Whether a contact signature (``present`` partners, their net forces and points) is
+        beyond the tolerance from the one read last."""
         # Plain floats: a dozen numbers compare six times faster than through numpy calls.
         if present != self._ref_present:
             return True
@@ -132,17 +134,17 @@ class SimAcousticStream:
         signature = None
         if self._state is not None:
             signature = self._signature(self._heard_index)
-            if not self._changed(*signature):
+            if not self.signature_changed(*signature):
                 return self._state
         index = self._heard_index
-        self._state = self._read_state()
+        self._state = self.read_state()
         if signature is None or self._heard_index != index:
             signature = self._signature(self._heard_index)   # the same data: no physics step between
         self._ref_present, self._ref_vec = signature
         return self._state
 
-    def _read_state(self) -> GraspState:
-        """Read the contact list: the grasped object (both fingertips press it), else the
+    def read_state(self) -> GraspState:
+        """Read the contact list (what :meth:`grasp_state` does when the signature changed): the grasped object (both fingertips press it), else the
         object heard last, else the first (target) object."""
         self.contact_reads += 1
         contacts = self.sensor.contacts()

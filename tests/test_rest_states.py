@@ -19,7 +19,7 @@ import numpy as np
 import aas_gym  # noqa: F401  (registers the envs)
 from aas_gym import rest_states, scenario
 from aas_gym.envs import base
-from aas_gym.canonical_settle import _to_canonical
+from aas_gym.canonical_settle import to_canonical
 from grasp_snapshot import grasped_state
 
 SEEDS = range(12)
@@ -86,7 +86,7 @@ def test_a_grid_fill_is_the_canonical_settle_and_between_them_linear():
     sc.hand.set_grip_force(env.grip_force_n)
     sc.hand.teleport(d, HOME_TCP, MAX_OPENING_M, forward=False)
     layout = scenario.place_objects(m, d, sc.objects, sc.free_joints, np.random.default_rng(3), env.randomization)
-    _to_canonical(d, sc.free_joints, layout, sc.canonical_quat)
+    to_canonical(d, sc.free_joints, layout, sc.canonical_quat)
     start = np.empty(mujoco.mj_stateSize(m, _STATE))
     mujoco.mj_getState(m, d, start, _STATE)
 

@@ -48,7 +48,7 @@ def test_gains_agree_with_the_lu_reference_and_the_dense_transfer_function(seed)
     A, B, Cout = _system(rng, int(rng.integers(8, 45)), k=int(rng.integers(1, 10)))
     fast, ref = _parts(A, B, Cout, True), _parts(A, B, Cout, False)
     assert len(fast) == len(ref) == 1 and isinstance(fast[0], lti.EigenPart)
-    assert isinstance(fast[0]._vinv, lti._LazyInverseRows) and fast[0]._vinv.lu is None   # the fast path ran
+    assert isinstance(fast[0]._vinv, lti.LazyInverseRows) and fast[0]._vinv.lu is None   # the fast path ran
     assert np.array_equal(fast[0].lam, ref[0].lam)
     g, g_ref = fast[0].g, ref[0].g
     assert np.abs(g - g_ref).max() <= 1e-11 * np.abs(g_ref).max()
@@ -73,7 +73,7 @@ def test_vectors_of_a_repeated_eigenvalue_that_are_not_s_orthogonal_are_declined
     V = V / np.linalg.norm(V, axis=0)
     S = np.repeat([1.0, -1.0], 3)
     idx = np.arange(6)
-    good = lti._symmetric_gains_part(idx, A, lam, V, S, B, Cout, 0.0, 1 / 44100, "foh")
+    good = lti.symmetric_gains_part(idx, A, lam, V, S, B, Cout, 0.0, 1 / 44100, "foh")
     omega = 2 * np.pi * np.linspace(3000, 9950, 20)
     assert good is not None
     H = _dense(A, B, Cout, omega)
@@ -86,7 +86,7 @@ def test_vectors_of_a_repeated_eigenvalue_that_are_not_s_orthogonal_are_declined
     conj = np.flatnonzero(np.isclose(lam, np.conj(lam[j])))
     mixed[:, conj[0]] = np.conj(mixed[:, j])
     assert np.abs(A @ mixed[:, j] - lam[j] * mixed[:, j]).max() < 1e-9 * np.abs(A).max()   # still an eigenvector
-    assert lti._symmetric_gains_part(idx, A, lam, mixed, S, B, Cout, 0.0, 1 / 44100, "foh") is None
+    assert lti.symmetric_gains_part(idx, A, lam, mixed, S, B, Cout, 0.0, 1 / 44100, "foh") is None
 
 
 def test_systems_it_does_not_apply_to_take_the_reference():

@@ -7,7 +7,7 @@ import numpy as np
 from gymnasium import spaces
 
 from aas_gym import rest_states, scenario
-from aas_gym.canonical_settle import _from_canonical, _to_canonical
+from aas_gym.canonical_settle import from_canonical, to_canonical
 from aas_gym.envs.base import AasEnv
 from aas_gym.rest_states import settle_from
 from sensors._infra.lru import CACHE_SIZES, LRU
@@ -150,7 +150,7 @@ class FillLevelEnv(AasEnv):
         from sensors.fluid import container, filled
 
         sc, m, d = self._scene, self.model, self.data
-        _to_canonical(d, sc.free_joints, self._layout, sc.canonical_quat)
+        to_canonical(d, sc.free_joints, self._layout, sc.canonical_quat)
         start = np.empty(mujoco.mj_stateSize(m, _STATE))
         mujoco.mj_getState(m, d, start, _STATE)
         liquid, bid = self.liquids[self._truth["liquid_index"]], sc.body_ids[0]
@@ -171,7 +171,7 @@ class FillLevelEnv(AasEnv):
         if rest is None:                             # the reference does not end at rest: it settles
             return scenario.settle_steps(m, settle_s)
         mujoco.mj_setState(m, d, rest, _STATE)
-        _from_canonical(m, d, sc.free_joints, self._layout, forward=False)
+        from_canonical(m, d, sc.free_joints, self._layout, forward=False)
         return settle_from(m, d, dofs, scenario.settle_steps(m, settle_s), rest_states.MIN_STEPS)
 
     def _reset_episode(self, options: dict):

@@ -258,7 +258,7 @@ class EigenPart:
         self.lam = lam
         self.w = np.where(lam.imag > 0, 2.0, 1.0)
         self.V = V
-        self._vinv = Vinv  # array or _LazyInverseRows
+        self._vinv = Vinv  # array or LazyInverseRows
         self.T = T
         x = lam * T
         self.a = np.exp(x)
@@ -283,7 +283,7 @@ class EigenPart:
 
     @property
     def Vinv(self):
-        if isinstance(self._vinv, _LazyInverseRows):
+        if isinstance(self._vinv, LazyInverseRows):
             self._vinv = self._vinv.get()
         return self._vinv
 
@@ -781,7 +781,7 @@ def _lti_parts_one_thread(A, B, Cout, D, T, hold, passive=False, signature=None)
         lam = np.minimum(lam.real, 0.0) + 1j * lam.imag
     V = V / np.linalg.norm(V, axis=0)
     if signature is not None and SYMMETRIC_GAINS:
-        part = _symmetric_gains_part(idx, A, lam, V, np.asarray(signature, float), B, Cout, D, T, hold)
+        part = symmetric_gains_part(idx, A, lam, V, np.asarray(signature, float), B, Cout, D, T, hold)
         if part is not None:
             return [part]
     lu, piv = sla.lu_factor(V, check_finite=False)
@@ -792,11 +792,11 @@ def _lti_parts_one_thread(A, B, Cout, D, T, hold, passive=False, signature=None)
     keep = lam.imag >= 0
     # only V^-1 B is needed for the response; the full inverse (state mapping) is lazy
     g = sla.lu_solve((lu, piv), B.astype(complex), check_finite=False)[keep]
-    vinv = _LazyInverseRows(lu, piv, keep)
+    vinv = LazyInverseRows(lu, piv, keep)
     return [EigenPart(idx, lam[keep], V[:, keep], vinv, B, Cout, D, T, hold, g=g)]
 
 
-def _symmetric_gains_part(idx, A, lam, V, S, B, Cout, D, T, hold):
+def symmetric_gains_part(idx, A, lam, V, S, B, Cout, D, T, hold):
     """The complex-mode part with V^-1 B from S-orthogonality (:data:`SYMMETRIC_GAINS`), or
     None where that does not apply (the LU path decides then)."""
     SA = S[:, None] * A
@@ -819,10 +819,10 @@ def _symmetric_gains_part(idx, A, lam, V, S, B, Cout, D, T, hold):
     scale = max(float(np.abs(B).max(initial=0.0)), float(np.abs(wg).sum()))
     if not np.abs(recon - B).max(initial=0.0) <= _GAINS_RESIDUAL * scale:
         return None
-    return EigenPart(idx, lam[keep], Vk, _LazyInverseRows(None, None, keep, V), B, Cout, D, T, hold, g=g)
+    return EigenPart(idx, lam[keep], Vk, LazyInverseRows(None, None, keep, V), B, Cout, D, T, hold, g=g)
 
 
-class _LazyInverseRows:
+class LazyInverseRows:
     """Rows ``keep`` of V^-1 from V's LU factors, computed on first use."""
 
     def __init__(self, lu, piv, keep, V=None):
