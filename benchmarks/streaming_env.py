@@ -125,7 +125,7 @@ def main(argv=None):
         goal = ">= 50x" if r["modes"] <= 50 else ""
         lines.append(f"| {r['scene']} | {r['object']} | {r['modes']} | {r['on_ms']:.2f} | {r['quiet_ms']:.2f} | "
                      f"{r['passive_ratio']:.2f} | {r['off_ms']:.2f} | "
-                     f"{r['ratio']:.1f} | {r['rtf']:.0f}x | {goal} | {r['builds']} | {r['reads']} | {r['steps']} |")
+                     f"{r['ratio']:.1f} | {r['rtf']:.2g}x | {goal} | {r['builds']} | {r['reads']} | {r['steps']} |")
     text = "\n".join(lines) + "\n"
     print(text)
     if not args.no_write:
