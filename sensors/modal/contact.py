@@ -102,7 +102,10 @@ class Contact:
         if not isinstance(self.counter_material, str):
             raise TypeError(f"Contact counter_material must be a material name, got {self.counter_material!r}")
         get_material(self.counter_material)  # KeyError listing the names for an unknown one
-        n = n / length
+        self._store(p, n / length, f, mu, radius)
+
+    def _store(self, p: np.ndarray, n: np.ndarray, f: float, mu: float, radius: float) -> None:
+        """Keep the checked values, the vectors read-only (both check paths end here)."""
         p.setflags(write=False)
         n.setflags(write=False)
         object.__setattr__(self, "position_m", p)
@@ -141,17 +144,9 @@ class Contact:
             get_material(self.counter_material)
         except (KeyError, TypeError):
             return False
-        p = p.copy()
-        n = n / length
-        p.setflags(write=False)
-        n.setflags(write=False)
-        object.__setattr__(self, "position_m", p)
-        object.__setattr__(self, "normal", n)
-        object.__setattr__(self, "force_n", f)
-        object.__setattr__(self, "friction", mu)
         object.__setattr__(self, "normal_stiffness_n_per_m", ks[0])
         object.__setattr__(self, "tangential_stiffness_n_per_m", ks[1])
-        object.__setattr__(self, "radius_m", radius)
+        self._store(p.copy(), n / length, f, mu, radius)
         return True
 
     def _key(self) -> tuple:
