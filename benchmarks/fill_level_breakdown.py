@@ -8,7 +8,7 @@ Every ``mujoco.mj_step`` call is counted and timed under the phase that made it 
 ``aas_gym.rest_states.settle_from``, ``release``, ``planar_grasp``, and the rest grid's canonical
 settles, once per grid fill); the rest of the episode's
 CPU time is "other" (the fill's wet model, placement, sensing, gymnasium).  ``--profile N``
-prints cProfile's N most expensive functions by own time.  Not an A/B (``rest_states_ab.py`` is).
+prints cProfile's N most expensive functions by own time.  Not an A/B (``flags_ab.py aas_gym/FillLevel-v0 --flags aas_gym.rest_states:REST_STATES`` is).
 """
 
 from __future__ import annotations

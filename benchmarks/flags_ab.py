@@ -3,10 +3,13 @@ and off (the order alternating too), after a warm-up with both, so load from oth
 and the caches' filling hit both sides alike.
 
     python benchmarks/flags_ab.py aas_gym/GraspPosition-v0 --flags sensors.modal.contact:FAST_CONTACT_CHECKS \\
-        sensors.synthesis.lti:SYMMETRIC_GAINS [--warmup-s 20] [--block-s 5] [--blocks 10]
+        sensors.synthesis.lti:SYMMETRIC_GAINS [--warmup-s 20] [--block-s 5] [--blocks 10] [--sensing-off]
+    python benchmarks/flags_ab.py aas_gym/FillLevel-v0 --flags aas_gym.rest_states:REST_STATES
 
 Prints env steps/s, episodes/s and CPU ms per episode (``time.process_time``) with the flags on
-and off.  Random actions (seeded), resets included, the env's defaults otherwise.
+and off.  Random actions (seeded), resets included, the env's defaults otherwise
+(``--sensing-off``: ``acoustic={"enabled": False}``).  A flag an env does not read gives a ratio
+that says what the noise is.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ def main() -> None:
     ap.add_argument("--warmup-s", type=float, default=20.0)
     ap.add_argument("--block-s", type=float, default=5.0)
     ap.add_argument("--blocks", type=int, default=10)
+    ap.add_argument("--sensing-off", action="store_true", help='acoustic={"enabled": False}')
     args = ap.parse_args()
     flags = [(importlib.import_module(m), f) for m, f in (x.split(":") for x in args.flags)]
 
@@ -35,7 +39,7 @@ def main() -> None:
                 raise AttributeError(f"{module.__name__} has no flag {name}")
             setattr(module, name, value)
 
-    env = gym.make(args.env_id)
+    env = gym.make(args.env_id, **({"acoustic": {"enabled": False}} if args.sensing_off else {}))
     env.reset(seed=0)
     env.action_space.seed(0)
 
