@@ -18,7 +18,6 @@ A scenario is drawn from a numpy Generator in a fixed order:
 from __future__ import annotations
 
 import math
-import weakref
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 
@@ -29,6 +28,7 @@ from aas_gym import grasp
 from aas_gym.object_bodies import euler_to_quat, yaw_rest_quat
 from aas_gym.object_grasps import END_MARGIN_M, grasp_set, rest_height_m, rest_rotation
 from aas_gym.object_names import DEFAULT_OBJECT_NAMES
+from sensors._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from sensors.objects.catalog import ObjectSpec, get_object
 from sensors.task import check_number
 
@@ -219,17 +219,12 @@ def _place_on_surface_target(data, objects, free_joints, rng, xy, yaw) -> Layout
     return Layout((float(xy[0]), float(xy[1])), yaw, (), tuple(contacts))
 
 
-_REST_HEIGHTS: dict = {}
+_REST_HEIGHTS: LRU = LRU(CACHE_SIZES["objects.rest_heights"])
 
 
 def _rest_height_m(solid) -> float:
     """``rest_height_m(solid)``, computed once per solid (a pass over its surface vertices)."""
-    held = _REST_HEIGHTS.get(id(solid))
-    if held is None or held[0]() is not solid:
-        if len(_REST_HEIGHTS) > 256:
-            _REST_HEIGHTS.clear()
-        held = _REST_HEIGHTS[id(solid)] = (weakref.ref(solid), rest_height_m(solid))
-    return held[1]
+    return _REST_HEIGHTS.get_or_build(IdentityKey(solid), lambda: rest_height_m(solid))
 
 
 def place_beside(data: mujoco.MjData, objects: Sequence[ObjectSpec], free_joints: Sequence[tuple[int, int]],

@@ -48,6 +48,7 @@ CACHE_SIZES: dict[str, int] = {
     "fluid.layer_nodes": 4,          # P2 nodes per layer of the liquid's disc, by elements around
     "fluid.fill_tables": 8,          # fill tables of one container, per liquid (a few MB each)
     "objects.solids": 64,            # surfaces and meshers of the catalog's surface objects
+    "objects.rest_heights": 64,      # a solid's height resting on the table (aas_gym.scenario)
     "sim.models": 32,                # modal models shared by the scenes of one process
     "sim.material_views": 16,
     "sim.touching_groups": 16,       # recent coupled groups per (grasped, touching objects) of a sensor
