@@ -147,20 +147,16 @@ class FillLevelEnv(AasEnv):
         return False
 
     def _settle_from_rest_state(self, settle_s: float) -> int:
-        from sensors.fluid import container, filled
-
         sc, m, d = self._scene, self.model, self.data
         to_canonical(d, sc.free_joints, self._layout, sc.canonical_quat)
         start = np.empty(mujoco.mj_stateSize(m, _STATE))
         mujoco.mj_getState(m, d, start, _STATE)
         liquid, bid = self.liquids[self._truth["liquid_index"]], sc.body_ids[0]
-        held = self._containers.get_or_build(sc.objects[0], lambda: container(sc.objects[0].solid()))
         edited = []
 
         def set_fill(f: float) -> None:
             edited.append(f)
-            wet = filled(held, f, liquid=liquid, compressible=self.compressible, interpolated=self.interpolated_fill)
-            self._set_liquid_mass(bid, wet.liquid)
+            self._set_liquid_mass(bid, self._wet_model(f, liquid).liquid)
 
         key = (str(liquid), self.compressible, self.interpolated_fill, m.actuator_forcerange.tobytes(),
                m.opt.timestep)
@@ -190,18 +186,22 @@ class FillLevelEnv(AasEnv):
 
         return grasp_position(self.np_random, self._scene.objects[0], self._layout)
 
-    def _fill(self, fill_fraction: float, liquid):
-        """Put the liquid in: the sensor hears the wet modes, MuJoCo carries its mass."""
+    def _wet_model(self, fill_fraction: float, liquid):
+        """The target container's wet model with this liquid (``sensors.fluid.filled``)."""
         from sensors.fluid import container, filled
 
-        sc = self._scene
-        target, body = sc.objects[0], sc.bodies[0]
+        target = self._scene.objects[0]
         # the memoized container itself (``sensors.fluid.container``): the same wet model as
         # ``filled(target.solid(), ...)``, without keying the solid's description every episode
         held = self._containers.get_or_build(target, lambda: container(target.solid()))
-        wet = filled(held, fill_fraction, liquid=liquid, compressible=self.compressible,
-                     interpolated=self.interpolated_fill)
-        sc.sensor.set_modal_model(body, wet)
+        return filled(held, fill_fraction, liquid=liquid, compressible=self.compressible,
+                      interpolated=self.interpolated_fill)
+
+    def _fill(self, fill_fraction: float, liquid):
+        """Put the liquid in: the sensor hears the wet modes, MuJoCo carries its mass."""
+        sc = self._scene
+        wet = self._wet_model(fill_fraction, liquid)
+        sc.sensor.set_modal_model(sc.bodies[0], wet)
         self._set_liquid_mass(sc.body_ids[0], wet.liquid)
         return wet
 
