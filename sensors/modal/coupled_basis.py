@@ -13,8 +13,8 @@ point (one node instead of six, and nearby points share it); the links themselve
 their own points (their springs' rows are the basis evaluated there).  The basis is a span: the
 static response to a force at a node 1.5 mm (at most 2.7 mm on the project's bars, whose nodes
 lie 3.1 mm apart) from the point still carries the local flexibility the spring needs, within
-the tolerance measured and tested in ``tests/test_coupled_basis.py`` (not bit for bit: env
-observations of scenes with touching objects move by that much).  The grasped object's own
+the tolerance measured and tested in ``tests/test_coupled_basis.py`` (not bit for bit: with it
+on, env observations of scenes with touching objects move, see :data:`SNAP_TO_NODES`).  The grasped object's own
 contacts (fingertip pads, table) keep their exact points: the drive and the microphone sit
 there.  Deterministic (the mesh decides, not the history of contacts), so two envs on the same
 models hear the same.
@@ -33,8 +33,13 @@ __all__ = ["SNAP_TO_NODES", "basis_points"]
 #: bar (``benchmarks/group_memo_probe.py --snap``, 253 contact reads x 140 features): the
 #: pad-to-pad transfer within median 0.011, p95 0.089, max 1.74 dB of the reference; unit-load
 #: solves 374 -> 106 nodes.  To the nearest corner node of the quadratic tets (6 mm apart)
-#: instead: p95 0.28, max 4.3 dB (not taken).
-SNAP_TO_NODES = True
+#: instead: p95 0.28, max 4.3 dB (not taken).  Off by default: the streamed moving scene is
+#: 1.2-1.3x faster with it, but its sound while the bar chatters is mostly the transients of
+#: contact switches, and those move more than the transfer does (``benchmarks/stream_tolerance.py
+#: --scene moving --flag sensors.modal.coupled_basis:SNAP_TO_NODES``, ABS bar, 43 steps:
+#: rms 12.7 %, features p95 3.6 dB with passive sound; 6.9 %, 3.6 dB without; the stream's own
+#: position tolerance at 0.1 instead of 0.2 mm: 16.2 %, 3.0 dB and 3.6 %, 5.5 dB).
+SNAP_TO_NODES = False
 
 _TREES: LRU = LRU(CACHE_SIZES["modal.node_trees"])
 
