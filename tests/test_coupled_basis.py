@@ -1,16 +1,23 @@
 """coupled_basis.SNAP_TO_NODES: a coupled group's attachment modes at the mesh nodes nearest its
-link points, against the reference (at the link points), on the moving scene's bodies.
+link points (the partners'; with SNAP_GRASPED the grasped object's link ends too), against the
+reference (at the link points), on the moving scene's bodies.
 
 The ABS bar rocking on the steel-bar plinth (``benchmarks/streaming_env.py``'s moving scene):
 one link point near one end, five spread over 60 mm, one near the other end, forces 10-30 N
 (``benchmarks/group_memo_probe.py`` recorded these states).  Heard: the pad-to-pad transfer
 (force into the actuator pad, motion of the mic pad, contact damping included) at the 140
-feature frequencies, in dB.  Bound: 95th percentile 0.3 dB, largest 2 dB per state.  The
-stream's own position tolerance (0.2 mm against 0.1 mm) already moves features by 0.4 dB at
-the 95th percentile (notes/stream.md); over the scene's 253 contact reads the snap measured
-median 0.011, p95 0.089, max 1.74 dB.  Not vacuous: the chatter itself (one point against
-five) changes the same transfer by far more, and so does a basis without the attachment modes
-at the links.
+feature frequencies, in dB.  Bounds per state (:data:`CASES`, 95th percentile and largest):
+the partner snapped, an aluminium plinth, 0.01 and 0.05 dB (measured here 0.003 and 0.015; its
+attachment modes 94 mm off: 0.02-0.024 and 0.08-0.11); the grasped object's link ends too, the
+steel plinth, 0.3 and 2 dB (measured 0.11 and 0.58).  On a steel plinth the partner's basis is
+hardly heard (its attachment modes 94 mm off: p95 0.008 dB), on an ABS one it is (snapped:
+p95 0.24, max 8.6 dB): the flag is not safe for compliant partners (its comment).  The stream's own position tolerance
+(0.2 mm against 0.1 mm) already moves features by 0.4 dB at the 95th percentile in
+ContactFormation-v0 (notes/stream.md); over the moving scene's 253 contact reads the snap of
+both bodies measured median 0.011, p95 0.089, max 1.74 dB.  Not vacuous: the chatter itself
+(one point against five) changes the same transfer by far more, and so does a basis without
+the attachment modes at the links.  What the stream hears (the switch transients) is measured
+in sensors/modal/coupled_basis.py's flag comments, not here.
 """
 
 from __future__ import annotations
@@ -31,8 +38,8 @@ PLINTH_X_M = 0.04             # the plinth's centre under the bar (the bar overh
 
 
 @pytest.fixture(scope="module")
-def bars():
-    return get_object("abs_bar").modal_model(), get_object("steel_bar").modal_model()
+def models():
+    return {name: get_object(name).modal_model() for name in ("abs_bar", "steel_bar", "aluminium_bar")}
 
 
 def pads():
@@ -58,6 +65,10 @@ OTHER_END = ([(0.0937, -0.0081)], [14.0])
 STATES = [ONE_END, FIVE, OTHER_END, ([(-0.0508, 0.0066)], [29.0]), ([p for p in FIVE[0]], [2.1, 2.6, 3.0, 3.9, 4.4])]
 
 
+#: (SNAP_GRASPED, plinth, p95 [dB], max [dB]): the snapped transfer's bounds
+CASES = [(False, "aluminium_bar", 0.01, 0.05), (True, "steel_bar", 0.3, 2.0)]
+
+
 def heard_db(touching, contacts) -> np.ndarray:
     """|H| [dB] at the feature frequencies: force into the actuator pad -> motion of the mic pad."""
     modes = CoupledGraspModes(touching, contacts)
@@ -76,23 +87,25 @@ def heard_db(touching, contacts) -> np.ndarray:
 
 @pytest.fixture
 def snap(monkeypatch):
-    def set_(on: bool):
+    def set_(on: bool, grasped: bool = False):
         monkeypatch.setattr(coupled_basis, "SNAP_TO_NODES", on)
+        monkeypatch.setattr(coupled_basis, "SNAP_GRASPED", grasped)
     return set_
 
 
-def test_snapped_basis_hears_the_chattering_grasp_as_the_reference(bars, snap):
-    bar, plinth = bars
+@pytest.mark.parametrize("grasped, plinth, p95, top", CASES)
+def test_snapped_basis_hears_the_chattering_grasp_as_the_reference(models, snap, grasped, plinth, p95, top):
+    bar, plinth = models["abs_bar"], models[plinth]
     contacts = pads()
     exact, errors = [], []
     for points, forces in STATES:
         touching = group(bar, plinth, points, forces)
         snap(False)
         ref = heard_db(touching, contacts)
-        snap(True)
+        snap(True, grasped)
         fast = heard_db(touching, contacts)
         d = np.abs(fast - ref)
-        assert np.quantile(d, 0.95) <= 0.3 and d.max() <= 2.0, (points, np.quantile(d, 0.95), d.max())
+        assert np.quantile(d, 0.95) <= p95 and d.max() <= top, (points, np.quantile(d, 0.95), d.max())
         exact.append(ref)
         errors.append(d)
     # what the chatter changes (what a looser group match would accept) is far above the cut's error
@@ -101,10 +114,12 @@ def test_snapped_basis_hears_the_chattering_grasp_as_the_reference(bars, snap):
         assert np.quantile(np.abs(a - b), 0.95) >= 10 * p95_cut
 
 
-def test_snap_takes_the_fast_path_and_keeps_the_pads(bars, snap):
+@pytest.mark.parametrize("grasped", [False, True])
+def test_snap_takes_the_fast_path_and_keeps_the_pads(models, snap, grasped):
+    bars = models["abs_bar"], models["steel_bar"]
     bar, plinth = bars
     touching = group(bar, plinth, *FIVE)
-    snap(True)
+    snap(True, grasped)
     fast = CoupledGraspModes(touching, pads())
     snap(False)
     ref = CoupledGraspModes(touching, pads())
@@ -113,9 +128,10 @@ def test_snap_takes_the_fast_path_and_keeps_the_pads(bars, snap):
         pf = np.array([s[0] for s in part_f.springs])
         pr = np.array([s[0] for s in part_r.springs])
         on_node = np.min(np.linalg.norm(pf[:, None] - nodes[body][None], axis=2), axis=1) < 1e-12
-        pads_at = np.array([p for p in (c.position_m for c in pads())])
-        own = np.min(np.linalg.norm(pr[:, None] - pads_at[None], axis=2), axis=1) < 1e-9 if body == 0 else \
-            np.zeros(len(pr), bool)
+        pads_at = np.array([c.position_m for c in pads()])
+        own = np.zeros(len(pr), bool)           # kept at its point: the grasped object's pads (or all its points)
+        if body == 0:
+            own = np.min(np.linalg.norm(pr[:, None] - pads_at[None], axis=2), axis=1) < 1e-9 if grasped else ~own
         # links at nodes (within 2.7 mm, the bars' largest face-point-to-node distance), pads where they are
         assert np.all(on_node[~own]) and not np.any(np.all(pf[~own] == pr[~own], axis=1))
         assert np.all(np.linalg.norm(pf - pr, axis=1)[~own] <= 2.8e-3)
@@ -127,17 +143,18 @@ def test_snap_takes_the_fast_path_and_keeps_the_pads(bars, snap):
     np.testing.assert_allclose(fast.frequencies_hz[band], ref.frequencies_hz[band], rtol=1e-2)
 
 
-def test_without_attachment_modes_at_the_links_the_sound_is_off(bars, snap, monkeypatch):
-    """The bound above can fail: a basis whose link attachment modes sit far from the links
-    (here: at the bar's +x end) is heard several dB off, so the test sees a broken cut."""
-    bar, plinth = bars
+@pytest.mark.parametrize("grasped, plinth, p95, top", CASES)
+def test_without_attachment_modes_at_the_links_the_sound_is_off(models, snap, monkeypatch, grasped, plinth, p95, top):
+    """The bounds above can fail: a basis whose link attachment modes sit far from the links
+    (here: at x = 94 mm of each body's frame) is heard beyond them, so the test sees a broken cut."""
+    bar, plinth = models["abs_bar"], models[plinth]
     contacts = pads()
     touching = group(bar, plinth, *FIVE)
     snap(False)
     ref = heard_db(touching, contacts)
-    snap(True)
+    snap(True, grasped)
     far = np.array([0.0937, 0.0, -H / 2])
     real = coupled_basis.basis_points
     monkeypatch.setattr(coupled_basis, "basis_points", lambda base, p: real(base, np.broadcast_to(far, np.shape(p))))
     d = np.abs(heard_db(touching, contacts) - ref)
-    assert np.quantile(d, 0.95) > 0.3 or d.max() > 2.0
+    assert np.quantile(d, 0.95) > p95 or d.max() > top

@@ -236,5 +236,5 @@ def coupled_grasp_modes(group: TouchingObjects, contacts) -> CoupledGraspModes:
     """The coupled modes of ``group`` under the grasped object's ``contacts`` (cached per
     group and contact set)."""
     contacts = list(contacts)
-    key = (IdentityKey(group), tuple(contacts), coupled_basis.SNAP_TO_NODES)     # a flag's A/B in one process
+    key = (IdentityKey(group), tuple(contacts), coupled_basis.flags())     # a flag's A/B in one process
     return _CACHE.get_or_build(key, lambda: CoupledGraspModes(group, contacts))
