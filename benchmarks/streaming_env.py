@@ -1,6 +1,7 @@
 """Cost of the streaming microphone per env step, against the same env with sensing off.
 
     python benchmarks/streaming_env.py [--chunks 9] [--steps 20] [--no-write]
+    python benchmarks/streaming_env.py --scenes moving --set sensors.modal.coupled_basis:SNAP_TO_NODES=1 --no-write
 
 For objects of about 12, 46 and 100 modes below Nyquist (aluminium bar, ABS bar, PLA tube),
 three envs are built with the same seed: ``acoustic={"cadence": "stream"}`` (passive sound on,
@@ -21,7 +22,11 @@ simulated time per step / its cost). Times are CPU times of this process (the ma
 shared). Goal (issue 12): streaming keeps at least 50x real time for objects of up to 50
 modes. Sensing off against bare MuJoCo is ``benchmarks/env.py``'s physics table.
 
-Writes ``docs/benchmarks/streaming_env.md``.
+``--scenes``: only these scenes; ``--set module:NAME=0|1``: a module flag for the whole run (a
+fast path against its reference: the same steps in two processes, one with ``=0``, run side by
+side so that load from other processes hits both alike).
+
+Writes ``docs/benchmarks/streaming_env.md`` (not with ``--scenes`` or ``--set``).
 """
 
 from __future__ import annotations
@@ -32,6 +37,7 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_v, "1")
 
 import argparse  # noqa: E402
+import importlib  # noqa: E402
 import platform  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
@@ -100,9 +106,18 @@ def main(argv=None):
     ap.add_argument("--chunks", type=int, default=9)
     ap.add_argument("--steps", type=int, default=20)
     ap.add_argument("--no-write", action="store_true")
+    ap.add_argument("--scenes", nargs="+", choices=("held", "moving"), default=("held", "moving"))
+    ap.add_argument("--set", action="append", default=[], metavar="MODULE:NAME=0|1")
     args = ap.parse_args(argv)
+    for item in args.set:
+        target, value = item.split("=")
+        module, name = target.split(":")
+        setattr(importlib.import_module(module), name, bool(int(value)))
+        print(f"{module}.{name} = {bool(int(value))}")
     rows = []
     for scene, make, warm in (("held", _held_env, 100), ("moving", _moving_env, 3)):
+        if scene not in args.scenes:
+            continue
         for obj in OBJECTS:
             r = measure(make, obj, args.chunks, args.steps, warm)
             r["scene"] = scene
@@ -128,7 +143,7 @@ def main(argv=None):
                      f"{r['ratio']:.1f} | {r['rtf']:.2g}x | {goal} | {r['builds']} | {r['reads']} | {r['steps']} |")
     text = "\n".join(lines) + "\n"
     print(text)
-    if not args.no_write:
+    if not args.no_write and not args.set and len(args.scenes) == 2:
         out = ROOT / "docs" / "benchmarks" / "streaming_env.md"
         out.write_text(text)
         print(f"wrote {out}")

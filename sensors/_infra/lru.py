@@ -41,6 +41,7 @@ CACHE_SIZES: dict[str, int] = {
     "modal.attachment_bases": 16,    # per model: attachment vectors of recent contact sets (the same points again)
     "modal.spring_modes": 32,        # contact-coupled modes per (model, contact springs)
     "modal.coupled_grasps": 16,      # modes of a grasped object with the objects it touches, per contact set
+    "modal.node_trees": 8,           # k-d trees of mesh nodes (coupled_basis.SNAP_TO_NODES)
     "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container
     "fluid.containers": 8,           # containers (dry model + static correction) per object
     "mesh.point_locations": 64,      # per mesh: located point batches (containing tet, barycentrics; surface)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import coupled_basis
 from .spring_modes import MIN_MODE_FREQUENCY_HZ, SpringModes, flexible_base, warn_no_mesh
 from .static_correction import contact_flexibility
 
@@ -90,6 +91,7 @@ class CoupledBodies:
         self.bodies = [(m, np.asarray(R, float), np.asarray(t, float)) for m, R, t in bodies]
         self.links = list(links)
         springs_per_body = [[] for _ in self.bodies]
+        own_points = [[] for _ in self.bodies]     # kept at its point by SNAP_TO_NODES: body 0's (see coupled_basis)
         for ln in self.links:
             n = np.asarray(ln.normal, float) / np.linalg.norm(ln.normal)
             for side in (ln.body_a, ln.body_b):
@@ -99,19 +101,26 @@ class CoupledBodies:
                 p_body = R.T @ (np.asarray(ln.point_m, float) - t)
                 springs_per_body[side].append((p_body, R.T @ n, ln.normal_stiffness_n_per_m,
                                                ln.tangential_stiffness_n_per_m))
+                own_points[side].append(side == 0 and (ln.body_b is None or not coupled_basis.SNAP_GRASPED))
         check_coupled_size(self.bodies, springs_per_body,
                            MAX_COUPLED_COORDINATES if max_coordinates is None else max_coordinates)
         # each body's Ritz basis with attachment modes at its link points (a SpringModes of
-        # the link springs, grounded: only its basis and free stiffness are used here)
+        # the link springs, grounded: only its basis and free stiffness are used here), or, for
+        # the partners, at the mesh nodes nearest them (coupled_basis.SNAP_TO_NODES: the links
+        # still act at their own points)
         self._parts = []
         blocks = []
-        for (model, R, t), springs in zip(self.bodies, springs_per_body):
+        for body, ((model, R, t), springs) in enumerate(zip(self.bodies, springs_per_body)):
             flex = flexible_base(model)
             if flex is None:     # a filled container: its (wet) modes without static correction
                 warn_no_mesh(model)
                 part = SpringModes(model, springs)
             else:
                 base, fs, ss = flex
+                if coupled_basis.SNAP_TO_NODES and springs:
+                    snapped = coupled_basis.basis_points(base, [sp[0] for sp in springs])
+                    springs = [sp if keep else (q, *sp[1:])
+                               for sp, q, keep in zip(springs, snapped, own_points[body])]
                 part = SpringModes(model, springs, fs, ss, contact_flexibility(base))
             self._parts.append(part)
             blocks.append(part.free_stiffness)

@@ -39,6 +39,7 @@ from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from .contact import Contact
 from .contact_stiffness import contact_stiffnesses_n_per_m
 from .damping import within_surface_distance_m
+from . import coupled_basis
 from .coupled_bodies import BodyLink, CoupledBodies
 from .spring_modes import contact_springs
 
@@ -235,4 +236,5 @@ def coupled_grasp_modes(group: TouchingObjects, contacts) -> CoupledGraspModes:
     """The coupled modes of ``group`` under the grasped object's ``contacts`` (cached per
     group and contact set)."""
     contacts = list(contacts)
-    return _CACHE.get_or_build((IdentityKey(group), tuple(contacts)), lambda: CoupledGraspModes(group, contacts))
+    key = (IdentityKey(group), tuple(contacts), coupled_basis.flags())     # a flag's A/B in one process
+    return _CACHE.get_or_build(key, lambda: CoupledGraspModes(group, contacts))
