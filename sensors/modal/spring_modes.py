@@ -271,11 +271,32 @@ class SpringModes:
             for (p, nrm, kn, kt), Sp in zip(springs, S):
                 W = kn * np.outer(nrm, nrm) + kt * (np.eye(3) - np.outer(nrm, nrm))
                 K += Sp.T @ W @ Sp
-        lam, V = np.linalg.eigh(0.5 * (K + K.T))
-        keep = lam > (2 * np.pi * MIN_MODE_FREQUENCY_HZ) ** 2
-        self.V = V[:, keep]
-        self.angular_frequencies_rad_s = np.sqrt(lam[keep])
-        self.frequencies_hz = self.angular_frequencies_rad_s / (2 * np.pi)
+        self.stiffness = K      # of the Ritz basis with the springs
+        self._eigen = None
+
+    def _solve(self):
+        # on first use: a coupled assembly (CoupledBodies) takes only each body's Ritz basis
+        # and free stiffness, never its grounded modes
+        if self._eigen is None:
+            K = self.stiffness
+            lam, V = np.linalg.eigh(0.5 * (K + K.T))
+            keep = lam > (2 * np.pi * MIN_MODE_FREQUENCY_HZ) ** 2
+            w = np.sqrt(lam[keep])
+            self._eigen = (V[:, keep], w, w / (2 * np.pi))
+        return self._eigen
+
+    @property
+    def V(self) -> np.ndarray:
+        """The eigenvectors in the Ritz basis (n, r_c), mass-normalised."""
+        return self._solve()[0]
+
+    @property
+    def angular_frequencies_rad_s(self) -> np.ndarray:
+        return self._solve()[1]
+
+    @property
+    def frequencies_hz(self) -> np.ndarray:
+        return self._solve()[2]
 
     @property
     def psi(self) -> np.ndarray | None:
