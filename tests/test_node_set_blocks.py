@@ -100,3 +100,27 @@ def test_blocks_of_slots_solved_again_are_not_served(bar):
     for got, want, old in zip(after, fresh, before):
         assert got.tobytes() == want.tobytes()
     assert any(g.tobytes() != o.tobytes() for g, o in zip(after, before))     # the stale ones differ
+
+
+def test_load_patterns_give_the_same_loads(bar, monkeypatch):
+    """C, B and the nodes of a contact set from its kept load pattern are np.add.at's bytes,
+    signed zeros included (directions along the axes times negative P2 weights give -0.0)."""
+    from sensors.fem.assembly import shape_functions
+    from sensors.modal.static_correction import located_once
+
+    flex = ContactFlexibility(bar)
+    episodes = _episodes(np.random.default_rng(13), 12)
+    episodes.append((np.array([[0.0, 0.0125, 0.0]] * 3), np.eye(3)))         # a point on a node: one weight
+    out, negative_zeros = {}, 0
+    for keep in (True, False):
+        monkeypatch.setattr(static_correction, "NODE_SET_BLOCKS", keep)
+        got = []
+        for pts, dirs in episodes * 2:                         # the second pass finds the patterns kept
+            tet, bary = located_once(bar.locator, pts)
+            N = shape_functions(bary, bar.element)
+            negative_zeros += int(np.signbit(N[:, :, None] * dirs[:, None, :]).sum())
+            distinct, C, B, dofs = flex._combination(N, bar.elements[tet], dirs)
+            got.append((distinct.tobytes(), C.tobytes(), B.tobytes(), dofs.tobytes()))
+        out[keep] = got
+    assert out[True] == out[False]
+    assert negative_zeros > 0 and flex._patterns.hits >= len(episodes)

@@ -124,7 +124,8 @@ KEEP_NODE_ROWS = True
 #: change.  An entry is used only while every slot it read holds the same solve (slot
 #: versions), and the store is still asked for the columns (recency, evicted nodes solved
 #: again), so the values are the gathered ones: the same products, bit for bit
-#: (``tests/test_node_set_blocks.py``).  Read at each call.
+#: (``tests/test_node_set_blocks.py``).  The load pattern of a set of elements (its distinct
+#: nodes, where each weight goes in C) is kept the same way.  Read at each call.
 NODE_SET_BLOCKS = True
 
 
@@ -197,6 +198,7 @@ class ContactFlexibility:
         self.relief_gram = self.relief.T @ self.mass_relief        # relief^T M relief (6, 6)
         self.unit_loads = UnitLoadStore(self)
         self._bases: LRU = LRU(CACHE_SIZES["modal.attachment_bases"])
+        self._patterns: LRU = LRU(CACHE_SIZES["modal.node_set_blocks"])    # NODE_SET_BLOCKS
 
     def _projected(self, X: np.ndarray, elastic_passes: int = 2) -> np.ndarray:
         """``X`` made M-orthogonal to the rigid-body and kept elastic modes (in place): each
@@ -291,6 +293,13 @@ class ContactFlexibility:
         # Shape functions below _NEGLIGIBLE_WEIGHT are a point on a vertex or face seen from
         # the element's other nodes (rounding of its barycentric coordinates).
         used = np.abs(N) > _NEGLIGIBLE_WEIGHT
+        if NODE_SET_BLOCKS:
+            pattern = self._patterns.get_or_build((nodes.shape, nodes.tobytes(), used.tobytes()),
+                                                  lambda: _LoadPattern(nodes, used, self.R))
+            if pattern.distinct.size > self.unit_loads.capacity:
+                return None
+            C = pattern.loads(N, directions)
+            return pattern.distinct, C, pattern.R_dofs.T @ C, pattern.dofs
         distinct, index = np.unique(nodes[used], return_inverse=True)
         if distinct.size > self.unit_loads.capacity:
             return None
@@ -351,6 +360,36 @@ class ContactFlexibility:
             if comb is not None:
                 return self._implicit_basis(comb)
         return AttachmentBasis(*self._attachment(pts, dirs, None), self.M)
+
+
+class _LoadPattern:
+    """What :meth:`ContactFlexibility._combination` derives from a contact set's element nodes
+    and which shape functions it keeps alone (:data:`NODE_SET_BLOCKS`): the distinct nodes, each
+    kept weight's row and column in C, the nodes' dofs and the rigid-body modes there."""
+
+    def __init__(self, nodes: np.ndarray, used: np.ndarray, R: np.ndarray) -> None:
+        self.distinct, index = np.unique(nodes[used], return_inverse=True)
+        self.shape = (3 * self.distinct.size, len(nodes))
+        self.used = used
+        self.cols = np.broadcast_to(np.arange(len(nodes))[:, None], nodes.shape)[used]
+        self.rows = [3 * index + j for j in range(3)]
+        # an element's nodes are distinct, so each (row, column) is written once: C's entries are
+        # then np.add.at's 0.0 + w exactly (the + 0.0 makes a -0.0 weight +0.0, as that sum does)
+        self.once = np.unique(np.stack([3 * index, self.cols]), axis=1).shape[1] == index.size
+        self.dofs = (3 * self.distinct[:, None] + np.arange(3)).ravel()
+        self.R_dofs = R[self.dofs]
+
+    def loads(self, N: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """C (3 s, a): the unit forces along ``directions`` at the points as unit loads at the
+        distinct nodes (shape-function weights ``N``)."""
+        C = np.zeros(self.shape)
+        for j in range(3):
+            w = (N * directions[:, j:j + 1])[self.used]
+            if self.once:
+                C[self.rows[j], self.cols] = w + 0.0
+            else:
+                np.add.at(C, (self.rows[j], self.cols), w)
+        return C
 
 
 def located_once(locator, p: np.ndarray):
