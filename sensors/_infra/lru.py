@@ -38,6 +38,8 @@ CACHE_SIZES: dict[str, int] = {
     "modal.unit_loads": 256,         # per model: nodes' projected unit-load solves and M times them (48 n_dof bytes
                                      # each: 0.52 MB on a 10,935-dof bar; 256 hold every node random grasps touch;
                                      # plus their pairwise M-products, 4.7 MB at 256)
+    "modal.node_set_blocks": 96,     # per model: the unit-load blocks a node set's attachment basis and Ritz rows read
+                                     # (two entries, ~100 kB at 20 nodes and 100 modes; GraspPosition-v0 uses 28 sets)
     "modal.attachment_bases": 16,    # per model: attachment vectors of recent contact sets (the same points again)
     "modal.spring_modes": 32,        # contact-coupled modes per (model, contact springs)
     "modal.coupled_grasps": 16,      # modes of a grasped object with the objects it touches, per contact set

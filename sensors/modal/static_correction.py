@@ -63,7 +63,7 @@ from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
 from .basis import check_points_m
 
-__all__ = ["GRAM_PRODUCTS", "KEEP_NODE_ROWS", "MAX_ATTACHMENT_VECTORS", "MIN_PROJECTED_COLUMNS", "MIN_SOLVE_COLUMNS", "SOLVE_COLUMN_BLOCK", "REUSE_UNIT_LOADS", "SINGLE_ELASTIC_PROJECTION", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
+__all__ = ["GRAM_PRODUCTS", "KEEP_NODE_ROWS", "NODE_SET_BLOCKS", "MAX_ATTACHMENT_VECTORS", "MIN_PROJECTED_COLUMNS", "MIN_SOLVE_COLUMNS", "SOLVE_COLUMN_BLOCK", "REUSE_UNIT_LOADS", "SINGLE_ELASTIC_PROJECTION", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
            "RitzGeometry", "contact_flexibility", "located_once", "nodal_at"]
 
 #: The most attachment vectors (constrained directions, up to 3 per contact) one contact set
@@ -116,6 +116,17 @@ SOLVE_COLUMN_BLOCK = 8
 #: every value is a cache miss, from the block array a few kB are read.  The same values
 #: (copies): the same products, bit for bit (``tests/test_unit_load_rows.py``).  Read at each call.
 KEEP_NODE_ROWS = True
+#: Whether the blocks of the store that a contact set's attachment basis gathers by its nodes
+#: alone (Y^T M Y between them, Y^T M relief, Y^T K U, Y and the relief at their dofs) are kept
+#: per node set (True, fast) or gathered anew for every contact set (False, the reference).
+#: Randomized episodes of one object put their contacts at new points of the same few elements
+#: (GraspPosition-v0: 1,803 contact sets on 28 node sets): only the shape-function weights C
+#: change.  An entry is used only while every slot it read holds the same solve (slot
+#: versions), and the store is still asked for the columns (recency, evicted nodes solved
+#: again), so the values are the gathered ones: the same products, bit for bit
+#: (``tests/test_node_set_blocks.py``).  The load pattern of a set of elements (its distinct
+#: nodes, where each weight goes in C) is kept the same way.  Read at each call.
+NODE_SET_BLOCKS = True
 
 
 @contextlib.contextmanager
@@ -187,6 +198,7 @@ class ContactFlexibility:
         self.relief_gram = self.relief.T @ self.mass_relief        # relief^T M relief (6, 6)
         self.unit_loads = UnitLoadStore(self)
         self._bases: LRU = LRU(CACHE_SIZES["modal.attachment_bases"])
+        self._patterns: LRU = LRU(CACHE_SIZES["modal.node_set_blocks"])    # NODE_SET_BLOCKS
 
     def _projected(self, X: np.ndarray, elastic_passes: int = 2) -> np.ndarray:
         """``X`` made M-orthogonal to the rigid-body and kept elastic modes (in place): each
@@ -281,6 +293,13 @@ class ContactFlexibility:
         # Shape functions below _NEGLIGIBLE_WEIGHT are a point on a vertex or face seen from
         # the element's other nodes (rounding of its barycentric coordinates).
         used = np.abs(N) > _NEGLIGIBLE_WEIGHT
+        if NODE_SET_BLOCKS:
+            pattern = self._patterns.get_or_build((nodes.shape, nodes.tobytes(), used.tobytes()),
+                                                  lambda: _LoadPattern(nodes, used, self.R))
+            if pattern.distinct.size > self.unit_loads.capacity:
+                return None
+            C = pattern.loads(N, directions)
+            return pattern.distinct, C, pattern.R_dofs.T @ C, pattern.dofs
         distinct, index = np.unique(nodes[used], return_inverse=True)
         if distinct.size > self.unit_loads.capacity:
             return None
@@ -312,10 +331,11 @@ class ContactFlexibility:
         distinct, C, B, dofs = comb
         store = self.unit_loads
         cols = store.columns(distinct)
-        CHB = C.T @ store.relief_gram[cols] @ B
-        G = C.T @ store.products(cols, cols) @ C - CHB - CHB.T + B.T @ self.relief_gram @ B   # X^T M X
-        Xd = store.rows(distinct, cols) @ C - self.relief[dofs] @ B                           # X at the loaded dofs
-        XKU = C.T @ store.KU[cols] - B.T @ self.relief_ku
+        H, P, Yd, Rd, KU = store.node_set_blocks(distinct, cols)
+        CHB = C.T @ H @ B
+        G = C.T @ P @ C - CHB - CHB.T + B.T @ self.relief_gram @ B   # X^T M X
+        Xd = Yd @ C - Rd @ B                                          # X at the loaded dofs
+        XKU = C.T @ KU - B.T @ self.relief_ku
         d, Q = np.linalg.eigh(0.5 * (G + G.T))
         keep = d > _DEPENDENT * max(float(d.max()), 1e-300)
         T = Q[:, keep] / np.sqrt(d[keep])
@@ -340,6 +360,36 @@ class ContactFlexibility:
             if comb is not None:
                 return self._implicit_basis(comb)
         return AttachmentBasis(*self._attachment(pts, dirs, None), self.M)
+
+
+class _LoadPattern:
+    """What :meth:`ContactFlexibility._combination` derives from a contact set's element nodes
+    and which shape functions it keeps alone (:data:`NODE_SET_BLOCKS`): the distinct nodes, each
+    kept weight's row and column in C, the nodes' dofs and the rigid-body modes there."""
+
+    def __init__(self, nodes: np.ndarray, used: np.ndarray, R: np.ndarray) -> None:
+        self.distinct, index = np.unique(nodes[used], return_inverse=True)
+        self.shape = (3 * self.distinct.size, len(nodes))
+        self.used = used
+        self.cols = np.broadcast_to(np.arange(len(nodes))[:, None], nodes.shape)[used]
+        self.rows = [3 * index + j for j in range(3)]
+        # an element's nodes are distinct, so each (row, column) is written once: C's entries are
+        # then np.add.at's 0.0 + w exactly (the + 0.0 makes a -0.0 weight +0.0, as that sum does)
+        self.once = np.unique(np.stack([3 * index, self.cols]), axis=1).shape[1] == index.size
+        self.dofs = (3 * self.distinct[:, None] + np.arange(3)).ravel()
+        self.R_dofs = R[self.dofs]
+
+    def loads(self, N: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """C (3 s, a): the unit forces along ``directions`` at the points as unit loads at the
+        distinct nodes (shape-function weights ``N``)."""
+        C = np.zeros(self.shape)
+        for j in range(3):
+            w = (N * directions[:, j:j + 1])[self.used]
+            if self.once:
+                C[self.rows[j], self.cols] = w + 0.0
+            else:
+                np.add.at(C, (self.rows[j], self.cols), w)
+        return C
 
 
 def located_once(locator, p: np.ndarray):
@@ -407,8 +457,8 @@ class AttachmentBasis:
         if missing.size:
             store = flex.unit_loads
             cols = store.columns(own)
-            dofs = (3 * missing[:, None] + np.arange(3)).ravel()
-            rows = (store.rows(missing, cols) @ C - flex.relief[dofs] @ B) @ T
+            Ym, Rm = store.row_blocks(missing, cols)
+            rows = (Ym @ C - Rm @ B) @ T
             kept = np.concatenate([kept, missing])
             order = np.argsort(kept, kind="stable")
             kept, values = kept[order], np.concatenate([values, rows.reshape(-1, 3, rows.shape[1])])[order]
@@ -463,6 +513,10 @@ class UnitLoadStore:
         self.node_rows = np.zeros((3 * self.capacity, 3 * self.capacity))
         self.row_known = np.zeros((self.capacity, self.capacity), bool)
         self.node_slot = np.full(flex.n_dof // 3, -1)
+        # NODE_SET_BLOCKS: each slot's version (bumped when it takes a solve) and the blocks
+        # gathered per node set, with the versions they were gathered at
+        self.slot_version = np.zeros(self.capacity, np.int64)
+        self._blocks: LRU = LRU(CACHE_SIZES["modal.node_set_blocks"])
 
     def columns(self, nodes: np.ndarray) -> np.ndarray:
         """The store columns (3 per node, in order) of ``nodes`` (distinct, at most
@@ -502,12 +556,50 @@ class UnitLoadStore:
                     self.node_slot[old] = -1
                 self.node_slot[n] = k
                 self.slot_node[k] = n
+                self.slot_version[k] += 1
                 self.known[k, :] = self.known[:, k] = False
                 self.row_known[k, :] = self.row_known[:, k] = False
                 self.relief_gram[3 * k:3 * k + 3] = self.Y[:, 3 * k:3 * k + 3].T @ flex.mass_relief
                 slot[n] = k
         ks = np.array([slot[n] for n in nodes.tolist()])
         return (3 * ks[:, None] + np.arange(3)).ravel()
+
+    def _read_state(self, nodes: np.ndarray, columns: np.ndarray) -> np.ndarray:
+        """What blocks gathered at ``nodes`` from ``columns`` depend on: the nodes' slots, the
+        versions of those slots and of the columns' slots."""
+        slot = self.node_slot[nodes]
+        v = self.slot_version
+        return np.concatenate([slot, np.where(slot >= 0, v[np.maximum(slot, 0)], -1), columns[::3], v[columns[::3] // 3]])
+
+    def _kept(self, key, nodes, columns, gather):
+        """``gather()``, or what it gave for ``key`` while the slots it read are unchanged."""
+        if not NODE_SET_BLOCKS:
+            return gather()
+        state = self._read_state(nodes, columns)
+        hit = self._blocks.get(key)
+        if hit is not None and np.array_equal(hit[0], state):
+            return hit[1]
+        return self._blocks.put(key, (state, gather()))[1]
+
+    def node_set_blocks(self, nodes: np.ndarray, columns: np.ndarray):
+        """``(relief_gram[columns], products(columns, columns), rows(nodes, columns), relief at
+        the nodes' dofs, KU[columns])`` of a contact set's distinct ``nodes`` and their
+        ``columns`` (from :meth:`columns`): kept per node set (:data:`NODE_SET_BLOCKS`)."""
+        def gather():
+            dofs = (3 * np.asarray(nodes)[:, None] + np.arange(3)).ravel()
+            return (self.relief_gram[columns], self.products(columns, columns), self.rows(nodes, columns),
+                    self.flex.relief[dofs], self.KU[columns])
+        return self._kept(("set", nodes.tobytes()), nodes, columns, gather)
+
+    def row_blocks(self, nodes: np.ndarray, columns: np.ndarray):
+        """``(rows(nodes, columns), relief at the nodes' dofs)``: kept per (nodes, columns)
+        (:data:`NODE_SET_BLOCKS`)."""
+        nodes = np.asarray(nodes, dtype=np.intp)
+
+        def gather():
+            dofs = (3 * nodes[:, None] + np.arange(3)).ravel()
+            return self.rows(nodes, columns), self.flex.relief[dofs]
+        return self._kept(("rows", nodes.tobytes(), columns.tobytes()), nodes, columns, gather)
 
     def rows(self, nodes: np.ndarray, columns: np.ndarray) -> np.ndarray:
         """``Y[np.ix_(dofs, columns)]`` (3 rows per node of ``nodes``, kept ``columns`` from
