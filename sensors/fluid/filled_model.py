@@ -97,6 +97,11 @@ def _cut(freqs: np.ndarray, limit_hz: float) -> int:
     return n
 
 
+#: What :meth:`FilledModalModel.pending` leaves to its build: added mass, slip, the liquid's
+#: coupling and eigenvalues.
+_PENDING = ("_Ma", "_S", "_B", "_wl2")
+
+
 class FilledModalModel:
     """A container with liquid: a :class:`~sensors.ModalBasis` (what synthesis and the simulated
     sensor take), with the wall's geometry queries delegated to the dry model.
@@ -137,6 +142,25 @@ class FilledModalModel:
                              liquid_volume_m3=liquid.volume_m3, fill_fraction=self.fill_fraction,
                              liquid_model=self.liquid_model,
                              surface_normal=np.asarray(liquid.surface_normal).tolist(), max_frequency_hz=band)
+
+    @classmethod
+    def pending(cls, container, liquid: LiquidBody, compressible: bool, build) -> "FilledModalModel":
+        """The model ``build()`` (a zero-argument callable) gives, with ``liquid`` (its
+        :class:`LiquidBody`) now and the liquid's added mass, slip and coupling made by ``build``
+        when first read (``sensors.fluid.fill_table.LAZY_WET_MATRICES``)."""
+        self = cls(container, liquid, None, None, compressible=compressible)
+        for name in _PENDING:                      # None here: read through __getattr__ once built
+            del self.__dict__[name]
+        self._pending = build
+        return self
+
+    def __getattr__(self, name):
+        if name not in _PENDING or "_pending" not in self.__dict__:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        built = self.__dict__.pop("_pending")()
+        for key in _PENDING:
+            self.__dict__[key] = built.__dict__[key]
+        return self.__dict__[name]
 
     # The wet eigen-solve runs when a modal quantity is first read, not at construction: an
     # env that fills a container and hears it through a material view (domain randomization,
