@@ -258,8 +258,8 @@ class FillTable:
         segment = self._segment(height)
         if LAZY_WET_MATRICES:
             body = _liquid_body(container, liquid, segment.at(height, _BODY), volume_m3, height)
-            wet = FilledModalModel.pending(container, body, compressible, lambda: wet_model(
-                container, liquid, segment.at(height), volume_m3, height, compressible))
+            wet = FilledModalModel.pending(container, body, compressible,
+                                           lambda: _wall_matrices(container, liquid, segment.at(height), compressible))
         else:
             wet = wet_model(container, liquid, segment.at(height), volume_m3, height, compressible)
         wet.metadata["wet_solve"] = "interpolated"  # the exact path's models carry no such entry
@@ -286,17 +286,24 @@ def _liquid_body(container, liquid, m: dict, volume_m3: float, height_m: float) 
 
 def wet_model(container, liquid, m: dict, volume_m3: float, height_m: float, compressible: bool) -> FilledModalModel:
     """The :class:`FilledModalModel` of interpolated (or exact) matrices ``m`` (as :meth:`_Segment.at`)."""
-    rho = liquid.density_kg_m3
     body = _liquid_body(container, liquid, m, volume_m3, height_m)
+    ma, slip, coupling, eigenvalues = _wall_matrices(container, liquid, m, compressible)
+    return FilledModalModel(container, body, ma, slip, liquid_coupling=coupling, liquid_eigenvalues=eigenvalues,
+                            compressible=compressible)
+
+
+def _wall_matrices(container, liquid, m: dict, compressible: bool) -> tuple:
+    """``(added_mass, slip, liquid_coupling, liquid_eigenvalues)`` of ``m`` as
+    :class:`FilledModalModel` takes them (the last two None for an incompressible liquid)."""
+    rho = liquid.density_kg_m3
     ma = rho * m["ma"]
     ma = 0.5 * (ma + ma.T)
     slip = 0.5 * (m["slip"] + m["slip"].T)
     if not compressible:
-        return FilledModalModel(container, body, ma, slip)
+        return ma, slip, None, None
     k2, B = liquid_coupling(m["laplace"], m["mass"], m["load"], _k2_cut(container, liquid))
     c = liquid.speed_of_sound_m_per_s
-    return FilledModalModel(container, body, ma, slip, liquid_coupling=math.sqrt(rho) * B,
-                            liquid_eigenvalues=c * c * k2, compressible=True)
+    return ma, slip, math.sqrt(rho) * B, c * c * k2
 
 
 def liquid_coupling(laplace_r, mass_r, load_r, k2_cut: float):
