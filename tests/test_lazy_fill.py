@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import aas_gym  # noqa: F401  (registers the envs)
+from sensors._infra.lru import clear_all
 from sensors.fluid import fill_table as ft
 from sensors.fluid.fill_table import fill_table
 from sensors.materials import scaled_material
@@ -67,6 +68,7 @@ def test_a_lazy_fill_refuses_unknown_attributes(small_can, monkeypatch):
 
 def episodes(enabled: bool, lazy: bool, monkeypatch, seeds=(0, 1, 2)):
     monkeypatch.setattr(ft, "LAZY_WET_MATRICES", lazy)
+    clear_all()      # the container's fills are memoized: each side makes its own
     env = gym.make("aas_gym/FillLevel-v0", disable_env_checker=True, acoustic={"enabled": enabled}).unwrapped
     try:
         return [env.reset(seed=s) for s in seeds]
