@@ -94,3 +94,23 @@ def test_fill_level_episodes_are_the_same_bits(enabled, monkeypatch):
         assert same(info, info_ref)
     if enabled:
         assert np.any(fast[0][0]["acoustic"] != 0)
+
+
+@pytest.mark.parametrize("compressible", [True, False])
+def test_a_lazy_exact_fill_is_the_exact_fill_made_at_once(small_can, compressible, monkeypatch):
+    """The exact solve (``sensors.fluid.filling.LAZY_EXACT_MATRICES``): the bottle's neck takes it."""
+    from sensors.fluid import filled, filling
+
+    points = small_can.dry.nodes_m[::997][:6]
+    models = {}
+    for lazy in (True, False):
+        monkeypatch.setattr(filling, "LAZY_EXACT_MATRICES", lazy)
+        small_can.fills.clear()                     # each side solves its own
+        models[lazy] = filled(small_can, 0.45, liquid="honey", compressible=compressible, interpolated=False)
+    lazy, eager = models[True], models[False]
+    assert "_pending" in lazy.__dict__ and "_Ma" not in lazy.__dict__ and "_Ma" in eager.__dict__
+    for field in ("volume_m3", "mass_kg", "centre_of_mass_m", "inertia_kg_m2", "surface_normal", "surface_offset_m"):
+        assert np.array_equal(getattr(lazy.liquid, field), getattr(eager.liquid, field)), field
+    got, want = modal_quantities(lazy, points), modal_quantities(eager, points)
+    for name in want:
+        assert got[name].shape == want[name].shape and np.array_equal(got[name], want[name]), name
