@@ -32,6 +32,7 @@ own (:attr:`FillTable.film`), refined the same way: without it a FillLevel-v0 fi
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 
@@ -258,8 +259,9 @@ class FillTable:
         segment = self._segment(height)
         if LAZY_WET_MATRICES:
             body = _liquid_body(container, liquid, segment.at(height, _BODY), volume_m3, height)
-            wet = FilledModalModel.pending(container, body, compressible,
-                                           lambda: _wall_matrices(container, liquid, segment.at(height), compressible))
+            wet = FilledModalModel.pending(container, body, compressible,   # a partial: picklable
+                                           functools.partial(_segment_matrices, container, liquid, segment, height,
+                                                             compressible))
         else:
             wet = wet_model(container, liquid, segment.at(height), volume_m3, height, compressible)
         wet.metadata["wet_solve"] = "interpolated"  # the exact path's models carry no such entry
@@ -290,6 +292,11 @@ def wet_model(container, liquid, m: dict, volume_m3: float, height_m: float, com
     ma, slip, coupling, eigenvalues = _wall_matrices(container, liquid, m, compressible)
     return FilledModalModel(container, body, ma, slip, liquid_coupling=coupling, liquid_eigenvalues=eigenvalues,
                             compressible=compressible)
+
+
+def _segment_matrices(container, liquid, segment: _Segment, height_m: float, compressible: bool) -> tuple:
+    """:func:`_wall_matrices` of ``segment`` interpolated to ``height_m``."""
+    return _wall_matrices(container, liquid, segment.at(height_m), compressible)
 
 
 def _wall_matrices(container, liquid, m: dict, compressible: bool) -> tuple:

@@ -13,6 +13,7 @@ process (``CACHE_SIZES["fluid.containers"]`` and ``["fluid.fills"]``); the physi
 
 from __future__ import annotations
 
+import functools
 import json
 
 import numpy as np
@@ -170,15 +171,7 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
                                     compressible=compressible)
         mesh = c.liquid_mesh(volume, up)
         body = LiquidBody.in_cavity(c.cavity, liquid, volume, up, mesh)
-
-        def loading():
-            if not compressible:
-                return (*liquid_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at,
-                                        liquid.density_kg_m3), None, None)
-            return acoustic_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at,
-                                    liquid.density_kg_m3, liquid.speed_of_sound_m_per_s,
-                                    LIQUID_MODES_BAND_FACTOR * c.band_limit_hz)
-
+        loading = functools.partial(_loading, c, mesh, liquid, compressible)   # picklable, unlike a closure
         if LAZY_EXACT_MATRICES:
             return FilledModalModel.pending(c, body, compressible, loading)
         Ma, S, B, wl2 = loading()
@@ -192,6 +185,17 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
             return c.fills.get_or_build(key + ("interpolated",),
                                         lambda: table.filled(c, liquid, volume, compressible=compressible))
     return c.fills.get_or_build(key, wet)
+
+
+def _loading(c, mesh, liquid, compressible: bool) -> tuple:
+    """``(added_mass, slip, liquid_coupling, liquid_eigenvalues)`` of the liquid mesh ``mesh`` in
+    container ``c`` (the last two None for an incompressible liquid)."""
+    if not compressible:
+        return (*liquid_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at,
+                                liquid.density_kg_m3), None, None)
+    return acoustic_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at,
+                            liquid.density_kg_m3, liquid.speed_of_sound_m_per_s,
+                            LIQUID_MODES_BAND_FACTOR * c.band_limit_hz)
 
 
 def _checked_fill(obj, cavity, options, *, surface_normal, **amount):
