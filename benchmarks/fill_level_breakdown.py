@@ -2,13 +2,16 @@
 the first release and the scripted grasp, and the Python around them.
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 python benchmarks/fill_level_breakdown.py [--sensing on|off]
-        [--reference] [--episodes 40] [--profile 25]
+        [--reference] [--episodes 40] [--profile 25] [--parts] [--object mug]
 
 Every ``mujoco.mj_step`` call is counted and timed under the phase that made it (``settle`` and
 ``aas_gym.rest_states.settle_from``, ``release``, ``planar_grasp``, and the rest grid's canonical
 settles, once per grid fill); the rest of the episode's
 CPU time is "other" (the fill's wet model, placement, sensing, gymnasium).  ``--profile N``
-prints cProfile's N most expensive functions by own time.  Not an A/B (``flags_ab.py aas_gym/FillLevel-v0 --flags aas_gym.rest_states:REST_STATES`` is).
+prints cProfile's N most expensive functions by own time.  ``--parts``: exclusive CPU ms per
+episode of each part (the fill, the wet eigen-solve, the contacts, the springs, the system's
+eigen-solve, the drive, the window spectra, ...: :data:`PARTS`), a part's time without the parts
+it calls.  Not an A/B (``flags_ab.py aas_gym/FillLevel-v0 --flags aas_gym.rest_states:REST_STATES`` is).
 """
 
 from __future__ import annotations
@@ -27,6 +30,102 @@ from aas_gym import rest_states
 from aas_gym.envs import base
 
 
+#: ``--parts``: (module, attribute path, label); a function is timed wherever it was imported.
+PARTS = (
+    ("aas_gym.envs.fill_level", "FillLevelEnv._fill", "fill: wet model (rest)"),
+    ("sensors.fluid.fill_table", "_Segment.at", "fill: table interpolation"),
+    ("sensors.fluid.fill_table", "liquid_coupling", "fill: liquid modes (eigh)"),
+    ("sensors.fluid.filled_model", "FilledModalModel.__init__", "fill: FilledModalModel()"),
+    ("aas_gym.envs.fill_level", "FillLevelEnv._set_liquid_mass", "fill: MuJoCo mass"),
+    ("sensors.fluid.filled_model", "FilledModalModel._wet_solution", "wet: eigen-solve"),
+    ("sensors.fluid.filled_model", "FilledModalModel.rigid_coefficients", "wet: rigid modes"),
+    ("sensors.fluid.filled_model", "FilledModalModel.mode_shapes_at", "wet: shapes at points"),
+    ("sensors.fluid.filled_model", "FilledModalModel.rigid_mode_shapes_at", "wet: rigid shapes at points"),
+    ("sensors.fluid.container", "Container.basis_shapes_at", "wet: basis at points"),
+    ("sensors.mesh.locator", "TetLocator.locate", "wet: locate points"),
+    ("aas_gym.sim_sensor", "SimAcousticSensor.sense", "sense (rest)"),
+    ("aas_gym.sim_sensor", "SimAcousticSensor.grasp_contacts", "sense: grasp contacts"),
+    ("aas_gym.touching_grasp", "touching_grasp", "sense: touching grasp"),
+    ("sensors.synthesis.feature_recording", "simulate_features", "features (rest: noise, metadata)"),
+    ("sensors.synthesis.feature_recording", "_build_spectra", "spectra (rest: stream)"),
+    ("sensors.synthesis.modal_system", "ModalSystem.build", "system (rest)"),
+    ("sensors.modal.spring_modes", "spring_modes", "springs (rest)"),
+    ("sensors.modal.spring_modes", "SpringModes.__init__", "springs: SpringModes"),
+    ("sensors.modal.spring_modes", "merge_close_springs", "springs: merge"),
+    ("sensors.modal.damping", "modal_damping_parts", "system: damping"),
+    ("sensors.synthesis.low_rank_modes", "low_rank_modes", "system: low-rank modes"),
+    ("sensors.synthesis.lti", "lti_parts", "system: lti parts (rest)"),
+    ("sensors.synthesis.lti", "mkl_eig", "system: state eigen-solve"),
+    ("sensors.synthesis.drive_spectrum", "drive_spectrum", "drive spectrum"),
+    ("sensors.synthesis.window_spectra", "window_spectra", "window spectra"),
+)
+
+
+def _exclusive_timers(clock=time.thread_time):
+    """Patch :data:`PARTS` and ``mujoco.mj_step`` with exclusive timers: ({label: s}, reset)."""
+    import functools
+    import importlib
+    import sys
+
+    stack, spent = [["other", clock()]], {}
+
+    def timed(f, label):
+        @functools.wraps(f)
+        def g(*a, **k):
+            t = clock()
+            top = stack[-1]
+            spent[top[0]] = spent.get(top[0], 0.0) + t - top[1]
+            stack.append([label, t])
+            try:
+                return f(*a, **k)
+            finally:
+                t = clock()
+                done = stack.pop()
+                spent[done[0]] = spent.get(done[0], 0.0) + t - done[1]
+                stack[-1][1] = t
+        return g
+
+    for module_name, path, label in PARTS:
+        owner = importlib.import_module(module_name)
+        *outer, name = path.split(".")
+        for part in outer:
+            owner = getattr(owner, part)
+        f = owner.__dict__[name] if isinstance(owner, type) else getattr(owner, name)
+        if isinstance(f, functools.cached_property):
+            f.func = timed(f.func, label)
+        elif isinstance(f, classmethod):
+            setattr(owner, name, classmethod(timed(f.__func__, label)))
+        elif isinstance(owner, type):
+            setattr(owner, name, timed(f, label))
+        else:                               # a function: wherever it was imported by name
+            g = timed(f, label)
+            for m in list(sys.modules.values()):
+                for k, v in list(getattr(m, "__dict__", {}).items()):
+                    if v is f:
+                        setattr(m, k, g)
+    mujoco.mj_step = timed(mujoco.mj_step, "physics: mj_step")
+
+    def reset():
+        spent.clear()
+        stack[:] = [["other", clock()]]
+    return spent, reset
+
+
+def _parts(env, n: int) -> None:
+    spent, reset = _exclusive_timers()
+    for s in range(5):
+        env.reset(seed=s)
+    reset()
+    t0 = time.thread_time()
+    for s in range(n):
+        env.reset(seed=s)
+    total = time.thread_time() - t0
+    print(f"exclusive CPU ms per episode (thread time; {n} episodes, {total / n * 1e3:.2f} ms each):")
+    spent["other"] = total - sum(v for k, v in spent.items() if k != "other")
+    for k, v in sorted(spent.items(), key=lambda kv: -kv[1]):
+        print(f"  {k:34s} {v / n * 1e3:7.3f}")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--sensing", choices=("on", "off"), default="off")
@@ -34,12 +133,17 @@ def main() -> None:
     p.add_argument("--episodes", type=int, default=40)
     p.add_argument("--warmup", type=int, default=200, help="episodes first (caches, the rest grid)")
     p.add_argument("--profile", type=int, default=0)
+    p.add_argument("--parts", action="store_true", help="exclusive CPU time per part (PARTS) instead")
+    p.add_argument("--object", default="mug", help="the container (mug, glass, can, bottle)")
     args = p.parse_args()
     rest_states.REST_STATES = not args.reference
-    env = gym.make("aas_gym/FillLevel-v0", disable_env_checker=True,
+    env = gym.make("aas_gym/FillLevel-v0", disable_env_checker=True, objects=(args.object,),
                    acoustic={"enabled": args.sensing == "on"}).unwrapped
     for s in range(args.warmup):
         env.reset(seed=10_000 + s)
+    if args.parts:
+        _parts(env, args.episodes)
+        return
     phase, steps, cpu = ["other"], {}, {}
     step = mujoco.mj_step
 

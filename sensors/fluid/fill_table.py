@@ -32,6 +32,7 @@ own (:attr:`FillTable.film`), refined the same way: without it a FillLevel-v0 fi
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 
@@ -68,6 +69,14 @@ FIRST_HEIGHT_FRACTION = 0.01
 #: The film segment starts at this fraction of the liquid's element height (thinner films take
 #: the exact path). On the mug its midpoints are within 2e-11 of the exact solve at 3 intervals.
 FILM_HEIGHT_FRACTION = 1e-4
+
+#: Whether a table's fill (:meth:`FillTable.filled`) interpolates the wall's matrices and solves
+#: the liquid's modes when the model's modes are first read (True, fast for a fill that is never
+#: heard: FillLevel-v0 with sensing off carries only the liquid's mass, 1.4 of its 10 ms per
+#: episode went into those matrices) or at once (False, the reference).  The same numbers, later:
+#: the same interpolation and solve (``tests/test_lazy_fill.py``).  Read at each call.
+LAZY_WET_MATRICES = True
+
 
 class FillTableCostError(ValueError):
     """A fill table would take more exact solves than allowed."""
@@ -127,6 +136,12 @@ def _lagrange_weights(x: float, nodes: np.ndarray) -> tuple[int, np.ndarray]:
     return j0, w
 
 
+#: A segment's interpolated matrices, in :meth:`_Segment.at`'s order.
+_MATRICES = ("ma", "slip", "laplace", "mass", "load", "centre_m", "inertia_per_kg")
+#: What the liquid's body (mass, centre of mass, inertia) needs of them.
+_BODY = ("centre_m", "inertia_per_kg")
+
+
 @dataclasses.dataclass
 class _Segment:
     """The table of one layer count: grid heights and the matrices at each."""
@@ -161,13 +176,15 @@ class _Segment:
         return cls(np.array([lo, hi]), *(np.zeros((0,) + getattr(like, f.name).shape[1:])
                                          for f in dataclasses.fields(cls)[1:]))
 
-    def at(self, height_m: float) -> dict:
-        """Every matrix interpolated to ``height_m``."""
+    def at(self, height_m: float, names=_MATRICES) -> dict:
+        """The matrices ``names`` (default every one) interpolated to ``height_m`` (each on its
+        own: a subset's are the same numbers as in the whole set)."""
         j0, w = _lagrange_weights(height_m, self.heights_m)
-        out = {name: np.tensordot(w, getattr(self, name)[j0:j0 + 4], axes=1)
-               for name in ("ma", "slip", "laplace", "mass", "load", "centre_m", "inertia_per_kg")}
-        out["laplace"] /= height_m
-        out["mass"] *= height_m
+        out = {name: np.tensordot(w, getattr(self, name)[j0:j0 + 4], axes=1) for name in names}
+        if "laplace" in out:
+            out["laplace"] /= height_m
+        if "mass" in out:
+            out["mass"] *= height_m
         return out
 
     def arrays(self, prefix: str) -> dict:
@@ -239,7 +256,14 @@ class FillTable:
         if not self.covers(height):
             raise ValueError(f"a fill {height * 1e3:.4g} mm high is outside the table's "
                              f"{self.min_height_m * 1e3:.4g} mm .. {self.depth_m * 1e3:.4g} mm")
-        wet = wet_model(container, liquid, self._segment(height).at(height), volume_m3, height, compressible)
+        segment = self._segment(height)
+        if LAZY_WET_MATRICES:
+            body = _liquid_body(container, liquid, segment.at(height, _BODY), volume_m3, height)
+            wet = FilledModalModel.pending(container, body, compressible,   # a partial: picklable
+                                           functools.partial(_segment_matrices, container, liquid, segment, height,
+                                                             compressible))
+        else:
+            wet = wet_model(container, liquid, segment.at(height), volume_m3, height, compressible)
         wet.metadata["wet_solve"] = "interpolated"  # the exact path's models carry no such entry
         return wet
 
@@ -252,24 +276,41 @@ def _k2_cut(container, liquid) -> float:
     return (2 * math.pi * LIQUID_MODES_BAND_FACTOR * container.band_limit_hz / c) ** 2
 
 
-def wet_model(container, liquid, m: dict, volume_m3: float, height_m: float, compressible: bool) -> FilledModalModel:
-    """The :class:`FilledModalModel` of interpolated (or exact) matrices ``m`` (as :meth:`_Segment.at`)."""
-    rho = liquid.density_kg_m3
+def _liquid_body(container, liquid, m: dict, volume_m3: float, height_m: float) -> LiquidBody:
+    """The liquid's :class:`LiquidBody` of interpolated (or exact) ``m`` (``centre_m``, ``inertia_per_kg``)."""
     cav = container.cavity
     up = container.up_axis
-    mass = rho * volume_m3
+    mass = liquid.density_kg_m3 * volume_m3
     offset = float(up @ cav.origin_m) + float(cav.axial_m[0]) + height_m
-    body = LiquidBody(liquid, volume_m3, mass, np.asarray(m["centre_m"], float), mass * m["inertia_per_kg"], up.copy(),
+    return LiquidBody(liquid, volume_m3, mass, np.asarray(m["centre_m"], float), mass * m["inertia_per_kg"], up.copy(),
                       offset)
+
+
+def wet_model(container, liquid, m: dict, volume_m3: float, height_m: float, compressible: bool) -> FilledModalModel:
+    """The :class:`FilledModalModel` of interpolated (or exact) matrices ``m`` (as :meth:`_Segment.at`)."""
+    body = _liquid_body(container, liquid, m, volume_m3, height_m)
+    ma, slip, coupling, eigenvalues = _wall_matrices(container, liquid, m, compressible)
+    return FilledModalModel(container, body, ma, slip, liquid_coupling=coupling, liquid_eigenvalues=eigenvalues,
+                            compressible=compressible)
+
+
+def _segment_matrices(container, liquid, segment: _Segment, height_m: float, compressible: bool) -> tuple:
+    """:func:`_wall_matrices` of ``segment`` interpolated to ``height_m``."""
+    return _wall_matrices(container, liquid, segment.at(height_m), compressible)
+
+
+def _wall_matrices(container, liquid, m: dict, compressible: bool) -> tuple:
+    """``(added_mass, slip, liquid_coupling, liquid_eigenvalues)`` of ``m`` as
+    :class:`FilledModalModel` takes them (the last two None for an incompressible liquid)."""
+    rho = liquid.density_kg_m3
     ma = rho * m["ma"]
     ma = 0.5 * (ma + ma.T)
     slip = 0.5 * (m["slip"] + m["slip"].T)
     if not compressible:
-        return FilledModalModel(container, body, ma, slip)
+        return ma, slip, None, None
     k2, B = liquid_coupling(m["laplace"], m["mass"], m["load"], _k2_cut(container, liquid))
     c = liquid.speed_of_sound_m_per_s
-    return FilledModalModel(container, body, ma, slip, liquid_coupling=math.sqrt(rho) * B,
-                            liquid_eigenvalues=c * c * k2, compressible=True)
+    return ma, slip, math.sqrt(rho) * B, c * c * k2
 
 
 def liquid_coupling(laplace_r, mass_r, load_r, k2_cut: float):

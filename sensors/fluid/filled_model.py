@@ -97,6 +97,11 @@ def _cut(freqs: np.ndarray, limit_hz: float) -> int:
     return n
 
 
+#: What :meth:`FilledModalModel.pending` leaves to its build: added mass, slip, the liquid's
+#: coupling and eigenvalues.
+_PENDING = ("_Ma", "_S", "_B", "_wl2")
+
+
 class FilledModalModel:
     """A container with liquid: a :class:`~sensors.ModalBasis` (what synthesis and the simulated
     sensor take), with the wall's geometry queries delegated to the dry model.
@@ -124,19 +129,40 @@ class FilledModalModel:
         freq_scale, self._shape_scale = material_scaling(self.dry.material, self.material)
         band = container.band_limit_hz * freq_scale
         self._freq_scale, self._band_hz = freq_scale, band
-        if added_mass is None:
-            self._Ma, self._S, self._B, self._wl2 = None, None, None, None
-        else:
-            self._Ma = added_mass * self._shape_scale**2
-            self._S = slip * self._shape_scale**2
-            self._B = (np.zeros((container.n_basis, 0)) if liquid_coupling is None
-                       else liquid_coupling * self._shape_scale)
-            self._wl2 = np.zeros(0) if liquid_eigenvalues is None else np.asarray(liquid_eigenvalues, float)
+        self._set_matrices(added_mass, slip, liquid_coupling, liquid_eigenvalues)
         self.metadata = dict(self.dry.metadata, kind=f"{container.name} with {liquid.liquid.name}",
                              material=self.material.name, liquid=liquid.liquid.to_dict(),
                              liquid_volume_m3=liquid.volume_m3, fill_fraction=self.fill_fraction,
                              liquid_model=self.liquid_model,
                              surface_normal=np.asarray(liquid.surface_normal).tolist(), max_frequency_hz=band)
+
+    def _set_matrices(self, added_mass, slip, liquid_coupling=None, liquid_eigenvalues=None) -> None:
+        if added_mass is None:
+            self._Ma, self._S, self._B, self._wl2 = None, None, None, None
+        else:
+            self._Ma = added_mass * self._shape_scale**2
+            self._S = slip * self._shape_scale**2
+            self._B = (np.zeros((self.container.n_basis, 0)) if liquid_coupling is None
+                       else liquid_coupling * self._shape_scale)
+            self._wl2 = np.zeros(0) if liquid_eigenvalues is None else np.asarray(liquid_eigenvalues, float)
+
+    @classmethod
+    def pending(cls, container, liquid: LiquidBody, compressible: bool, build) -> "FilledModalModel":
+        """The model of ``liquid`` (its :class:`LiquidBody`, now) whose ``added_mass``, ``slip``,
+        ``liquid_coupling`` and ``liquid_eigenvalues`` (as :meth:`__init__` takes them) ``build()``
+        returns when one is first read (``sensors.fluid.fill_table.LAZY_WET_MATRICES``)."""
+        self = cls(container, liquid, None, None, compressible=compressible)
+        for name in _PENDING:                      # None here: read through __getattr__ once built
+            del self.__dict__[name]
+        self._pending = build
+        return self
+
+    def __getattr__(self, name):
+        if name not in _PENDING or "_pending" not in self.__dict__:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        self._set_matrices(*self.__dict__["_pending"]())
+        del self.__dict__["_pending"]
+        return self.__dict__[name]
 
     # The wet eigen-solve runs when a modal quantity is first read, not at construction: an
     # env that fills a container and hears it through a material view (domain randomization,

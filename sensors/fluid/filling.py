@@ -13,6 +13,7 @@ process (``CACHE_SIZES["fluid.containers"]`` and ``["fluid.fills"]``); the physi
 
 from __future__ import annotations
 
+import functools
 import json
 
 import numpy as np
@@ -33,6 +34,13 @@ __all__ = ["container", "filled"]
 
 #: The containers of this process, by object (or model and cavity) and options.
 CONTAINERS = LRU(CACHE_SIZES["fluid.containers"])
+#: Whether an exact fill (``filled(..., interpolated=False)``, or a height a fill table leaves to
+#: the exact solve: the bottle's neck and shoulder, 7 % of FillLevel-v0's fills and then 0.3-0.6 s
+#: each) solves the liquid's loading when the model's modes are first read (True: a fill whose
+#: modes are never heard, FillLevel-v0 with sensing off or a rest-grid fill, needs only the
+#: liquid's body from its mesh) or at once (False, the reference).  The same numbers, later
+#: (``tests/test_lazy_fill.py``).  Read at each call.
+LAZY_EXACT_MATRICES = True
 
 
 def container(obj, *, cavity=None, **options) -> Container:
@@ -163,14 +171,11 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
                                     compressible=compressible)
         mesh = c.liquid_mesh(volume, up)
         body = LiquidBody.in_cavity(c.cavity, liquid, volume, up, mesh)
-        if not compressible:
-            Ma, S = liquid_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at,
-                                   liquid.density_kg_m3)
-            return FilledModalModel(c, body, Ma, S)
-        Ma, S, B, wl2 = acoustic_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at,
-                                         liquid.density_kg_m3, liquid.speed_of_sound_m_per_s,
-                                         LIQUID_MODES_BAND_FACTOR * c.band_limit_hz)
-        return FilledModalModel(c, body, Ma, S, liquid_coupling=B, liquid_eigenvalues=wl2, compressible=True)
+        loading = functools.partial(_loading, c, mesh, liquid, compressible)   # picklable, unlike a closure
+        if LAZY_EXACT_MATRICES:
+            return FilledModalModel.pending(c, body, compressible, loading)
+        Ma, S, B, wl2 = loading()
+        return FilledModalModel(c, body, Ma, S, liquid_coupling=B, liquid_eigenvalues=wl2, compressible=compressible)
 
     key = (liquid, round(volume, 15), tuple(np.round(up, 12)), compressible)
     if interpolated and volume > 0.0 and isinstance(c.cavity, AxisymmetricCavity) \
@@ -180,6 +185,17 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
             return c.fills.get_or_build(key + ("interpolated",),
                                         lambda: table.filled(c, liquid, volume, compressible=compressible))
     return c.fills.get_or_build(key, wet)
+
+
+def _loading(c, mesh, liquid, compressible: bool) -> tuple:
+    """``(added_mass, slip, liquid_coupling, liquid_eigenvalues)`` of the liquid mesh ``mesh`` in
+    container ``c`` (the last two None for an incompressible liquid)."""
+    if not compressible:
+        return (*liquid_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at,
+                                liquid.density_kg_m3), None, None)
+    return acoustic_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at,
+                            liquid.density_kg_m3, liquid.speed_of_sound_m_per_s,
+                            LIQUID_MODES_BAND_FACTOR * c.band_limit_hz)
 
 
 def _checked_fill(obj, cavity, options, *, surface_normal, **amount):
