@@ -79,19 +79,29 @@ def _fresh_caches_per_file():
 
 
 # The test files that take longest from an empty model cache, longest first (summed durations
-# of a cold `pytest -n 2 --dist loadfile --durations=0` run on the project's 2-core machine).
-# `python3 tasks.py test` hands whole files to its two workers in collection order
+# of a cold `pytest -n 2 --dist loadfile --durations` run on the project's 2-core machine; last
+# measured 2026-11-27 at a load of about 10, so the ranking is rough: test_fluid_compressible
+# 1114 s, test_everyday_objects 700 s (its gmsh/skfem references; not listed before, it ran in
+# the middle), test_fill_level_env 697 s, ... test_fluid_analytic 159 s; test_synthesis_stability,
+# 65 s, left the list). `python3 tasks.py test` hands whole files to its two workers in collection order
 # (`--no-loadscope-reorder`; xdist's default sends the files with most tests first, which left
 # these few-test cold builds for last, each on one worker while the other idled). Starting them
 # first lets the many short files fill in behind. A stale list costs only balance, never a test.
 LONGEST_FILES = (
-    "test_fill_level_env.py",
-    "test_fluid_fill_table.py",
-    "test_fluid_coupled.py",
     "test_fluid_compressible.py",
-    "test_synthesis_stability.py",
+    "test_everyday_objects.py",
+    "test_fill_level_env.py",
     "test_generate.py",
+    "test_fluid_fill_table.py",
+    "test_env_info.py",
+    "test_canonical_settle.py",
+    "test_calibration.py",
     "test_modal_accuracy.py",
+    "test_closed_form_features.py",
+    "test_collision_simplify.py",
+    "test_fluid_coupled.py",
+    "test_faults.py",
+    "test_direct_solver.py",
     "test_fluid_analytic.py",
 )
 

