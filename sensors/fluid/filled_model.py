@@ -160,8 +160,10 @@ class FilledModalModel:
     def __getattr__(self, name):
         if name not in _PENDING or "_pending" not in self.__dict__:
             raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
-        self._set_matrices(*self.__dict__["_pending"]())
-        del self.__dict__["_pending"]
+        build = self.__dict__.get("_pending")
+        if build is not None:       # two threads may both build: the same numbers, and no KeyError
+            self._set_matrices(*build())
+            self.__dict__.pop("_pending", None)
         return self.__dict__[name]
 
     # The wet eigen-solve runs when a modal quantity is first read, not at construction: an
