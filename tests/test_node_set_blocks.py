@@ -12,7 +12,8 @@ from sensors import ModalModel
 from sensors.modal import static_correction
 from sensors.modal.static_correction import ContactFlexibility, UnitLoadStore
 
-from test_unit_load_reuse import BAR
+from test_unit_load_reuse import BAR, with_tangents
+from test_unit_load_rows import attachment_bytes, element_nodes
 
 
 @pytest.fixture(scope="module")
@@ -32,21 +33,8 @@ def _episodes(rng, n):
         for sx, sy in [(1, 1), (1, -1), (-1, 1), (-1, -1)]:
             pts.append([0.1 * sx - sx * abs(rng.normal(0, 1e-8)), 0.0125 * sy, -0.0125 + abs(rng.normal(0, 1e-8))])
             normals.append([0, 0, -1.0])
-        points, dirs = [], []
-        for p, nrm in zip(pts, normals):
-            nrm = np.asarray(nrm)
-            t1 = np.cross(nrm, [1.0, 0, 0] if abs(nrm[0]) < 0.9 else [0, 1.0, 0])
-            t1 /= np.linalg.norm(t1)
-            for d in (nrm, t1, np.cross(nrm, t1)):
-                points.append(p)
-                dirs.append(d)
-        out.append((np.array(points, float), np.array(dirs, float)))
+        out.append(with_tangents(pts, normals))
     return out
-
-
-def _element_nodes(flex, pts):
-    tet, _ = flex.model.locator.locate(np.asarray(pts, float))
-    return np.unique(flex.model.elements[tet])
 
 
 @pytest.mark.parametrize("capacity", [256, 40])
@@ -55,14 +43,7 @@ def test_attachment_bases_are_the_same_bytes(bar, monkeypatch, capacity):
     out, hits = {}, {}
     for keep in (True, False):
         monkeypatch.setattr(static_correction, "NODE_SET_BLOCKS", keep)
-        flex = ContactFlexibility(bar)
-        flex.unit_loads = UnitLoadStore(flex, capacity=capacity)
-        got = []
-        for pts, dirs in episodes:
-            basis = flex.attachment_basis(pts, dirs)
-            nodes = _element_nodes(flex, np.unique(pts, axis=0))   # what the Ritz rows ask for
-            got.append((basis.stiffness.tobytes(), basis.coupling.tobytes(), basis.nodal(nodes).tobytes()))
-        out[keep] = got
+        out[keep], flex = attachment_bytes(bar, capacity, episodes)
         hits[keep] = flex.unit_loads._blocks.hits
     assert out[True] == out[False]
     assert hits[False] == 0 and hits[True] >= 20          # the kept blocks were used
@@ -84,7 +65,7 @@ class _Perturbed:
 def test_blocks_of_slots_solved_again_are_not_served(bar):
     flex = ContactFlexibility(bar)
     (pts, dirs), = _episodes(np.random.default_rng(12), 1)
-    a = _element_nodes(flex, pts[:1])                          # one pad's element nodes
+    a = element_nodes(flex, pts[:1])                          # one pad's element nodes
     store = flex.unit_loads = UnitLoadStore(flex, capacity=len(a))
     cols = store.columns(a)
     before = store.node_set_blocks(a, cols)

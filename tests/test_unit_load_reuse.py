@@ -41,15 +41,20 @@ def grasp_contacts(rng, n_table=4):
     for sx, sy in [(1, 1), (1, -1), (-1, 1), (-1, -1)][:n_table]:
         pts.append([0.1 * sx, 0.0125 * sy, -0.0125])
         normals.append([0, 0, -1.0])
+    return with_tangents(pts, normals)
+
+
+def with_tangents(pts, normals):
+    """Each point three times with its unit normal and two unit tangents: (points, directions)."""
     points, dirs = [], []
     for p, n in zip(pts, normals):
-        n = np.asarray(n)
+        n = np.asarray(n, float)
         t1 = np.cross(n, [1.0, 0, 0] if abs(n[0]) < 0.9 else [0, 1.0, 0])
         t1 /= np.linalg.norm(t1)
         for d in (n, t1, np.cross(n, t1)):
             points.append(p)
             dirs.append(d)
-    return np.array(points), np.array(dirs)
+    return np.array(points, float), np.array(dirs, float)
 
 
 def span_residual(flex, A, B):

@@ -19,7 +19,8 @@ def bar():
     return ModalModel.bar(**BAR, material="aluminium", resolution=0.008, cache=False, max_frequency_hz=12000.0)
 
 
-def _element_nodes(flex, pts):
+def element_nodes(flex, pts):
+    """The mesh nodes of the elements that hold ``pts``."""
     tet, _ = flex.model.locator.locate(np.asarray(pts, float))
     return np.unique(flex.model.elements[tet])
 
@@ -34,7 +35,7 @@ def test_rows_equal_the_columns_rows_through_evictions(bar, monkeypatch):
         flex.attachment_basis(pts, dirs)                       # fills and evicts slots
         if step == 9:
             store.slots.clear()                                # as clear_all: slots come back elsewhere
-        nodes = _element_nodes(flex, pts)
+        nodes = element_nodes(flex, pts)
         own = nodes[: min(len(nodes), 12)]
         cols = store.columns(own)
         for ask in (own, nodes, nodes[::-1], np.concatenate([own[:3], [0, 1]])):   # held, not held, mixed
@@ -53,7 +54,7 @@ def test_stale_rows_would_be_caught(bar, monkeypatch):
     store = flex.unit_loads = UnitLoadStore(flex, capacity=8)
     rng = np.random.default_rng(9)
     pts, dirs = grasp_contacts(rng, n_table=2)
-    nodes = _element_nodes(flex, pts)[:8]
+    nodes = element_nodes(flex, pts)[:8]
     cols = store.columns(nodes)
     store.rows(nodes, cols)                                    # rows of these nodes now kept
     store.node_rows[:] = np.nan                                # what stale blocks would serve
@@ -67,12 +68,18 @@ def test_attachment_bases_are_the_same_bytes(bar, monkeypatch, capacity):
     out = {}
     for keep in (True, False):
         monkeypatch.setattr(static_correction, "KEEP_NODE_ROWS", keep)
-        flex = ContactFlexibility(bar)
-        flex.unit_loads = UnitLoadStore(flex, capacity=capacity)
-        got = []
-        for pts, dirs in grasps:
-            basis = flex.attachment_basis(pts, dirs)
-            nodes = _element_nodes(flex, pts)
-            got.append((basis.stiffness.tobytes(), basis.coupling.tobytes(), basis.nodal(nodes).tobytes()))
-        out[keep] = got
+        out[keep], _ = attachment_bytes(bar, capacity, grasps)
     assert out[True] == out[False]
+
+
+def attachment_bytes(bar, capacity, contact_sets):
+    """``(bytes, flex)``: the attachment basis of each contact set (stiffness, coupling, rows
+    at its elements' nodes) as bytes, from a new store of ``capacity`` nodes, in order."""
+    flex = ContactFlexibility(bar)
+    flex.unit_loads = UnitLoadStore(flex, capacity=capacity)
+    got = []
+    for pts, dirs in contact_sets:
+        basis = flex.attachment_basis(pts, dirs)
+        nodes = element_nodes(flex, pts)      # what the Ritz rows ask for
+        got.append((basis.stiffness.tobytes(), basis.coupling.tobytes(), basis.nodal(nodes).tobytes()))
+    return got, flex
