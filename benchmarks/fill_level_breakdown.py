@@ -28,100 +28,55 @@ import aas_gym  # noqa: F401  (registers the envs)
 import aas_gym.envs.fill_level as fill_level
 from aas_gym import rest_states
 from aas_gym.envs import base
+from _exclusive import ExclusiveTimes  # benchmarks/, the script's folder
 
 
-#: ``--parts``: (module, attribute path, label); a function is timed wherever it was imported.
+#: ``--parts``: (module, class or None, function, label); a module-level function is timed
+#: wherever it was imported by name.
 PARTS = (
-    ("aas_gym.envs.fill_level", "FillLevelEnv._fill", "fill: wet model (rest)"),
-    ("sensors.fluid.fill_table", "_Segment.at", "fill: table interpolation"),
-    ("sensors.fluid.fill_table", "liquid_coupling", "fill: liquid modes (eigh)"),
-    ("sensors.fluid.filled_model", "FilledModalModel.__init__", "fill: FilledModalModel()"),
-    ("aas_gym.envs.fill_level", "FillLevelEnv._set_liquid_mass", "fill: MuJoCo mass"),
-    ("sensors.fluid.filled_model", "FilledModalModel._wet_solution", "wet: eigen-solve"),
-    ("sensors.fluid.filled_model", "FilledModalModel.rigid_coefficients", "wet: rigid modes"),
-    ("sensors.fluid.filled_model", "FilledModalModel.mode_shapes_at", "wet: shapes at points"),
-    ("sensors.fluid.filled_model", "FilledModalModel.rigid_mode_shapes_at", "wet: rigid shapes at points"),
-    ("sensors.fluid.container", "Container.basis_shapes_at", "wet: basis at points"),
-    ("sensors.mesh.locator", "TetLocator.locate", "wet: locate points"),
-    ("aas_gym.sim_sensor", "SimAcousticSensor.sense", "sense (rest)"),
-    ("aas_gym.sim_sensor", "SimAcousticSensor.grasp_contacts", "sense: grasp contacts"),
-    ("aas_gym.touching_grasp", "touching_grasp", "sense: touching grasp"),
-    ("sensors.synthesis.feature_recording", "simulate_features", "features (rest: noise, metadata)"),
-    ("sensors.synthesis.feature_recording", "_build_spectra", "spectra (rest: stream)"),
-    ("sensors.synthesis.modal_system", "ModalSystem.build", "system (rest)"),
-    ("sensors.modal.spring_modes", "spring_modes", "springs (rest)"),
-    ("sensors.modal.spring_modes", "SpringModes.__init__", "springs: SpringModes"),
-    ("sensors.modal.spring_modes", "merge_close_springs", "springs: merge"),
-    ("sensors.modal.damping", "modal_damping_parts", "system: damping"),
-    ("sensors.synthesis.low_rank_modes", "low_rank_modes", "system: low-rank modes"),
-    ("sensors.synthesis.lti", "lti_parts", "system: lti parts (rest)"),
-    ("sensors.synthesis.lti", "mkl_eig", "system: state eigen-solve"),
-    ("sensors.synthesis.drive_spectrum", "drive_spectrum", "drive spectrum"),
-    ("sensors.synthesis.window_spectra", "window_spectra", "window spectra"),
+    ("aas_gym.envs.fill_level", "FillLevelEnv", "_fill", "fill: wet model (rest)"),
+    ("sensors.fluid.fill_table", "_Segment", "at", "fill: table interpolation"),
+    ("sensors.fluid.fill_table", None, "liquid_coupling", "fill: liquid modes (eigh)"),
+    ("sensors.fluid.filled_model", "FilledModalModel", "__init__", "fill: FilledModalModel()"),
+    ("aas_gym.envs.fill_level", "FillLevelEnv", "_set_liquid_mass", "fill: MuJoCo mass"),
+    ("sensors.fluid.filled_model", "FilledModalModel", "_wet_solution", "wet: eigen-solve"),
+    ("sensors.fluid.filled_model", "FilledModalModel", "rigid_coefficients", "wet: rigid modes"),
+    ("sensors.fluid.filled_model", "FilledModalModel", "mode_shapes_at", "wet: shapes at points"),
+    ("sensors.fluid.filled_model", "FilledModalModel", "rigid_mode_shapes_at", "wet: rigid shapes at points"),
+    ("sensors.fluid.container", "Container", "basis_shapes_at", "wet: basis at points"),
+    ("sensors.mesh.locator", "TetLocator", "locate", "wet: locate points"),
+    ("aas_gym.sim_sensor", "SimAcousticSensor", "sense", "sense (rest)"),
+    ("aas_gym.sim_sensor", "SimAcousticSensor", "grasp_contacts", "sense: grasp contacts"),
+    ("aas_gym.touching_grasp", None, "touching_grasp", "sense: touching grasp"),
+    ("sensors.synthesis.feature_recording", None, "simulate_features", "features (rest: noise, metadata)"),
+    ("sensors.synthesis.feature_recording", None, "_build_spectra", "spectra (rest: stream)"),
+    ("sensors.synthesis.modal_system", "ModalSystem", "build", "system (rest)"),
+    ("sensors.modal.spring_modes", None, "spring_modes", "springs (rest)"),
+    ("sensors.modal.spring_modes", "SpringModes", "__init__", "springs: SpringModes"),
+    ("sensors.modal.spring_modes", None, "merge_close_springs", "springs: merge"),
+    ("sensors.modal.damping", None, "modal_damping_parts", "system: damping"),
+    ("sensors.synthesis.low_rank_modes", None, "low_rank_modes", "system: low-rank modes"),
+    ("sensors.synthesis.lti", None, "lti_parts", "system: lti parts (rest)"),
+    ("sensors.synthesis.lti", None, "mkl_eig", "system: state eigen-solve"),
+    ("sensors.synthesis.drive_spectrum", None, "drive_spectrum", "drive spectrum"),
+    ("sensors.synthesis.window_spectra", None, "window_spectra", "window spectra"),
+    ("mujoco", None, "mj_step", "physics: mj_step"),
 )
 
 
-def _exclusive_timers(clock=time.thread_time):
-    """Patch :data:`PARTS` and ``mujoco.mj_step`` with exclusive timers: ({label: s}, reset)."""
-    import functools
-    import importlib
-    import sys
-
-    stack, spent = [["other", clock()]], {}
-
-    def timed(f, label):
-        @functools.wraps(f)
-        def g(*a, **k):
-            t = clock()
-            top = stack[-1]
-            spent[top[0]] = spent.get(top[0], 0.0) + t - top[1]
-            stack.append([label, t])
-            try:
-                return f(*a, **k)
-            finally:
-                t = clock()
-                done = stack.pop()
-                spent[done[0]] = spent.get(done[0], 0.0) + t - done[1]
-                stack[-1][1] = t
-        return g
-
-    for module_name, path, label in PARTS:
-        owner = importlib.import_module(module_name)
-        *outer, name = path.split(".")
-        for part in outer:
-            owner = getattr(owner, part)
-        f = owner.__dict__[name] if isinstance(owner, type) else getattr(owner, name)
-        if isinstance(f, functools.cached_property):
-            f.func = timed(f.func, label)
-        elif isinstance(f, classmethod):
-            setattr(owner, name, classmethod(timed(f.__func__, label)))
-        elif isinstance(owner, type):
-            setattr(owner, name, timed(f, label))
-        else:                               # a function: wherever it was imported by name
-            g = timed(f, label)
-            for m in list(sys.modules.values()):
-                for k, v in list(getattr(m, "__dict__", {}).items()):
-                    if v is f:
-                        setattr(m, k, g)
-    mujoco.mj_step = timed(mujoco.mj_step, "physics: mj_step")
-
-    def reset():
-        spent.clear()
-        stack[:] = [["other", clock()]]
-    return spent, reset
-
-
 def _parts(env, n: int) -> None:
-    spent, reset = _exclusive_timers()
-    for s in range(5):
-        env.reset(seed=s)
-    reset()
-    t0 = time.thread_time()
-    for s in range(n):
-        env.reset(seed=s)
-    total = time.thread_time() - t0
+    times = ExclusiveTimes(PARTS, clock=time.thread_time, everywhere=True)
+    with times:
+        for s in range(5):
+            env.reset(seed=s)
+        times.reset()
+        t0 = time.thread_time()
+        for s in range(n):
+            env.reset(seed=s)
+        total = time.thread_time() - t0
+    spent = dict(times.seconds)
     print(f"exclusive CPU ms per episode (thread time; {n} episodes, {total / n * 1e3:.2f} ms each):")
-    spent["other"] = total - sum(v for k, v in spent.items() if k != "other")
+    spent["other"] = total - sum(spent.values())
     for k, v in sorted(spent.items(), key=lambda kv: -kv[1]):
         print(f"  {k:34s} {v / n * 1e3:7.3f}")
 

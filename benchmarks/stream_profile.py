@@ -59,6 +59,7 @@ import time  # noqa: E402
 import gymnasium as gym  # noqa: E402
 
 import aas_gym  # noqa: E402,F401  (registers the envs)
+from _exclusive import ExclusiveTimes  # noqa: E402  (benchmarks/, the script's folder)
 
 _clock = time.process_time
 
@@ -92,51 +93,18 @@ PARTS = (
 )
 
 
-class StreamProfile:
+class StreamProfile(ExclusiveTimes):
     """Exclusive CPU time and calls per part while active (a context manager; every wrapped
     function is restored on exit), and the stream's events."""
 
     def __init__(self) -> None:
-        self.seconds = collections.Counter()
-        self.calls = collections.Counter()
+        super().__init__(PARTS, clock=_clock)
         self.events = collections.Counter()
-        self._stack: list[list] = []     # [part, start of its current exclusive stretch]
-        self._restore: list = []
-
-    def _wrap(self, owner, name: str, part: str) -> None:
-        raw = owner.__dict__[name] if isinstance(owner, type) else getattr(owner, name)
-        kind = type(raw) if isinstance(raw, (classmethod, staticmethod)) else None
-        func = raw.__func__ if kind else raw
-        stack, seconds, calls = self._stack, self.seconds, self.calls
-
-        def timed(*args, **kwargs):
-            t = _clock()
-            if stack:
-                seconds[stack[-1][0]] += t - stack[-1][1]
-            stack.append([part, t])
-            try:
-                return func(*args, **kwargs)
-            finally:
-                t = _clock()
-                seconds[part] += t - stack.pop()[1]
-                calls[part] += 1
-                if stack:
-                    stack[-1][1] = t
-
-        setattr(owner, name, kind(timed) if kind else timed)
-        self._restore.append((owner, name, raw))
 
     def __enter__(self) -> "StreamProfile":
-        for module, cls, name, part in PARTS:
-            mod = importlib.import_module(module)
-            self._wrap(getattr(mod, cls) if cls else mod, name, part)
+        super().__enter__()
         self._count_events()
         return self
-
-    def __exit__(self, *exc) -> None:
-        for owner, name, raw in reversed(self._restore):
-            setattr(owner, name, raw)
-        self._restore.clear()
 
     def _count_events(self) -> None:
         from aas_gym.sim_stream import SimAcousticStream
@@ -170,8 +138,7 @@ class StreamProfile:
                           (SimAcousticStream, "read_state", timed_read)]
 
     def reset(self) -> None:
-        self.seconds.clear()
-        self.calls.clear()
+        super().reset()
         self.events.clear()
 
 
