@@ -51,7 +51,6 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import collections  # noqa: E402
-import contextlib  # noqa: E402
 import importlib  # noqa: E402
 import math  # noqa: E402
 import time  # noqa: E402
