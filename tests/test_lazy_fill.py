@@ -49,14 +49,14 @@ def test_a_lazy_fill_is_the_fill_made_at_once(small_can, liquid, compressible, m
         lazy = fill(small_can, liquid, fraction, compressible, True, monkeypatch)
         eager = fill(small_can, liquid, fraction, compressible, False, monkeypatch)
         # the body at once, nothing of the wall's matrices yet
-        assert "_pending" in lazy.__dict__ and "_Ma" not in lazy.__dict__ and "_Ma" in eager.__dict__
+        assert "_wall" not in lazy.__dict__ and "_wall" in eager.__dict__
         for field in ("volume_m3", "mass_kg", "centre_of_mass_m", "inertia_kg_m2", "surface_normal",
                       "surface_offset_m"):
             assert np.array_equal(getattr(lazy.liquid, field), getattr(eager.liquid, field)), field
         assert lazy.metadata == eager.metadata
         copied = pickle.loads(pickle.dumps(lazy))        # the pending build travels (a process pool)
         got, want = modal_quantities(lazy, points), modal_quantities(eager, points)
-        assert "_pending" not in lazy.__dict__
+        assert "_wall" in lazy.__dict__
         assert np.array_equal(modal_quantities(copied, points)["frequencies"], want["frequencies"])
         for name in want:
             assert got[name].shape == want[name].shape and np.array_equal(got[name], want[name]), name
@@ -67,7 +67,17 @@ def test_a_lazy_fill_refuses_unknown_attributes(small_can, monkeypatch):
     lazy = fill(small_can, get_liquid("water"), 0.4, True, True, monkeypatch)
     with pytest.raises(AttributeError):
         lazy.nodes_m                                # noqa: B018 (a model without mesh: no nodes)
-    assert "_pending" in lazy.__dict__              # an unknown attribute does not build
+    assert "_wall" not in lazy.__dict__            # an unknown attribute does not build
+
+
+def test_a_material_view_of_a_lazy_fill_stays_lazy_and_shares_its_build(small_can, monkeypatch):
+    lazy = fill(small_can, get_liquid("water"), 0.4, True, True, monkeypatch)
+    built, build = [], lazy._build
+    lazy._build = lambda: built.append(1) or build()
+    view = lazy.with_material(scaled_material(lazy.material, modulus_scale=1.3, density_scale=0.9))
+    assert "_wall" not in view.__dict__ and "_wall" not in lazy.__dict__     # nothing read yet
+    view.frequencies_hz, lazy.frequencies_hz                                 # noqa: B018
+    assert built == [1]                                                      # one build for both
 
 
 def episodes(enabled: bool, lazy: bool, monkeypatch, seeds=(0, 1, 2)):
@@ -112,7 +122,7 @@ def test_a_lazy_exact_fill_is_the_exact_fill_made_at_once(small_can, compressibl
         small_can.fills.clear()                     # each side solves its own
         models[lazy] = filled(small_can, 0.45, liquid="honey", compressible=compressible, interpolated=False)
     lazy, eager = models[True], models[False]
-    assert "_pending" in lazy.__dict__ and "_Ma" not in lazy.__dict__ and "_Ma" in eager.__dict__
+    assert "_wall" not in lazy.__dict__ and "_wall" in eager.__dict__
     for field in ("volume_m3", "mass_kg", "centre_of_mass_m", "inertia_kg_m2", "surface_normal", "surface_offset_m"):
         assert np.array_equal(getattr(lazy.liquid, field), getattr(eager.liquid, field)), field
     got, want = modal_quantities(lazy, points), modal_quantities(eager, points)

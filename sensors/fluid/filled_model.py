@@ -97,9 +97,14 @@ def _cut(freqs: np.ndarray, limit_hz: float) -> int:
     return n
 
 
-#: What :meth:`FilledModalModel.pending` leaves to its build: added mass, slip, the liquid's
-#: coupling and eigenvalues.
-_PENDING = ("_Ma", "_S", "_B", "_wl2")
+def _unscaled_wall(model: "FilledModalModel") -> tuple:
+    """``model``'s wall matrices as :class:`FilledModalModel` takes them (its material's scale
+    taken off): what a material view of it is built from."""
+    ma, s, b, wl2 = model._wall
+    if ma is None:
+        return None, None, None, None
+    scale = model._shape_scale
+    return ma / scale**2, s / scale**2, b / scale, wl2
 
 
 class FilledModalModel:
@@ -129,47 +134,48 @@ class FilledModalModel:
         freq_scale, self._shape_scale = material_scaling(self.dry.material, self.material)
         band = container.band_limit_hz * freq_scale
         self._freq_scale, self._band_hz = freq_scale, band
-        self._set_matrices(added_mass, slip, liquid_coupling, liquid_eigenvalues)
+        self.__dict__["_wall"] = self._scaled(added_mass, slip, liquid_coupling, liquid_eigenvalues)
         self.metadata = dict(self.dry.metadata, kind=f"{container.name} with {liquid.liquid.name}",
                              material=self.material.name, liquid=liquid.liquid.to_dict(),
                              liquid_volume_m3=liquid.volume_m3, fill_fraction=self.fill_fraction,
                              liquid_model=self.liquid_model,
                              surface_normal=np.asarray(liquid.surface_normal).tolist(), max_frequency_hz=band)
 
-    def _set_matrices(self, added_mass, slip, liquid_coupling=None, liquid_eigenvalues=None) -> None:
+    def _scaled(self, added_mass, slip, liquid_coupling=None, liquid_eigenvalues=None) -> tuple:
         if added_mass is None:
-            self._Ma, self._S, self._B, self._wl2 = None, None, None, None
-        else:
-            self._Ma = added_mass * self._shape_scale**2
-            self._S = slip * self._shape_scale**2
-            self._B = (np.zeros((self.container.n_basis, 0)) if liquid_coupling is None
-                       else liquid_coupling * self._shape_scale)
-            self._wl2 = np.zeros(0) if liquid_eigenvalues is None else np.asarray(liquid_eigenvalues, float)
+            return None, None, None, None
+        return (added_mass * self._shape_scale**2, slip * self._shape_scale**2,
+                (np.zeros((self.container.n_basis, 0)) if liquid_coupling is None
+                 else liquid_coupling * self._shape_scale),
+                np.zeros(0) if liquid_eigenvalues is None else np.asarray(liquid_eigenvalues, float))
 
     @classmethod
-    def pending(cls, container, liquid: LiquidBody, compressible: bool, build) -> "FilledModalModel":
+    def pending(cls, container, liquid: LiquidBody, compressible: bool, build, material=None) -> "FilledModalModel":
         """The model of ``liquid`` (its :class:`LiquidBody`, now) whose ``added_mass``, ``slip``,
         ``liquid_coupling`` and ``liquid_eigenvalues`` (as :meth:`__init__` takes them) ``build()``
         returns when one is first read (``sensors.fluid.fill_table.LAZY_WET_MATRICES``)."""
-        self = cls(container, liquid, None, None, compressible=compressible)
-        for name in _PENDING:                      # None here: read through __getattr__ once built
-            del self.__dict__[name]
-        self._pending = build
+        self = cls(container, liquid, None, None, material, compressible=compressible)
+        del self.__dict__["_wall"]
+        self._build = build
         return self
 
-    def __getattr__(self, name):
-        if name not in _PENDING or "_pending" not in self.__dict__:
-            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
-        build = self.__dict__.get("_pending")
-        if build is not None:       # two threads may both build: the same numbers, and no KeyError
-            self._set_matrices(*build())
-            self.__dict__.pop("_pending", None)
-        return self.__dict__[name]
-
-    # The wet eigen-solve runs when a modal quantity is first read, not at construction: an
-    # env that fills a container and hears it through a material view (domain randomization,
+    # The wall's matrices and the wet eigen-solve are both made when first read, not at
+    # construction: an env with sensing off reads neither (it needs only the liquid's body), and
+    # an env that hears a filled container through a material view (domain randomization,
     # ``with_material``) reads only the view's modes, so the filled model's own solve would be
-    # thrown away. The quantities are exactly those of solving at construction.
+    # thrown away. The quantities are exactly those of making them at construction.
+    @functools.cached_property
+    def _wall(self) -> tuple:
+        """(M_a, S, B, w_l^2): added mass, slip, liquid coupling (scaled to the wall's material)
+        and the liquid's eigenvalues; Nones without liquid. Given to :meth:`__init__`, or built
+        by :meth:`pending`'s build."""
+        return self._scaled(*self._build())
+
+    _Ma = property(lambda self: self._wall[0])
+    _S = property(lambda self: self._wall[1])
+    _B = property(lambda self: self._wall[2])
+    _wl2 = property(lambda self: self._wall[3])
+
     @functools.cached_property
     def _wet_solution(self) -> tuple[np.ndarray, np.ndarray]:
         """(w^2 (r,) [rad^2/s^2], Q (n_basis, r)) of the wet modes up to the band limit."""
@@ -278,11 +284,9 @@ class FilledModalModel:
         material = get_material(material)
         if material == self.material:
             return self
-        ma = None if self._Ma is None else self._Ma / self._shape_scale**2
-        s = None if self._S is None else self._S / self._shape_scale**2
-        b = None if self._B is None else self._B / self._shape_scale
-        return FilledModalModel(self.container, self.liquid, ma, s, material, liquid_coupling=b,
-                                liquid_eigenvalues=self._wl2, compressible=self.compressible)
+        # a view of a model whose wall is not built yet stays unbuilt; the two share one build
+        return FilledModalModel.pending(self.container, self.liquid, self.compressible,
+                                        functools.partial(_unscaled_wall, self), material)
 
     # ---------------------------------------------------------------- geometry (the wall's)
 
