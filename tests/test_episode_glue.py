@@ -1,0 +1,170 @@
+"""The glue cuts of a randomized episode's sensing (issue 27): FAST_POINT_CHECKS
+(``sensors.modal.basis``), LEAN_FEATURE_STREAM (``sensors.synthesis.feature_recording``) and
+ONE_GROUP_RELEVANT (``sensors.synthesis.modal_system``) give the reference's bytes: per cut on
+its own inputs (odd ones included), and for whole envs (observations, rewards, infos over
+randomized episodes of GraspPosition-v0 and ObjectRecognition-v0, caches emptied between)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sensors._infra.lru import clear_all
+from sensors.modal import basis
+from sensors.modal.basis import MAX_POINT_COORDINATE_M, check_points_m
+from sensors.synthesis import feature_recording, modal_system
+
+FLAGS = ((basis, "FAST_POINT_CHECKS"), (feature_recording, "LEAN_FEATURE_STREAM"),
+         (modal_system, "ONE_GROUP_RELEVANT"))
+
+
+@pytest.fixture
+def restore_flags():
+    saved = [(m, n, getattr(m, n)) for m, n in FLAGS]
+    yield
+    for m, n, v in saved:
+        setattr(m, n, v)
+
+
+def _set_all(value: bool) -> None:
+    for m, n in FLAGS:
+        setattr(m, n, value)
+
+
+def _outcome(f, x):
+    try:
+        out = f(x)
+    except Exception as e:  # noqa: BLE001  (the errors must agree too)
+        return type(e), str(e)
+    return out.dtype.str, out.shape, out.tobytes(), out.flags.c_contiguous
+
+
+POINTS = [
+    np.random.default_rng(0).normal(0, 0.05, (7, 3)),
+    np.zeros((0, 3)),
+    np.array([[0.0, -0.0, 1e-300]]),
+    np.array([[np.nan, 0.0, 0.0]]),
+    np.array([[0.0, np.inf, 0.0]]),
+    np.array([[0.0, 0.0, -np.inf]]),
+    np.array([[MAX_POINT_COORDINATE_M, 0.0, 0.0]]),
+    np.array([[np.nextafter(MAX_POINT_COORDINATE_M, np.inf), 0.0, 0.0]]),
+    np.array([[-2e6, 0.0, 0.0]]),
+    np.asfortranarray(np.random.default_rng(1).normal(0, 0.05, (5, 3))),
+    np.random.default_rng(2).normal(0, 0.05, (3, 5)).T,          # a strided view
+    np.random.default_rng(3).normal(0, 0.05, (4, 3)).astype(np.float32),
+    np.array([0.01, 0.02, 0.03]),
+    np.zeros((2, 4)),
+    np.array([[1, 2, 3]]),
+    np.array([[True, False, True]]),
+    [[0.0, 0.1, 0.2]],
+    [[False, 0.0, 0.0]],
+    np.array([["a", "b", "c"]]),
+]
+
+
+@pytest.mark.parametrize("i", range(len(POINTS)))
+def test_point_checks_agree_with_the_general_checks(i, restore_flags):
+    x = POINTS[i]
+    basis.FAST_POINT_CHECKS = False
+    want = _outcome(check_points_m, x)
+    basis.FAST_POINT_CHECKS = True
+    assert _outcome(check_points_m, x) == want
+
+
+def test_point_checks_return_a_copy(restore_flags):
+    basis.FAST_POINT_CHECKS = True
+    p = np.random.default_rng(4).normal(0, 0.05, (6, 3))
+    out = check_points_m(p)
+    assert out is not p and not np.shares_memory(out, p)
+
+
+def _relevant_cases(rng):
+    """(kept, C, b, o, keep_unobservable, excited): coupled damping (one group), with drive or
+    microphone gains zero, negligible or absent, and initial-state excitation."""
+    cases = []
+    for k in range(60):
+        r = int(rng.integers(3, 30))
+        Q = rng.normal(size=(2, r))
+        C = np.diag(rng.uniform(1, 50, r)) + Q.T @ Q
+        b, o = rng.normal(size=r), rng.normal(size=r)
+        kind = k % 6
+        if kind == 1:
+            b[:] = 0.0
+        elif kind == 2:
+            o[:] = 1e-20 * rng.normal(size=r)
+            o[0] = 1.0
+        elif kind == 3:
+            o[:] = 0.0
+        elif kind == 4:
+            b[rng.random(r) < 0.5] = 0.0
+        excited = rng.random(r) < (0.2 if k % 4 == 0 else 0.0)
+        kept = np.flatnonzero(rng.random(r) < 0.9)
+        cases.append((kept, C, b, o, bool(k % 3 == 0), excited))
+    return cases
+
+
+def test_one_group_relevant_modes_are_the_labelled_ones(restore_flags):
+    cases = _relevant_cases(np.random.default_rng(5))
+    taken = 0
+    for kept, C, b, o, unobs, excited in cases:
+        modal_system.ONE_GROUP_RELEVANT = False
+        want = modal_system._relevant_modes(kept, C, b, o, unobs, excited)
+        modal_system.ONE_GROUP_RELEVANT = True
+        got = modal_system._relevant_modes(kept, C, b, o, unobs, excited)
+        assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+        taken += len(want) not in (0, len(kept))
+    # every case is one group: all modes kept or none (no case was vacuous on both sides)
+    assert taken == 0
+    outcomes = {len(modal_system._relevant_modes(k, C, b, o, u, e)) == 0 for k, C, b, o, u, e in cases if len(k)}
+    assert outcomes == {True, False}
+
+
+def _flat(x, path="", out=None):
+    """(path, bytes) of every leaf of an observation or info (arrays by dtype, shape, bytes)."""
+    out = [] if out is None else out
+    if isinstance(x, dict):
+        for k in sorted(x, key=str):
+            _flat(x[k], f"{path}/{k}", out)
+    elif isinstance(x, (list, tuple)):
+        for i, v in enumerate(x):
+            _flat(v, f"{path}[{i}]", out)
+    elif isinstance(x, np.ndarray) and x.dtype != object:
+        out.append((path, (x.dtype.str, x.shape, x.tobytes())))
+    elif isinstance(x, np.ndarray):
+        _flat(x.tolist(), path, out)
+    elif isinstance(x, (float, np.floating)):
+        out.append((path, np.float64(x).tobytes()))
+    else:
+        out.append((path, repr(x)))
+    return out
+
+
+def _run(env_id: str, steps: int, seed: int):
+    import gymnasium as gym
+
+    import aas_gym  # noqa: F401
+
+    clear_all()
+    env = gym.make(env_id)
+    env.action_space.seed(seed)
+    obs, info = env.reset(seed=seed)
+    trace = [_flat(obs), _flat(info)]
+    for _ in range(steps):
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        trace += [_flat(obs), _flat(info), np.float64(reward).tobytes(), (terminated, truncated)]
+        if terminated or truncated:
+            obs, info = env.reset()
+            trace += [_flat(obs), _flat(info)]
+    env.close()
+    return trace
+
+
+@pytest.mark.parametrize("env_id,steps", [("aas_gym/GraspPosition-v0", 200), ("aas_gym/ObjectRecognition-v0", 200)])
+def test_envs_give_the_same_bytes_with_the_cuts(env_id, steps, restore_flags):
+    _set_all(False)
+    want = _run(env_id, steps, seed=7)
+    _set_all(True)
+    got = _run(env_id, steps, seed=7)
+    assert len(got) == len(want)
+    for i, (g, w) in enumerate(zip(got, want)):
+        assert g == w, f"{env_id}: step record {i} differs"
