@@ -6,6 +6,8 @@ randomized episodes of GraspPosition-v0 and ObjectRecognition-v0, caches emptied
 
 from __future__ import annotations
 
+import gc
+
 import numpy as np
 import pytest
 
@@ -139,13 +141,14 @@ def _flat(x, path="", out=None):
     return out
 
 
-def _run(env_id: str, steps: int, seed: int):
+def _run(env_id: str, steps: int, seed: int, **kwargs):
     import gymnasium as gym
 
     import aas_gym  # noqa: F401
 
     clear_all()
-    env = gym.make(env_id)
+    gc.collect()
+    env = gym.make(env_id, **kwargs)
     env.action_space.seed(seed)
     obs, info = env.reset(seed=seed)
     trace = [_flat(obs), _flat(info)]
@@ -156,15 +159,24 @@ def _run(env_id: str, steps: int, seed: int):
             obs, info = env.reset()
             trace += [_flat(obs), _flat(info)]
     env.close()
+    del env
+    clear_all()
+    gc.collect()
     return trace
 
 
-@pytest.mark.parametrize("env_id,steps", [("aas_gym/GraspPosition-v0", 200), ("aas_gym/ObjectRecognition-v0", 200)])
-def test_envs_give_the_same_bytes_with_the_cuts(env_id, steps, restore_flags):
+# three of the paper's objects keep the process below ~2.5 GB (each model holds its unit-load
+# store); their episodes randomize as the default env's do
+ENVS = [("aas_gym/GraspPosition-v0", 200, {}),
+        ("aas_gym/ObjectRecognition-v0", 200, {"objects": ("aluminium_bar", "pla_tube", "wood_bar")})]
+
+
+@pytest.mark.parametrize("env_id,steps,kwargs", ENVS)
+def test_envs_give_the_same_bytes_with_the_cuts(env_id, steps, kwargs, restore_flags):
     _set_all(False)
-    want = _run(env_id, steps, seed=7)
+    want = _run(env_id, steps, seed=7, **kwargs)
     _set_all(True)
-    got = _run(env_id, steps, seed=7)
+    got = _run(env_id, steps, seed=7, **kwargs)
     assert len(got) == len(want)
     for i, (g, w) in enumerate(zip(got, want)):
         assert g == w, f"{env_id}: step record {i} differs"
