@@ -1,12 +1,15 @@
 """The glue cuts of a randomized episode's sensing (issue 27): FAST_POINT_CHECKS
-(``sensors.modal.basis``), LEAN_FEATURE_STREAM (``sensors.synthesis.feature_recording``) and
-ONE_GROUP_RELEVANT (``sensors.synthesis.modal_system``) give the reference's bytes: per cut on
+(``sensors.modal.basis``), LEAN_FEATURE_STREAM (``sensors.synthesis.feature_recording``),
+ONE_GROUP_RELEVANT (``sensors.synthesis.modal_system``), FEW_EXTRA_POINTS
+(``sensors.modal.spring_modes``) and KIND_EQUALITY (``aas_gym.contacts``) give the reference's
+bytes: per cut on
 its own inputs (odd ones included), and for whole envs (observations, rewards, infos over
 randomized episodes of GraspPosition-v0 and ObjectRecognition-v0, caches emptied between)."""
 
 from __future__ import annotations
 
 import gc
+import sys
 
 import numpy as np
 import pytest
@@ -14,10 +17,14 @@ import pytest
 from sensors._infra.lru import clear_all
 from sensors.modal import basis
 from sensors.modal.basis import MAX_POINT_COORDINATE_M, check_points_m
+import sensors.modal.spring_modes  # noqa: E402  (the module: the package exports a function of its name)
 from sensors.synthesis import feature_recording, modal_system
 
+from aas_gym import contacts
+
 FLAGS = ((basis, "FAST_POINT_CHECKS"), (feature_recording, "LEAN_FEATURE_STREAM"),
-         (modal_system, "ONE_GROUP_RELEVANT"))
+         (modal_system, "ONE_GROUP_RELEVANT"), (sys.modules["sensors.modal.spring_modes"], "FEW_EXTRA_POINTS"),
+         (contacts, "KIND_EQUALITY"))
 
 
 @pytest.fixture
@@ -119,6 +126,28 @@ def test_one_group_relevant_modes_are_the_labelled_ones(restore_flags):
     assert taken == 0
     outcomes = {len(modal_system._relevant_modes(k, C, b, o, u, e)) == 0 for k, C, b, o, u, e in cases if len(k)}
     assert outcomes == {True, False}
+
+
+def test_kind_masks_are_isin(restore_flags):
+    rng = np.random.default_rng(6)
+    names = np.array(contacts.KINDS)
+    for n in (0, 1, 5, 40):
+        kinds = names[rng.integers(0, len(names), n)]
+        for sel in (("actuator", "mic"), ("environment",), ("mic", "mic"), ("object", "hand", "other"), ()):
+            contacts.KIND_EQUALITY = False
+            want = contacts.kind_mask(kinds, sel)
+            contacts.KIND_EQUALITY = True
+            got = contacts.kind_mask(kinds, sel)
+            assert got.dtype == want.dtype and got.shape == want.shape and np.array_equal(got, want)
+    empty = contacts.ContactStream.__new__(contacts.ContactStream)._empty("b")
+    assert contacts.kind_mask(empty.kinds, ("actuator",)).shape == (0,)
+
+
+@pytest.mark.parametrize("rows", [np.zeros((0, 3)), np.array([[0.01, -0.0, 0.02]]),
+                                  np.array([[np.nan, 0.0, -1e-300]])])
+def test_fewer_than_two_extra_points_are_their_unique_rows(rows):
+    assert np.unique(rows, axis=0).tobytes() == rows.copy().tobytes()
+    assert np.unique(rows, axis=0).shape == rows.shape
 
 
 def _flat(x, path="", out=None):
