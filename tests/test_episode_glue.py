@@ -2,14 +2,13 @@
 (``sensors.modal.basis``), LEAN_FEATURE_STREAM (``sensors.synthesis.feature_recording``),
 ONE_GROUP_RELEVANT (``sensors.synthesis.modal_system``), FEW_EXTRA_POINTS
 (``sensors.modal.spring_modes``) and KIND_EQUALITY (``aas_gym.contacts``) give the reference's
-bytes: per cut on
-its own inputs (odd ones included), and for whole envs (observations, rewards, infos over
+bytes: per cut on its own inputs (odd ones included), and for whole envs (observations, rewards, infos over
 randomized episodes of GraspPosition-v0 and ObjectRecognition-v0, caches emptied between)."""
 
 from __future__ import annotations
 
 import gc
-import sys
+import importlib
 
 import numpy as np
 import pytest
@@ -17,13 +16,15 @@ import pytest
 from sensors._infra.lru import clear_all
 from sensors.modal import basis
 from sensors.modal.basis import MAX_POINT_COORDINATE_M, check_points_m
-import sensors.modal.spring_modes  # noqa: E402  (the module: the package exports a function of its name)
 from sensors.synthesis import feature_recording, modal_system
 
 from aas_gym import contacts
 
+# the module (``sensors.modal`` exports a function of the same name)
+spring_modes = importlib.import_module("sensors.modal.spring_modes")
+
 FLAGS = ((basis, "FAST_POINT_CHECKS"), (feature_recording, "LEAN_FEATURE_STREAM"),
-         (modal_system, "ONE_GROUP_RELEVANT"), (sys.modules["sensors.modal.spring_modes"], "FEW_EXTRA_POINTS"),
+         (modal_system, "ONE_GROUP_RELEVANT"), (spring_modes, "FEW_EXTRA_POINTS"),
          (contacts, "KIND_EQUALITY"))
 
 
