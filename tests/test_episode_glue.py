@@ -118,14 +118,14 @@ def test_one_group_relevant_modes_are_the_labelled_ones(restore_flags):
     taken = 0
     for kept, C, b, o, unobs, excited in cases:
         modal_system.ONE_GROUP_RELEVANT = False
-        want = modal_system._relevant_modes(kept, C, b, o, unobs, excited)
+        want = modal_system.relevant_modes(kept, C, b, o, unobs, excited)
         modal_system.ONE_GROUP_RELEVANT = True
-        got = modal_system._relevant_modes(kept, C, b, o, unobs, excited)
+        got = modal_system.relevant_modes(kept, C, b, o, unobs, excited)
         assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
         taken += len(want) not in (0, len(kept))
     # every case is one group: all modes kept or none (no case was vacuous on both sides)
     assert taken == 0
-    outcomes = {len(modal_system._relevant_modes(k, C, b, o, u, e)) == 0 for k, C, b, o, u, e in cases if len(k)}
+    outcomes = {len(modal_system.relevant_modes(k, C, b, o, u, e)) == 0 for k, C, b, o, u, e in cases if len(k)}
     assert outcomes == {True, False}
 
 
