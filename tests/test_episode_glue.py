@@ -1,6 +1,5 @@
 """The glue cuts of a randomized episode's sensing (issue 27): FAST_POINT_CHECKS
-(``sensors.modal.basis``), LEAN_FEATURE_STREAM (``sensors.synthesis.feature_recording``),
-ONE_GROUP_RELEVANT (``sensors.synthesis.modal_system``), FEW_EXTRA_POINTS
+(``sensors.modal.basis``), LEAN_FEATURE_STREAM (``sensors.synthesis.feature_recording``), FEW_EXTRA_POINTS
 (``sensors.modal.spring_modes``) and KIND_EQUALITY (``aas_gym.contacts``) give the reference's
 bytes: per cut on its own inputs (odd ones included), and for whole envs (observations, rewards, infos over
 randomized episodes of GraspPosition-v0 and ObjectRecognition-v0, caches emptied between)."""
@@ -16,7 +15,7 @@ import pytest
 from sensors._infra.lru import clear_all
 from sensors.modal import basis
 from sensors.modal.basis import MAX_POINT_COORDINATE_M, check_points_m
-from sensors.synthesis import feature_recording, modal_system
+from sensors.synthesis import feature_recording
 
 from aas_gym import contacts
 
@@ -24,8 +23,7 @@ from aas_gym import contacts
 spring_modes = importlib.import_module("sensors.modal.spring_modes")
 
 FLAGS = ((basis, "FAST_POINT_CHECKS"), (feature_recording, "LEAN_FEATURE_STREAM"),
-         (modal_system, "ONE_GROUP_RELEVANT"), (spring_modes, "FEW_EXTRA_POINTS"),
-         (contacts, "KIND_EQUALITY"))
+         (spring_modes, "FEW_EXTRA_POINTS"), (contacts, "KIND_EQUALITY"))
 
 
 @pytest.fixture
@@ -86,47 +84,6 @@ def test_point_checks_return_a_copy(restore_flags):
     p = np.random.default_rng(4).normal(0, 0.05, (6, 3))
     out = check_points_m(p)
     assert out is not p and not np.shares_memory(out, p)
-
-
-def _relevant_cases(rng):
-    """(kept, C, b, o, keep_unobservable, excited): coupled damping (one group), with drive or
-    microphone gains zero, negligible or absent, and initial-state excitation."""
-    cases = []
-    for k in range(60):
-        r = int(rng.integers(3, 30))
-        Q = rng.normal(size=(2, r))
-        C = np.diag(rng.uniform(1, 50, r)) + Q.T @ Q
-        b, o = rng.normal(size=r), rng.normal(size=r)
-        kind = k % 6
-        if kind == 1:
-            b[:] = 0.0
-        elif kind == 2:
-            o[:] = 1e-20 * rng.normal(size=r)
-            o[0] = 1.0
-        elif kind == 3:
-            o[:] = 0.0
-        elif kind == 4:
-            b[rng.random(r) < 0.5] = 0.0
-        excited = rng.random(r) < (0.2 if k % 4 == 0 else 0.0)
-        kept = np.flatnonzero(rng.random(r) < 0.9)
-        cases.append((kept, C, b, o, bool(k % 3 == 0), excited))
-    return cases
-
-
-def test_one_group_relevant_modes_are_the_labelled_ones(restore_flags):
-    cases = _relevant_cases(np.random.default_rng(5))
-    taken = 0
-    for kept, C, b, o, unobs, excited in cases:
-        modal_system.ONE_GROUP_RELEVANT = False
-        want = modal_system.relevant_modes(kept, C, b, o, unobs, excited)
-        modal_system.ONE_GROUP_RELEVANT = True
-        got = modal_system.relevant_modes(kept, C, b, o, unobs, excited)
-        assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
-        taken += len(want) not in (0, len(kept))
-    # every case is one group: all modes kept or none (no case was vacuous on both sides)
-    assert taken == 0
-    outcomes = {len(modal_system.relevant_modes(k, C, b, o, u, e)) == 0 for k, C, b, o, u, e in cases if len(k)}
-    assert outcomes == {True, False}
 
 
 def test_kind_masks_are_isin(restore_flags):

@@ -82,11 +82,6 @@ LOW_RANK_MAX_RATIO = 0.5
 #: point's distance and shapes do not depend on the batch it is asked in, so both give the same
 #: bytes (``tests/test_modal_system_points.py``).  Read at each call.
 ONE_POINT_PASS = True
-#: ``relevant_modes`` of one group of modes (the usual case: a contact couples every mode)
-#: decides it with two ``np.any`` instead of two ``np.logical_or.at`` over group labels: the
-#: same booleans, the same kept indices (``tests/test_episode_glue.py``).  False: the labelled
-#: path for one group too (the reference).  Read at each call.
-ONE_GROUP_RELEVANT = True
 
 
 def _as_contacts(contacts) -> list[Contact]:
@@ -255,7 +250,7 @@ class ModalSystem(DiscreteSystem):
         if initial_state is not None and not keep_all_modes:
             x0 = np.asarray(initial_state, dtype=float).reshape(2, r_all)
             excited = np.any(x0 != 0, axis=0)
-        kept = relevant_modes(kept, C_all, b_all, o_all, keep_unobservable, excited)
+        kept = _relevant_modes(kept, C_all, b_all, o_all, keep_unobservable, excited)
         su = _Setup(w_all[kept], C_all[np.ix_(kept, kept)], b_all[kept], o_all[kept],
                     None if d_all is None else d_all[kept], None if Q_all is None else Q_all[:, kept])
         parts = _build_parts(su, method, output, 1.0 / sample_rate_hz, hold)
@@ -270,7 +265,7 @@ class ModalSystem(DiscreteSystem):
         return system
 
 
-def relevant_modes(kept, C, b, o, keep_unobservable, excited):
+def _relevant_modes(kept, C, b, o, keep_unobservable, excited):
     """Drop groups of modes (connected through C) that the drive cannot reach or the mic
     cannot see: they contribute exactly zero."""
     if len(kept) == 0:
@@ -281,11 +276,6 @@ def relevant_modes(kept, C, b, o, keep_unobservable, excited):
     link = off > _NEGLIGIBLE * scale
     np.fill_diagonal(link, True)
     if link.all(axis=1).any():  # a mode coupled to every other (any grasp's contacts): one group
-        if ONE_GROUP_RELEVANT:   # the group's reach and sight are plain any()s (no ufunc.at)
-            bk, ok = np.abs(b[kept]), np.abs(o[kept])
-            reached = bool(np.any((bk > _NEGLIGIBLE * max(bk.max(), 1e-300)) | excited[kept]))
-            seen_ = bool(np.any(ok > _NEGLIGIBLE * max(ok.max(), 1e-300)))
-            return kept[np.full(len(kept), reached and (seen_ or bool(keep_unobservable)))]
         ncomp, lab = 1, np.zeros(len(kept), int)
     else:
         from scipy.sparse.csgraph import connected_components  # ~0.1 s to import: first use only
