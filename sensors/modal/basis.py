@@ -19,11 +19,22 @@ from .damping import modal_damping_matrix, within_surface_distance_m
 #: large, and squared distances of points near 1e308 overflow the point location.
 MAX_POINT_COORDINATE_M = 1e6
 
+#: An (n, 3) float64 ndarray (what every caller inside the synthesis passes, about 5 times per
+#: contact set) is accepted by one reduction, max |p| <= MAX_POINT_COORDINATE_M (False for NaN
+#: and inf), and copied by the same ``astype``; anything else, or a failing array, takes the
+#: general checks below (which raise their own errors).  False: the general checks always
+#: (the reference; ``tests/test_episode_glue.py``).  Read at each call.
+FAST_POINT_CHECKS = True
+
 
 def check_points_m(points_m) -> np.ndarray:
     """``points_m`` as an (n, 3) float array of object-frame points [m]; TypeError for
     non-numbers (booleans, strings), ValueError for another shape, NaN/inf or a coordinate
     beyond :data:`MAX_POINT_COORDINATE_M`."""
+    if FAST_POINT_CHECKS and type(points_m) is np.ndarray and points_m.dtype == np.float64 \
+            and points_m.ndim == 2 and points_m.shape[1] == 3 \
+            and np.abs(points_m).max(initial=0.0) <= MAX_POINT_COORDINATE_M:
+        return points_m.astype(np.float64)
     p = np.asarray(points_m)
     if p.dtype.kind not in "iuf" or holds_bool(points_m):
         raise TypeError(f"points_m must be numbers [m], got dtype {p.dtype}")

@@ -65,6 +65,11 @@ REUSE_SPRING_ROWS = True
 #: 1e-13 of the largest (``tests/test_spring_stiffness_sum.py``; the lowest suspension modes'
 #: frequencies within 1e-11 relative, as between any two summation orders).  Read at each call.
 ONE_PRODUCT_STIFFNESS = True
+#: The merged contacts' extra points (usually none or one: 0.08 ms of ``np.unique(axis=0)``
+#: per contact set, most of it its fixed cost) are taken as they are when there are fewer than
+#: two: ``np.unique`` of zero or one row is that row, so the same bytes.  False: ``np.unique``
+#: always (the reference; ``tests/test_episode_glue.py``).  Read at each call.
+FEW_EXTRA_POINTS = True
 #: Whether :func:`merge_close_springs` rules out far pairs in one vectorized pass before its
 #: exact per-pair test (True, fast) or tests every pair (False, the reference).  The same
 #: groups: the exact test decides every pair the pass keeps, and its 1e-9 margin keeps every
@@ -258,7 +263,8 @@ class SpringModes:
             extra = np.asarray(also_at, dtype=float).reshape(-1, 3)
             bits = _point_bits(extra)
             new = ~np.all(bits[:, None, :] == _point_bits(points)[None, :, :], axis=2).any(axis=1)
-            extra = np.unique(extra[new], axis=0)
+            extra = extra[new]
+            extra = extra.copy() if FEW_EXTRA_POINTS and len(extra) < 2 else np.unique(extra, axis=0)
             rows = self.ritz_at(np.concatenate([points, extra]))
             S = rows[:len(points)]      # (P, 3, n)
             self._spring_rows = (_point_bits(np.concatenate([points, extra])), rows)
