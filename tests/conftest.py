@@ -114,8 +114,14 @@ LONGEST_FILES = (
 # - glibc maps allocations of 128 kB and more on their own, so a worker's freed arrays go back to
 #   the system instead of fragmenting its heap: from an empty cache, 2.95 against 5.20 GB peak
 #   per worker, 11 min 07 s against 10 min 01 s (2026-11-27, quiet, 1316 tests). Results unchanged.
+#   At 128 kB, though, every mid-size numpy temporary was mapped, faulted in page by page and
+#   unmapped again (52.7 M minor faults, 292 of 1745 CPU s in the kernel); at 4 MB (numpy asks
+#   for huge pages from 4 MB up) with the heap's free top kept up to 64 MB, seven files in one
+#   process (env_info, canonical_settle, modal_accuracy, closed_form_features, direct_solver,
+#   fluid_coupled, collision_mirror; 266 tests, run beside the 128 kB setting): 1.45 M against
+#   6.62 M faults, 17 against 36 s system time, 179 against 199 s, peak 2.76 against 2.51 GB.
 WORKER_ENVIRONMENT = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-                      "MALLOC_MMAP_THRESHOLD_": "131072"}
+                      "MALLOC_MMAP_THRESHOLD_": "4194304", "MALLOC_TRIM_THRESHOLD_": "67108864"}
 
 
 def pytest_configure(config):
