@@ -12,6 +12,30 @@ import sys
 import time
 
 
+#: The probe chain every probe env's sensing runs (contacts -> springs -> system -> features), as
+#: (module, class or None, function, part) rows for :class:`ExclusiveTimes`: the profilers of
+#: ``episode_parts.py`` and ``fill_level_breakdown.py --parts`` add their env's own parts to these.
+SENSING_PARTS = (
+    ("aas_gym.sim_sensor", "SimAcousticSensor", "sense", "sense (rest)"),
+    ("aas_gym.sim_sensor", "SimAcousticSensor", "grasp_contacts", "sense: grasp contacts"),
+    ("aas_gym.touching_grasp", None, "touching_grasp", "sense: touching grasp"),
+    ("sensors.synthesis.feature_recording", None, "simulate_features", "features (rest: noise, metadata)"),
+    ("sensors.synthesis.feature_recording", None, "_build_spectra", "spectra (rest: stream)"),
+    ("sensors.synthesis.modal_system", "ModalSystem", "build", "system (rest)"),
+    ("sensors.modal.spring_modes", None, "spring_modes", "springs (rest)"),
+    ("sensors.modal.spring_modes", "SpringModes", "__init__", "springs: SpringModes (rest)"),
+    ("sensors.modal.spring_modes", None, "merge_close_springs", "springs: merge"),
+    ("sensors.modal.damping", None, "modal_damping_parts", "system: damping"),
+    ("sensors.synthesis.low_rank_modes", None, "low_rank_modes", "system: low-rank modes"),
+    ("sensors.synthesis.lti", None, "lti_parts", "system: lti parts (rest)"),
+    ("sensors.synthesis.lti", None, "mkl_eig", "system: state eigen-solve"),
+    ("sensors.synthesis.drive_spectrum", None, "drive_spectrum", "drive spectrum (rest)"),
+    ("sensors.synthesis.window_spectra", None, "window_spectra", "window spectra"),
+    ("sensors.mesh.locator", "TetLocator", "locate", "locate points"),
+    ("mujoco", None, "mj_step", "physics: mj_step"),
+)
+
+
 class ExclusiveTimes:
     """``seconds`` and ``calls`` per part of ``parts``: (module, class name or None, function,
     part) tuples. ``everywhere``: a module-level function is also wrapped in every module that

@@ -17,35 +17,24 @@ import aas_gym  # noqa: F401  (registers the envs)
 import gymnasium as gym
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _exclusive import ExclusiveTimes  # noqa: E402  (benchmarks/, the script's folder)
+from _exclusive import SENSING_PARTS, ExclusiveTimes  # noqa: E402  (benchmarks/, the script's folder)
 
 #: (module, class or None, function, label)
 PARTS = (
     ("aas_gym.envs.base", "AasEnv", "_grasp", "physics: grasp (rest)"),
     ("aas_gym.envs.base", "AasEnv", "_place_objects", "physics: place (rest)"),
-    ("mujoco", None, "mj_step", "physics: mj_step"),
     ("aas_gym.contacts", "ContactStream", "read", "contacts: read"),
     ("aas_gym.contacts", "ContactStream", "fingertip_forces_n", "contacts: fingertip forces"),
-    ("aas_gym.sim_sensor", "SimAcousticSensor", "sense", "sense (rest)"),
-    ("aas_gym.sim_sensor", "SimAcousticSensor", "grasp_contacts", "sense: grasp contacts"),
-    ("aas_gym.touching_grasp", None, "touching_grasp", "sense: touching grasp"),
     ("sensors.modal.contact", "Contact", "__init__", "Contact()"),
     ("sensors.modal.contact", "Contact", "to_dict", "Contact.to_dict"),
-    ("sensors.synthesis.feature_recording", None, "simulate_features", "features (rest: noise, metadata)"),
     ("sensors.synthesis.feature_recording", None, "_object_spectra", "features: object spectra (rest)"),
-    ("sensors.synthesis.feature_recording", None, "_build_spectra", "spectra (rest)"),
     ("sensors.synthesis.stream", "AcousticStream", "__init__", "AcousticStream()"),
     ("sensors.synthesis.stream", "AcousticStream", "grasp_systems", "stream.grasp_systems (rest)"),
-    ("sensors.synthesis.modal_system", "ModalSystem", "build", "system (rest)"),
     ("sensors.modal.damping", None, "check_groups_on_surface", "system: surface check"),
     ("sensors.mesh.locator", "TetLocator", "within_surface_distance", "within surface distance"),
-    ("sensors.mesh.locator", "TetLocator", "locate", "locate points"),
     ("sensors.modal.basis", None, "check_points_m", "check_points_m"),
-    ("sensors.modal.spring_modes", None, "spring_modes", "springs (rest)"),
-    ("sensors.modal.spring_modes", "SpringModes", "__init__", "springs: SpringModes (rest)"),
     ("sensors.modal.spring_modes", "SpringModes", "_solve", "springs: eigh"),
     ("sensors.modal.spring_modes", "SpringModes", "_ritz_rows", "springs: ritz rows"),
-    ("sensors.modal.spring_modes", None, "merge_close_springs", "springs: merge"),
     ("sensors.modal.spring_modes", None, "contact_springs", "springs: contact springs"),
     ("sensors.modal.static_correction", "ContactFlexibility", "_basis", "attach: basis (rest)"),
     ("sensors.modal.static_correction", "ContactFlexibility", "_implicit_basis", "attach: implicit basis"),
@@ -53,17 +42,11 @@ PARTS = (
     ("sensors.modal.static_correction", "AttachmentBasis", "nodal", "attach: nodal"),
     ("sensors.modal.static_correction", "UnitLoadStore", "columns", "attach: store columns"),
     ("sensors.modal.static_correction", "UnitLoadStore", "products", "attach: store products"),
-    ("sensors.modal.damping", None, "modal_damping_parts", "system: damping"),
     ("sensors.synthesis.modal_system", None, "_relevant_modes", "system: relevant modes"),
-    ("sensors.synthesis.low_rank_modes", None, "low_rank_modes", "system: low-rank modes"),
-    ("sensors.synthesis.lti", None, "lti_parts", "system: lti parts (rest)"),
-    ("sensors.synthesis.lti", None, "mkl_eig", "system: state eigen-solve"),
     ("sensors.synthesis.lti", None, "symmetric_gains_part", "system: symmetric gains (rest)"),
     ("sensors.synthesis.lti", "EigenPart", "__init__", "EigenPart()"),
-    ("sensors.synthesis.drive_spectrum", None, "drive_spectrum", "drive spectrum (rest)"),
     ("sensors.synthesis.fingertip", "FingertipModel", "modes", "drive: fingertip modes (rest)"),
     ("sensors.synthesis.exciter_sums", "ExciterSums", "sums", "drive: exciter sums"),
-    ("sensors.synthesis.window_spectra", None, "window_spectra", "window spectra"),
 )
 
 
@@ -93,7 +76,7 @@ def main() -> None:
         return episodes, time.thread_time() - t0
 
     run(args.warmup_s)
-    times = ExclusiveTimes(PARTS, clock=time.thread_time, everywhere=True)
+    times = ExclusiveTimes(PARTS + SENSING_PARTS, clock=time.thread_time, everywhere=True)
     with times:
         run(2.0)
         times.reset()

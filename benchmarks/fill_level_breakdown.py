@@ -28,7 +28,7 @@ import aas_gym  # noqa: F401  (registers the envs)
 import aas_gym.envs.fill_level as fill_level
 from aas_gym import rest_states
 from aas_gym.envs import base
-from _exclusive import ExclusiveTimes  # benchmarks/, the script's folder
+from _exclusive import SENSING_PARTS, ExclusiveTimes  # benchmarks/, the script's folder
 
 
 #: ``--parts``: (module, class or None, function, label); a module-level function is timed
@@ -44,28 +44,11 @@ PARTS = (
     ("sensors.fluid.filled_model", "FilledModalModel", "mode_shapes_at", "wet: shapes at points"),
     ("sensors.fluid.filled_model", "FilledModalModel", "rigid_mode_shapes_at", "wet: rigid shapes at points"),
     ("sensors.fluid.container", "Container", "basis_shapes_at", "wet: basis at points"),
-    ("sensors.mesh.locator", "TetLocator", "locate", "wet: locate points"),
-    ("aas_gym.sim_sensor", "SimAcousticSensor", "sense", "sense (rest)"),
-    ("aas_gym.sim_sensor", "SimAcousticSensor", "grasp_contacts", "sense: grasp contacts"),
-    ("aas_gym.touching_grasp", None, "touching_grasp", "sense: touching grasp"),
-    ("sensors.synthesis.feature_recording", None, "simulate_features", "features (rest: noise, metadata)"),
-    ("sensors.synthesis.feature_recording", None, "_build_spectra", "spectra (rest: stream)"),
-    ("sensors.synthesis.modal_system", "ModalSystem", "build", "system (rest)"),
-    ("sensors.modal.spring_modes", None, "spring_modes", "springs (rest)"),
-    ("sensors.modal.spring_modes", "SpringModes", "__init__", "springs: SpringModes"),
-    ("sensors.modal.spring_modes", None, "merge_close_springs", "springs: merge"),
-    ("sensors.modal.damping", None, "modal_damping_parts", "system: damping"),
-    ("sensors.synthesis.low_rank_modes", None, "low_rank_modes", "system: low-rank modes"),
-    ("sensors.synthesis.lti", None, "lti_parts", "system: lti parts (rest)"),
-    ("sensors.synthesis.lti", None, "mkl_eig", "system: state eigen-solve"),
-    ("sensors.synthesis.drive_spectrum", None, "drive_spectrum", "drive spectrum"),
-    ("sensors.synthesis.window_spectra", None, "window_spectra", "window spectra"),
-    ("mujoco", None, "mj_step", "physics: mj_step"),
 )
 
 
 def _parts(env, n: int) -> None:
-    times = ExclusiveTimes(PARTS, clock=time.thread_time, everywhere=True)
+    times = ExclusiveTimes(PARTS + SENSING_PARTS, clock=time.thread_time, everywhere=True)
     with times:
         for s in range(5):
             env.reset(seed=s)
