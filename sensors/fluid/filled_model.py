@@ -153,7 +153,9 @@ class FilledModalModel:
     def pending(cls, container, liquid: LiquidBody, compressible: bool, build, material=None) -> "FilledModalModel":
         """The model of ``liquid`` (its :class:`LiquidBody`, now) whose ``added_mass``, ``slip``,
         ``liquid_coupling`` and ``liquid_eigenvalues`` (as :meth:`__init__` takes them) ``build()``
-        returns when one is first read (``sensors.fluid.fill_table.LAZY_WET_MATRICES``)."""
+        returns when one is first read: a table's fill (``sensors.fluid.fill_table.LAZY_WET_MATRICES``),
+        an exact fill (``sensors.fluid.filling.LAZY_EXACT_MATRICES``) and a material view
+        (:meth:`with_material`)."""
         self = cls(container, liquid, None, None, material, compressible=compressible)
         del self.__dict__["_wall"]
         self._build = build

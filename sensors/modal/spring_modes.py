@@ -263,8 +263,9 @@ class SpringModes:
             extra = np.asarray(also_at, dtype=float).reshape(-1, 3)
             bits = _point_bits(extra)
             new = ~np.all(bits[:, None, :] == _point_bits(points)[None, :, :], axis=2).any(axis=1)
-            extra = extra[new]
-            extra = extra.copy() if FEW_EXTRA_POINTS and len(extra) < 2 else np.unique(extra, axis=0)
+            extra = extra[new]          # a copy already (a boolean index)
+            if not FEW_EXTRA_POINTS or len(extra) >= 2:
+                extra = np.unique(extra, axis=0)
             rows = self.ritz_at(np.concatenate([points, extra]))
             S = rows[:len(points)]      # (P, 3, n)
             self._spring_rows = (_point_bits(np.concatenate([points, extra])), rows)

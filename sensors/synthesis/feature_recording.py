@@ -57,7 +57,7 @@ __all__ = ["FeatureObservation", "simulate_features"]
 #: same bytes.  False: a fresh self-seeded generator per grasp (the reference).  Read at each call.
 LEAN_FEATURE_STREAM = True
 # never drawn from (see LEAN_FEATURE_STREAM)
-_UNUSED_RNG = np.random.Generator(np.random.PCG64(0))
+UNUSED_RNG = np.random.Generator(np.random.PCG64(0))
 
 
 @dataclass
@@ -187,7 +187,7 @@ def _build_spectra(grasp, excitation, fingertip, output, method, steady_state, c
     """(window spectra or None, drive spectrum, fingertip model with grip force 0)."""
     stream = AcousticStream(excitation, fingertip, output=output, method=method, cache=cache, carry_state=False,
                             contact_model=contact_model, bandlimited=bandlimited,
-                            rng=_UNUSED_RNG if LEAN_FEATURE_STREAM else None)
+                            rng=UNUSED_RNG if LEAN_FEATURE_STREAM else None)
     system, tip = stream.grasp_systems(grasp)
     closed_form_drive = (bool(_drive.CLOSED_FORM_DRIVE), bool(_drive.EXCITER_SUMS))
     drive = cache.drive_spectra.get_or_build((tip, excitation, bool(steady_state), bandlimited, closed_form_drive),
