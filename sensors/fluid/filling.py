@@ -41,11 +41,11 @@ CONTAINERS = LRU(CACHE_SIZES["fluid.containers"])
 #: liquid's body from its mesh) or at once (False, the reference).  The same numbers, later
 #: (``tests/test_lazy_fill.py``).  Read at each call.
 LAZY_EXACT_MATRICES = True
-#: The potential flows (:class:`~sensors.fluid.added_mass.LiquidFlow`) of the latest exact fills'
-#: liquid meshes, by container, volume and free-surface normal: another liquid or the other liquid
+#: The potential flow (:class:`~sensors.fluid.added_mass.LiquidFlow`) of the latest exact fill's
+#: liquid mesh, by container, volume and free-surface normal: another liquid or the other liquid
 #: model in the same fill reuses the Laplace solve (its factorization, added mass per unit
-#: density, slip), which costs most of an incompressible fill.  The same function of the same
-#: mesh: the same bits (``tests/test_fluid_compressible.py``).
+#: density, slip), most of an incompressible fill's cost.  The same function of the same mesh:
+#: the same bits (``tests/test_lazy_fill.py``).
 LIQUID_FLOWS = LRU(CACHE_SIZES["fluid.liquid_flows"])
 
 
