@@ -87,10 +87,12 @@ def _fresh_caches_per_file():
 # (`--no-loadscope-reorder`; xdist's default sends the files with most tests first, which left
 # these few-test cold builds for last, each on one worker while the other idled). Starting them
 # first lets the many short files fill in behind. A stale list costs only balance, never a test.
+# test_fill_level_env leads since the compressible reference's symmetric factorization and the
+# shared liquid flows: alone from an empty cache, side by side, 216 against 142 CPU s.
 LONGEST_FILES = (
+    "test_fill_level_env.py",
     "test_fluid_compressible.py",
     "test_everyday_objects.py",
-    "test_fill_level_env.py",
     "test_generate.py",
     "test_fluid_fill_table.py",
     "test_env_info.py",

@@ -128,3 +128,35 @@ def test_a_lazy_exact_fill_is_the_exact_fill_made_at_once(small_can, compressibl
     got, want = modal_quantities(lazy, points), modal_quantities(eager, points)
     for name in want:
         assert got[name].shape == want[name].shape and np.array_equal(got[name], want[name]), name
+
+
+def test_exact_fills_sharing_a_liquid_meshs_potential_flow_are_the_fills_solved_alone(small_can):
+    """``sensors.fluid.filling.LIQUID_FLOWS``: the exact fills of one liquid mesh (other liquids,
+    both liquid models) share its potential flow; each is the same bits as the fill solved with
+    nothing kept (the reference), at two fills one after the other."""
+    import math
+
+    from sensors.fluid import filled, filling
+    from sensors.materials.liquids import Liquid
+
+    water = get_liquid("water")
+    stiffer = Liquid("water, c x2", water.density_kg_m3, water.viscosity_pa_s, 2 * water.speed_of_sound_m_per_s)
+    cases = [(liquid, compressible) for liquid in (water, get_liquid("honey"), stiffer) for compressible in (True, False)]
+
+    def solve(fraction, liquid, compressible):
+        small_can.fills.clear()
+        wet = filled(small_can, fraction, liquid=liquid, compressible=compressible)
+        return {"frequencies": wet.frequencies_hz, "coefficients": wet.modal_coefficients,
+                "decay": wet.decay_rates_per_s, "liquid_modes": wet.liquid_modes_hz, "mass": wet.liquid.mass_kg}
+
+    filling.LIQUID_FLOWS.clear()
+    for fraction in (0.3, 0.6):
+        hits = filling.LIQUID_FLOWS.hits
+        shared = [solve(fraction, *case) for case in cases]
+        assert filling.LIQUID_FLOWS.hits - hits == len(cases) - 1   # one solve of the flow per fill
+        for case, got in zip(cases, shared):
+            filling.LIQUID_FLOWS.clear()
+            want = solve(fraction, *case)
+            for name in want:
+                assert np.array_equal(got[name], want[name]), (fraction, case, name)
+        assert not math.isclose(shared[0]["frequencies"][0], shared[2]["frequencies"][0])  # the liquids differ

@@ -46,6 +46,9 @@ CACHE_SIZES: dict[str, int] = {
     "modal.node_trees": 8,           # k-d trees of mesh nodes (coupled_basis.SNAP_TO_NODES)
     "fluid.fills": 16,               # wet models per (fill, tilt, liquid) of one container
     "fluid.containers": 8,           # containers (dry model + static correction) per object
+    "fluid.liquid_flows": 1,         # potential flow of the latest exact fill's liquid mesh (its factorization and
+                                     # wall load: 2 MB for the glass, 270 MB for a full 6 cm cup at 32 elements around),
+                                     # shared by the liquids and both liquid models of that fill
     "mesh.point_locations": 64,      # per mesh: located point batches (containing tet, barycentrics; surface)
     "mesh.surface_points": 1024,     # per mesh: closest surface point, face, distance of single points (56 B each)
     "fluid.layer_nodes": 4,          # P2 nodes per layer of the liquid's disc, by elements around

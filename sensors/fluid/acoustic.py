@@ -19,7 +19,7 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 
-from .added_mass import potential_flow, wall_coupling
+from .added_mass import unit_potential_flow, wall_coupling
 from ..fem.assembly import QUADRATURE, shape_functions, shape_gradients_ref
 
 __all__ = ["liquid_mass_matrix", "liquid_modes", "acoustic_loading", "LIQUID_MODES_BAND_FACTOR", "MAX_LIQUID_MODES",
@@ -119,7 +119,7 @@ def liquid_modes(laplace_free, mass_free, speed_of_sound_m_per_s: float, max_fre
 
 
 def acoustic_loading(nodes_m: np.ndarray, tets10: np.ndarray, free_surface: np.ndarray, shapes_at,
-                     density_kg_m3: float, speed_of_sound_m_per_s: float, max_frequency_hz: float):
+                     density_kg_m3: float, speed_of_sound_m_per_s: float, max_frequency_hz: float, flow=None):
     """Everything a compressible liquid adds to a basis of wall motions.
 
     Args:
@@ -127,6 +127,8 @@ def acoustic_loading(nodes_m: np.ndarray, tets10: np.ndarray, free_surface: np.n
             :func:`~sensors.fluid.added_mass.liquid_loading`.
         speed_of_sound_m_per_s: The liquid's c.
         max_frequency_hz: Keep the liquid's modes up to this frequency.
+        flow: The mesh's :class:`~sensors.fluid.added_mass.LiquidFlow` if known (another
+            liquid or the incompressible model of the same fill solved it); default solved here.
 
     Returns:
         (M_a (k, k), S (k, k), B (k, m), w_l^2 (m,)): the incompressible added mass and wall slip
@@ -134,12 +136,12 @@ def acoustic_loading(nodes_m: np.ndarray, tets10: np.ndarray, free_surface: np.n
         B[:, l] = sqrt(rho) C^T psi_l / w_l with C the wall's Neumann load
         (:class:`~sensors.fluid.added_mass.WallCoupling` ``.load``), and their w_l^2.
     """
-    coupling = wall_coupling(nodes_m, tets10, free_surface, shapes_at)
-    Ma, S, lu = potential_flow(coupling, density_kg_m3)
-    free = coupling.free
+    if flow is None:
+        flow = unit_potential_flow(wall_coupling(nodes_m, tets10, free_surface, shapes_at))
+    free = flow.free
     Q0 = liquid_mass_matrix(nodes_m, tets10)[free][:, free]
     # A fixed start vector: the same fill gives the same bytes whatever ARPACK ran before.
-    w2, psi = liquid_modes(coupling.laplace[free][:, free], Q0, speed_of_sound_m_per_s, max_frequency_hz, lu,
+    w2, psi = liquid_modes(flow.laplace_free, Q0, speed_of_sound_m_per_s, max_frequency_hz, flow.lu,
                            v0=np.ones(len(free)))
-    B = math.sqrt(density_kg_m3) * (coupling.load[free].T @ psi) / np.sqrt(w2)[None, :]
-    return Ma, S, B, w2
+    B = math.sqrt(density_kg_m3) * (flow.load_free.T @ psi) / np.sqrt(w2)[None, :]
+    return flow.added_mass(density_kg_m3), flow.slip, B, w2

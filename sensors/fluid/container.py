@@ -15,6 +15,7 @@ import numpy as np
 from .._infra import cache as cache_mod
 from .._infra.checks import real_number, whole_number
 from .._infra.lru import CACHE_SIZES, LRU
+from . import added_mass
 from .added_mass import static_correction
 from .cavity import MAX_LIQUID_NODES, AxisymmetricCavity, LiquidMesh, cavity_of, unit
 from .liquid_body import LiquidBody
@@ -191,9 +192,12 @@ class Container:
         cav = self.cavity
         cav_id = ([cav.axial_m, cav.radius_m, cav.origin_m, cav.axis] if isinstance(cav, AxisymmetricCavity)
                   else [np.asarray(cav.mesh.vertices), np.asarray(cav.mesh.faces)])
-        return [ident, dry.material.to_dict(), self.n_dry, type(cav).__name__, cav_id, self.correction_degree,
-                cache_mod.source_version("sensors.fluid.added_mass", "sensors.fluid.cavity",
-                                         "sensors.fem.assembly", "sensors.fem.eigen")]
+        parts = [ident, dry.material.to_dict(), self.n_dry, type(cav).__name__, cav_id, self.correction_degree,
+                 cache_mod.source_version("sensors.fluid.added_mass", "sensors.fluid.cavity",
+                                          "sensors.fem.assembly", "sensors.fem.eigen")]
+        if added_mass.STATIC_CORRECTION_SOLVER is not None:  # another solver's correction: its own entries
+            parts.append(str(added_mass.STATIC_CORRECTION_SOLVER))
+        return parts
 
     @functools.cached_property
     def cache_key(self) -> str:

@@ -19,9 +19,9 @@ import json
 import numpy as np
 
 from .._infra.checks import holds_bool
-from .._infra.lru import CACHE_SIZES, LRU
+from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from .acoustic import LIQUID_MODES_BAND_FACTOR, acoustic_loading, check_liquid_mode_count
-from .added_mass import liquid_loading
+from .added_mass import unit_potential_flow, wall_coupling
 from .cavity import AxisymmetricCavity, cavity_of, unit
 from .container import CONTAINER_OPTIONS, Container, check_container_options, liquid_volume_in, solid_of
 from .fill_table import fill_table
@@ -41,6 +41,12 @@ CONTAINERS = LRU(CACHE_SIZES["fluid.containers"])
 #: liquid's body from its mesh) or at once (False, the reference).  The same numbers, later
 #: (``tests/test_lazy_fill.py``).  Read at each call.
 LAZY_EXACT_MATRICES = True
+#: The potential flow (:class:`~sensors.fluid.added_mass.LiquidFlow`) of the latest exact fill's
+#: liquid mesh, by container, volume and free-surface normal: another liquid or the other liquid
+#: model in the same fill reuses the Laplace solve (its factorization, added mass per unit
+#: density, slip), most of an incompressible fill's cost.  The same function of the same mesh:
+#: the same bits (``tests/test_lazy_fill.py``).
+LIQUID_FLOWS = LRU(CACHE_SIZES["fluid.liquid_flows"])
 
 
 def container(obj, *, cavity=None, **options) -> Container:
@@ -190,12 +196,14 @@ def filled(obj, fill_fraction: float | None = None, *, liquid="water", surface_n
 def _loading(c, mesh, liquid, compressible: bool) -> tuple:
     """``(added_mass, slip, liquid_coupling, liquid_eigenvalues)`` of the liquid mesh ``mesh`` in
     container ``c`` (the last two None for an incompressible liquid)."""
+    key = (IdentityKey(c), float(mesh.volume_m3), np.asarray(mesh.up, float).tobytes())
+    flow = LIQUID_FLOWS.get_or_build(
+        key, lambda: unit_potential_flow(wall_coupling(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at)))
     if not compressible:
-        return (*liquid_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at,
-                                liquid.density_kg_m3), None, None)
+        return flow.added_mass(liquid.density_kg_m3), flow.slip, None, None
     return acoustic_loading(mesh.nodes_m, mesh.tets, mesh.free_surface, c.basis_shapes_at,
                             liquid.density_kg_m3, liquid.speed_of_sound_m_per_s,
-                            LIQUID_MODES_BAND_FACTOR * c.band_limit_hz)
+                            LIQUID_MODES_BAND_FACTOR * c.band_limit_hz, flow=flow)
 
 
 def _checked_fill(obj, cavity, options, *, surface_normal, **amount):
