@@ -228,18 +228,20 @@ def test_liquids():
 
 
 def test_a_static_correction_by_another_solver_gives_the_same_wet_modes(tmp_path, monkeypatch):
-    """``added_mass.STATIC_CORRECTION_SOLVER``: the container's one factorization of K + s M by
-    the project's direct solver (PARDISO where MKL is installed) instead of SciPy's SuperLU (the
-    reference): another rounding of the same static solves, so the wet frequencies of a fill agree
-    to rounding (1e-9; measured 1.6e-12 on the mug) and the correction's own eigenvalues, stiff
-    modes far above the band, to 1e-6 (measured 1.9e-10); its cache entries are its own."""
+    """``added_mass.STATIC_CORRECTION_SOLVER`` (default ``"default"``): the container's one
+    factorization of K + s M by the project's direct solver (PARDISO where MKL is installed)
+    against SciPy's SuperLU with MMD ordering (None, the reference): another rounding of the same
+    static solves, so the wet frequencies of a fill agree to rounding (1e-9; measured 1.6e-12 on
+    the mug) and the correction's own eigenvalues, stiff modes far above the band, to 1e-6
+    (measured 1.9e-10); its cache entries are its own."""
     from small_can import small_can_container
 
     from sensors.fem import direct_solver
     from sensors.fluid import Container, added_mass
 
+    monkeypatch.setattr(added_mass, "STATIC_CORRECTION_SOLVER", None)
     obj, dry, reference = small_can_container(tmp_path)
-    reference_key = reference.cache_key
+    reference_key, reference_eigenvalues = reference.cache_key, reference.basis_eigenvalues  # built now, by SuperLU
     used = []
     factorize = direct_solver.factorize
     monkeypatch.setattr(direct_solver, "factorize", lambda A, solver=None: used.append(A.shape) or factorize(A, solver))
@@ -247,7 +249,7 @@ def test_a_static_correction_by_another_solver_gives_the_same_wet_modes(tmp_path
     other = Container.of(obj, dry=dry, cache_dir=tmp_path)
     assert used == [(3 * len(dry.nodes_m),) * 2]           # its own correction, not the reference's entry
     assert other.cache_key != reference_key
-    np.testing.assert_allclose(other.basis_eigenvalues[6:], reference.basis_eigenvalues[6:], rtol=1e-6)
+    np.testing.assert_allclose(other.basis_eigenvalues[6:], reference_eigenvalues[6:], rtol=1e-6)
     for compressible in (True, False):
         a = filled(other, 0.6, compressible=compressible).frequencies_hz
         b = filled(reference, 0.6, compressible=compressible).frequencies_hz

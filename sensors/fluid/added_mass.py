@@ -30,14 +30,25 @@ from ..fem.eigen import rigid_body_modes
 from ..fem.assembly import QUADRATURE, assemble, shape_functions, shape_gradients_ref
 
 __all__ = ["laplace_stiffness", "boundary_quadrature", "WallCoupling", "wall_coupling", "symmetric_lu", "LiquidFlow",
-           "unit_potential_flow", "potential_flow", "liquid_loading", "static_correction", "pressure_patterns"]
+           "unit_potential_flow", "potential_flow", "liquid_loading", "static_correction", "static_correction_solver",
+           "pressure_patterns"]
 
-#: The sparse solver of the static correction's one factorization of K + s M: None, SciPy SuperLU
-#: (MMD ordering, the reference); a name, :func:`sensors.fem.direct_solver.factorize`'s solver
-#: (``"default"``: PARDISO where MKL is installed). Not the same bits: the mug's correction took
-#: 10.4 against 45.5 CPU s (98,964 dof, OMP 1) with its wet frequencies at half full within 1.6e-12
-#: of SuperLU's. Part of the container's cache key when set.  Read at each call.
-STATIC_CORRECTION_SOLVER: str | None = None
+#: The sparse solver of the static correction's one factorization of K + s M: a name of
+#: :func:`sensors.fem.direct_solver.factorize`'s solvers, ``"default"`` (PARDISO where MKL is
+#: installed, else SuperLU: the pure-SciPy path), or None: SciPy SuperLU with MMD ordering, the
+#: reference. The default because the mug's correction (98,964 dof, OMP 1) took 10.4 against 45.5
+#: CPU s and 0.58 GB less peak, with its wet frequencies at half full within 1.6e-12 of the
+#: reference's (``tests/test_fluid.py``). The solver that ran is part of the container's cache key
+#: (not the reference's).  Read at each call.
+STATIC_CORRECTION_SOLVER: str | None = "default"
+
+
+def static_correction_solver() -> str | None:
+    """The solver :data:`STATIC_CORRECTION_SOLVER` names, ``"default"`` resolved (None: the reference)."""
+    from ..fem.direct_solver import default_solver
+
+    name = STATIC_CORRECTION_SOLVER
+    return default_solver() if name == "default" else (None if name is None else str(name).lower())
 
 #: Degree-5 7-point rule on a triangle (Dunavant 1985): barycentric points, weights summing to 1.
 _A1, _B1, _W1 = 0.059715871789770, 0.470142064105115, 0.132394152788506
@@ -271,13 +282,13 @@ def static_correction(dry, wetted, *, degree: int = 6, shift_hz: float | None = 
     np.add.at(F, rows, vals.reshape(-1, patterns.shape[1]))
     f0 = float(dry.frequencies_hz[0]) if dry.n_modes else 100.0
     s = (2 * math.pi * (0.1 * f0 if shift_hz is None else shift_hz)) ** 2
-    if STATIC_CORRECTION_SOLVER is None:
+    solver = static_correction_solver()
+    if solver is None:
         lu = scipy.sparse.linalg.splu((K + s * M).tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                                       options={"SymmetricMode": True})
     else:
         from ..fem.direct_solver import factorize
 
-        solver = None if STATIC_CORRECTION_SOLVER == "default" else STATIC_CORRECTION_SOLVER
         lu = factorize((K + s * M).tocsc(), solver)
     X = lu.solve(F)
     R = rigid_body_modes(dry.nodes_m)

@@ -195,8 +195,9 @@ class Container:
         parts = [ident, dry.material.to_dict(), self.n_dry, type(cav).__name__, cav_id, self.correction_degree,
                  cache_mod.source_version("sensors.fluid.added_mass", "sensors.fluid.cavity",
                                           "sensors.fem.assembly", "sensors.fem.eigen")]
-        if added_mass.STATIC_CORRECTION_SOLVER is not None:  # another solver's correction: its own entries
-            parts.append(str(added_mass.STATIC_CORRECTION_SOLVER))
+        solver = added_mass.static_correction_solver()
+        if solver is not None:  # not the reference's correction: its own entries
+            parts.append(solver)
         return parts
 
     @functools.cached_property
