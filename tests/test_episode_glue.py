@@ -1,8 +1,11 @@
 """The glue cuts of a randomized episode's sensing (issue 27): FAST_POINT_CHECKS
 (``sensors.modal.basis``), LEAN_FEATURE_STREAM (``sensors.synthesis.feature_recording``), FEW_EXTRA_POINTS
 (``sensors.modal.spring_modes``) and KIND_EQUALITY (``aas_gym.contacts``) give the reference's
-bytes: per cut on its own inputs (odd ones included), and for whole envs (observations, rewards, infos over
-randomized episodes of GraspPosition-v0 and ObjectRecognition-v0, caches emptied between)."""
+bytes; so do the env-side cuts of a probe episode: GATHER_FORCES and LEAN_FINGERTIPS (``aas_gym.contacts``),
+LAZY_GRASP_TESTS and CACHED_EXTENTS (``aas_gym.grasp``), LAZY_PLACEMENT_FORWARD (``aas_gym.envs.base``):
+per cut on its own inputs (odd ones included), and for whole envs (observations, rewards, infos and the
+MuJoCo state over randomized episodes of GraspPosition-v0, ObjectRecognition-v0 and FillLevel-v0, caches
+emptied between)."""
 
 from __future__ import annotations
 
@@ -17,13 +20,16 @@ from sensors.modal import basis
 from sensors.modal.basis import MAX_POINT_COORDINATE_M, check_points_m
 from sensors.synthesis import feature_recording
 
-from aas_gym import contacts
+from aas_gym import contacts, grasp
+from aas_gym.envs import base
 
 # the module (``sensors.modal`` exports a function of the same name)
 spring_modes = importlib.import_module("sensors.modal.spring_modes")
 
 FLAGS = ((basis, "FAST_POINT_CHECKS"), (feature_recording, "LEAN_FEATURE_STREAM"),
-         (spring_modes, "FEW_EXTRA_POINTS"), (contacts, "KIND_EQUALITY"))
+         (spring_modes, "FEW_EXTRA_POINTS"), (contacts, "KIND_EQUALITY"), (contacts, "GATHER_FORCES"),
+         (contacts, "LEAN_FINGERTIPS"), (grasp, "LAZY_GRASP_TESTS"), (grasp, "CACHED_EXTENTS"),
+         (base, "LAZY_PLACEMENT_FORWARD"))
 
 
 @pytest.fixture
@@ -108,6 +114,39 @@ def test_fewer_than_two_extra_points_are_their_unique_rows(rows):
     assert np.unique(rows, axis=0).shape == rows.shape
 
 
+VELOCITIES = [[0.0, 0.0], [2e-4, -0.0], [-2e-4, 0.0], [1e-4, -1e-4], [np.nan, 1.0], [1.0, np.nan],
+              [np.inf, 0.0], [-np.inf, np.nan], [0.0, 0.0, 0.0, 5e-3], [1e-3, -1e-3, 0.0, 0.0]]
+
+
+@pytest.mark.parametrize("v", VELOCITIES)
+def test_motion_test_is_numpys(v):
+    for tol in (1e-4, 1e-3):
+        assert grasp.exceeds(list(v), tol) == bool(np.max(np.abs(np.array(v))) > tol)
+
+
+def test_half_extents_cache_follows_the_model(restore_flags):
+    import mujoco
+
+    xml = """<mujoco><worldbody><body name="b" pos="0 0 1"><freejoint/>
+      <geom type="box" size="0.1 0.02 0.01" pos="0.01 0 0" euler="0 0 20"/>
+      <geom type="sphere" size="0.03" pos="-0.1 0 0"/><geom type="box" size="1 1 1" contype="0" conaffinity="0"/>
+      </body></worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    bid = 1
+    for edit in (None, ("geom_pos", 0, 0.05), ("geom_quat", 0, 0.3), ("geom_contype", 2, 1)):
+        if edit is not None:
+            name, g, value = edit
+            arr = getattr(model, name)
+            arr[(g,) if arr.ndim == 1 else (g, 0)] = value
+        grasp.CACHED_EXTENTS = False
+        want = grasp.body_half_extents(model, bid)
+        grasp.CACHED_EXTENTS = True
+        first, again = grasp.body_half_extents(model, bid), grasp.body_half_extents(model, bid)
+        assert first.tobytes() == want.tobytes() == again.tobytes()
+        first[:] = 9.0                                  # a caller's edit does not reach the cache
+        assert grasp.body_half_extents(model, bid).tobytes() == want.tobytes()
+
+
 def _flat(x, path="", out=None):
     """(path, bytes) of every leaf of an observation or info (arrays by dtype, shape, bytes)."""
     out = [] if out is None else out
@@ -128,6 +167,18 @@ def _flat(x, path="", out=None):
     return out
 
 
+def _physics(env) -> tuple:
+    """The MuJoCo state an env step leaves: integration state, poses, contacts, solver forces."""
+    import mujoco
+
+    d, m = env.unwrapped.data, env.unwrapped.model
+    state = np.empty(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_INTEGRATION))
+    mujoco.mj_getState(m, d, state, mujoco.mjtState.mjSTATE_INTEGRATION)
+    n = d.ncon
+    return (state.tobytes(), d.xpos.tobytes(), d.xquat.tobytes(), d.qacc.tobytes(), d.efc_force[:d.nefc].tobytes(),
+            d.contact.pos[:n].tobytes(), d.contact.geom[:n].tobytes())
+
+
 def _run(env_id: str, steps: int, seed: int, **kwargs):
     import gymnasium as gym
 
@@ -138,13 +189,13 @@ def _run(env_id: str, steps: int, seed: int, **kwargs):
     env = gym.make(env_id, **kwargs)
     env.action_space.seed(seed)
     obs, info = env.reset(seed=seed)
-    trace = [_flat(obs), _flat(info)]
+    trace = [_flat(obs), _flat(info), _physics(env)]
     for _ in range(steps):
         obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
-        trace += [_flat(obs), _flat(info), np.float64(reward).tobytes(), (terminated, truncated)]
+        trace += [_flat(obs), _flat(info), np.float64(reward).tobytes(), (terminated, truncated), _physics(env)]
         if terminated or truncated:
             obs, info = env.reset()
-            trace += [_flat(obs), _flat(info)]
+            trace += [_flat(obs), _flat(info), _physics(env)]
     env.close()
     del env
     clear_all()
@@ -154,8 +205,9 @@ def _run(env_id: str, steps: int, seed: int, **kwargs):
 
 # three of the paper's objects keep the process below ~2.5 GB (each model holds its unit-load
 # store); their episodes randomize as the default env's do
-ENVS = [("aas_gym/GraspPosition-v0", 200, {}),
-        ("aas_gym/ObjectRecognition-v0", 200, {"objects": ("aluminium_bar", "pla_tube", "wood_bar")})]
+ENVS = [("aas_gym/GraspPosition-v0", 200, {}), ("aas_gym/GraspPosition-v0", 300, {"acoustic": {"enabled": False}}),
+        ("aas_gym/ObjectRecognition-v0", 200, {"objects": ("aluminium_bar", "pla_tube", "wood_bar")}),
+        ("aas_gym/FillLevel-v0", 200, {})]
 
 
 @pytest.mark.parametrize("env_id,steps,kwargs", ENVS)
