@@ -147,6 +147,45 @@ def test_half_extents_cache_follows_the_model(restore_flags):
         assert grasp.body_half_extents(model, bid).tobytes() == want.tobytes()
 
 
+def _read_bytes(stream, d) -> list:
+    return [(name, [(f, getattr(c, f).dtype.str, getattr(c, f).tobytes()) for f in
+                    ("positions_m", "normals", "normal_forces_n", "forces_n", "friction", "penetration_m")]
+             + [c.kinds.tolist(), c.other_bodies.tolist(), c.other_geoms.tolist()]) for name, c in stream.read(d).items()]
+
+
+@pytest.mark.parametrize("scene", ["single", "multi"])
+def test_contact_reads_and_fingertip_sums_through_a_squeeze(scene, restore_flags):
+    """``read`` (GATHER_FORCES), ``fingertip_forces_n`` (LEAN_FINGERTIPS) and ``fingertip_rows``'
+    sums against the references step by step, before the pads touch and through the squeeze."""
+    import gymnasium as gym
+    import mujoco
+
+    import aas_gym  # noqa: F401
+
+    u = gym.make("aas_gym/GraspPosition-v0", scene=scene, disable_env_checker=True,
+                 acoustic={"enabled": False}).unwrapped
+    u.reset(seed=5)
+    sc, m, d = u._scene, u.model, u.data
+    stream, body = sc.stream, sc.bodies[0]
+    tcp, width = grasp.grasp_pose(m, d, body, 0.03)
+    sc.hand.teleport(d, tcp + np.array([0.004, 0.0, 0.0, 0.0]), width + 0.03)
+    sc.hand.command(d, opening_m=0.0)
+    seen = set()
+    for _ in range(60):
+        mujoco.mj_step(m, d)
+        contacts.GATHER_FORCES = contacts.LEAN_FINGERTIPS = False
+        want_read, want = _read_bytes(stream, d), stream.fingertip_forces_n(d, body)
+        contacts.GATHER_FORCES = contacts.LEAN_FINGERTIPS = True
+        assert _read_bytes(stream, d) == want_read
+        got = stream.fingertip_forces_n(d, body)
+        efc, actuator, mic = stream.fingertip_rows(d, body)
+        rows = (contacts.row_force_sum_n(efc, actuator), contacts.row_force_sum_n(efc, mic))
+        assert np.float64(got).tobytes() == np.float64(want).tobytes() == np.float64(rows).tobytes()
+        seen.add((want[0] > 0, want[1] > 0))
+    u.close()
+    assert (True, True) in seen and (False, False) in seen
+
+
 def _flat(x, path="", out=None):
     """(path, bytes) of every leaf of an observation or info (arrays by dtype, shape, bytes)."""
     out = [] if out is None else out
