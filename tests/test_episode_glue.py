@@ -147,6 +147,30 @@ def test_half_extents_cache_follows_the_model(restore_flags):
         assert grasp.body_half_extents(model, bid).tobytes() == want.tobytes()
 
 
+def test_nearest_grasp_with_the_width_array(restore_flags):
+    from aas_gym import object_grasps
+    from sensors.objects.catalog import get_object
+
+    grasps = object_grasps.grasp_set(get_object("mug"))
+    widths = np.array([g.width_m for g in grasps.grasps])
+    lo, hi = grasps.span_m
+    rng = np.random.default_rng(8)
+    cases = [(p, w, avoid) for p in rng.uniform(lo - 0.01, hi + 0.01, 6)
+             for w in (0.0, float(np.median(widths)), float(widths.max()), float(widths.max()) + 1e-3, np.nan)
+             for avoid in ((), (grasps.grasps[3].centre_m + 0.004,))]
+    for p, w, avoid in cases:
+        outcome = []
+        for flag in (False, True):
+            object_grasps.WIDTH_ARRAY = flag
+            try:
+                g = grasps.nearest(float(p), avoid, 0.01, min_width_m=w)
+                outcome.append((g.centre_m.tobytes(), g.axis.tobytes(), g.width_m, g.position_m))
+            except ValueError as e:
+                outcome.append(str(e))
+        assert outcome[0] == outcome[1]
+    assert grasps.widths_m.tobytes() == widths.astype(np.float64).tobytes()
+
+
 def _read_bytes(stream, d) -> list:
     return [(name, [(f, getattr(c, f).dtype.str, getattr(c, f).tobytes()) for f in
                     ("positions_m", "normals", "normal_forces_n", "forces_n", "friction", "penetration_m")]
