@@ -2,7 +2,8 @@
 (``sensors.modal.basis``), LEAN_FEATURE_STREAM (``sensors.synthesis.feature_recording``), FEW_EXTRA_POINTS
 (``sensors.modal.spring_modes``) and KIND_EQUALITY (``aas_gym.contacts``) give the reference's
 bytes; so do the env-side cuts of a probe episode: GATHER_FORCES and LEAN_FINGERTIPS (``aas_gym.contacts``),
-LAZY_GRASP_TESTS and CACHED_EXTENTS (``aas_gym.grasp``), LAZY_PLACEMENT_FORWARD (``aas_gym.envs.base``):
+LAZY_GRASP_TESTS and CACHED_EXTENTS (``aas_gym.grasp``), LAZY_PLACEMENT_FORWARD (``aas_gym.envs.base``),
+WIDTH_ARRAY (``aas_gym.object_grasps``), LEAN_PAD (``aas_gym.envs.info``):
 per cut on its own inputs (odd ones included), and for whole envs (observations, rewards, infos and the
 MuJoCo state over randomized episodes of GraspPosition-v0, ObjectRecognition-v0 and FillLevel-v0, caches
 emptied between)."""
@@ -20,8 +21,9 @@ from sensors.modal import basis
 from sensors.modal.basis import MAX_POINT_COORDINATE_M, check_points_m
 from sensors.synthesis import feature_recording
 
-from aas_gym import contacts, grasp
+from aas_gym import contacts, grasp, object_grasps
 from aas_gym.envs import base
+from aas_gym.envs import info as env_info
 
 # the module (``sensors.modal`` exports a function of the same name)
 spring_modes = importlib.import_module("sensors.modal.spring_modes")
@@ -29,7 +31,7 @@ spring_modes = importlib.import_module("sensors.modal.spring_modes")
 FLAGS = ((basis, "FAST_POINT_CHECKS"), (feature_recording, "LEAN_FEATURE_STREAM"),
          (spring_modes, "FEW_EXTRA_POINTS"), (contacts, "KIND_EQUALITY"), (contacts, "GATHER_FORCES"),
          (contacts, "LEAN_FINGERTIPS"), (grasp, "LAZY_GRASP_TESTS"), (grasp, "CACHED_EXTENTS"),
-         (base, "LAZY_PLACEMENT_FORWARD"))
+         (base, "LAZY_PLACEMENT_FORWARD"), (object_grasps, "WIDTH_ARRAY"), (env_info, "LEAN_PAD"))
 
 
 @pytest.fixture
@@ -148,7 +150,6 @@ def test_half_extents_cache_follows_the_model(restore_flags):
 
 
 def test_nearest_grasp_with_the_width_array(restore_flags):
-    from aas_gym import object_grasps
     from sensors.objects.catalog import get_object
 
     grasps = object_grasps.grasp_set(get_object("mug"))
@@ -169,6 +170,22 @@ def test_nearest_grasp_with_the_width_array(restore_flags):
                 outcome.append(str(e))
         assert outcome[0] == outcome[1]
     assert grasps.widths_m.tobytes() == widths.astype(np.float64).tobytes()
+
+
+@pytest.mark.parametrize("n", [0, 1, 13, 64, 70])
+def test_padded_contacts_lean(n, restore_flags):
+    rng = np.random.default_rng(n)
+    f = rng.uniform(0, 5, n)
+    f[: min(n, 2)] = (-0.0, np.nan)[: min(n, 2)]
+    names = np.array(contacts.KINDS)[rng.integers(0, len(contacts.KINDS), n)]
+    c = contacts.ObjectContacts("b", rng.normal(size=(n, 3)), rng.normal(size=(n, 3)), f, rng.normal(size=(n, 3)),
+                                rng.uniform(size=n), rng.uniform(size=n), names, names.astype(object),
+                                names.astype(object))
+    out = []
+    for flag in (False, True):
+        env_info.LEAN_PAD = flag
+        out.append(_flat(env_info.padded_contacts(c)))
+    assert out[0] == out[1]
 
 
 def _read_bytes(stream, d) -> list:
