@@ -48,6 +48,12 @@ LAZY_GRASP_TESTS = True
 #: arrays it reads (one per object, not one per grasp); False recomputes it (the reference).
 CACHED_EXTENTS = True
 _EXTENTS: dict = {}
+#: Whether ``Hand.teleport`` and ``Hand.command`` clip a Python-float opening in Python
+#: (``np.clip`` on a scalar: ~8 us; the same value, -0.0 and NaN included) and ``teleport`` sets
+#: the servo targets it has already clipped without ``command`` clipping them again (clipping is
+#: idempotent).  False: ``np.clip`` and ``command`` (the reference; ``tests/test_episode_glue.py``).
+#: Read at each call.
+LEAN_TELEPORT = True
 _EXTENTS_MAX = 64
 
 
@@ -144,7 +150,7 @@ class Hand:
         if tcp is not None:
             data.ctrl[self.tcp_actuators] = np.clip(np.asarray(tcp, float), self.tcp_low, self.tcp_high)
         if opening_m is not None:
-            opening_m = float(np.clip(opening_m, 0.0, MAX_OPENING_M))
+            opening_m = clip_opening_m(opening_m)
             data.ctrl[self.gripper_actuator] = SQUEEZE_TARGET_M if opening_m == 0.0 else opening_m
 
     def teleport(self, data: mujoco.MjData, tcp, opening_m: float, forward: bool = True) -> None:
@@ -152,14 +158,27 @@ class Hand:
         ``forward=False`` leaves the derived quantities (poses, contacts) stale, for a caller
         whose next call is ``mj_step``."""
         tcp = np.clip(np.asarray(tcp, float), self.tcp_low, self.tcp_high)
-        opening_m = float(np.clip(opening_m, 0.0, MAX_OPENING_M))
+        opening_m = clip_opening_m(opening_m)
         data.qpos[self.tcp_qpos] = tcp
         data.qvel[self.tcp_qvel] = 0.0
         data.qpos[self.finger_qpos] = opening_m / 2
         data.qvel[self.finger_qvel] = 0.0
-        self.command(data, tcp, opening_m)
+        if LEAN_TELEPORT and type(self).command is Hand.command:    # command's clips would change nothing
+            data.ctrl[self.tcp_actuators] = tcp
+            data.ctrl[self.gripper_actuator] = SQUEEZE_TARGET_M if opening_m == 0.0 else opening_m
+        else:
+            self.command(data, tcp, opening_m)
         if forward:
             mujoco.mj_forward(self.model, data)
+
+
+def clip_opening_m(opening_m) -> float:
+    """``float(np.clip(opening_m, 0.0, MAX_OPENING_M))``; for a Python float (with
+    :data:`LEAN_TELEPORT`) as ``min(max(x, 0.0), MAX_OPENING_M)``: NaN stays NaN and -0.0 stays
+    -0.0, as ``np.clip`` keeps them."""
+    if LEAN_TELEPORT and type(opening_m) is float:
+        return min(max(opening_m, 0.0), MAX_OPENING_M)
+    return float(np.clip(opening_m, 0.0, MAX_OPENING_M))
 
 
 def grasp_pose(model: mujoco.MjModel, data: mujoco.MjData, body: str, position_m: float = 0.0,

@@ -2,7 +2,7 @@
 (``sensors.modal.basis``), LEAN_FEATURE_STREAM (``sensors.synthesis.feature_recording``), FEW_EXTRA_POINTS
 (``sensors.modal.spring_modes``) and KIND_EQUALITY (``aas_gym.contacts``) give the reference's
 bytes; so do the env-side cuts of a probe episode: GATHER_FORCES and LEAN_FINGERTIPS (``aas_gym.contacts``),
-LAZY_GRASP_TESTS and CACHED_EXTENTS (``aas_gym.grasp``), LAZY_PLACEMENT_FORWARD (``aas_gym.envs.base``),
+LAZY_GRASP_TESTS, CACHED_EXTENTS and LEAN_TELEPORT (``aas_gym.grasp``), LAZY_PLACEMENT_FORWARD (``aas_gym.envs.base``),
 WIDTH_ARRAY (``aas_gym.object_grasps``), LEAN_PAD (``aas_gym.envs.info``):
 per cut on its own inputs (odd ones included), and for whole envs (observations, rewards, infos and the
 MuJoCo state over randomized episodes of GraspPosition-v0, ObjectRecognition-v0 and FillLevel-v0, caches
@@ -30,7 +30,7 @@ spring_modes = importlib.import_module("sensors.modal.spring_modes")
 
 FLAGS = ((basis, "FAST_POINT_CHECKS"), (feature_recording, "LEAN_FEATURE_STREAM"),
          (spring_modes, "FEW_EXTRA_POINTS"), (contacts, "KIND_EQUALITY"), (contacts, "GATHER_FORCES"),
-         (contacts, "LEAN_FINGERTIPS"), (grasp, "LAZY_GRASP_TESTS"), (grasp, "CACHED_EXTENTS"),
+         (contacts, "LEAN_FINGERTIPS"), (grasp, "LAZY_GRASP_TESTS"), (grasp, "CACHED_EXTENTS"), (grasp, "LEAN_TELEPORT"),
          (base, "LAZY_PLACEMENT_FORWARD"), (object_grasps, "WIDTH_ARRAY"), (env_info, "LEAN_PAD"))
 
 
@@ -124,6 +124,22 @@ VELOCITIES = [[0.0, 0.0], [2e-4, -0.0], [-2e-4, 0.0], [1e-4, -1e-4], [np.nan, 1.
 def test_motion_test_is_numpys(v):
     for tol in (1e-4, 1e-3):
         assert grasp.exceeds(list(v), tol) == bool(np.max(np.abs(np.array(v))) > tol)
+
+
+OPENINGS = [-0.0, 0.0, 0.08, float(np.nextafter(0.08, 1)), float(np.nextafter(0.08, 0)), -1e-300, 5e-324, -5e-324,
+            float("nan"), float("inf"), float("-inf"), -0.5, 0.04, 1.0, 0, 1, np.float64(-0.0), np.float32(0.5),
+            np.array(0.09)]
+
+
+@pytest.mark.parametrize("i", range(len(OPENINGS)))
+def test_opening_clip_is_numpys(i, restore_flags):
+    x = OPENINGS[i]
+    got = []
+    for flag in (False, True):
+        grasp.LEAN_TELEPORT = flag
+        out = grasp.clip_opening_m(x)
+        got.append((type(out), np.float64(out).tobytes()))
+    assert got[0] == got[1] and got[0][0] is float
 
 
 def test_half_extents_cache_follows_the_model(restore_flags):
