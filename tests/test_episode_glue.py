@@ -1,7 +1,8 @@
 """The glue cuts of a randomized episode's sensing (issue 27): FAST_POINT_CHECKS
 (``sensors.modal.basis``), LEAN_FEATURE_STREAM (``sensors.synthesis.feature_recording``), FEW_EXTRA_POINTS
 (``sensors.modal.spring_modes``) and KIND_EQUALITY (``aas_gym.contacts``) give the reference's
-bytes; so do the env-side cuts of a probe episode: GATHER_FORCES and LEAN_FINGERTIPS (``aas_gym.contacts``),
+bytes; so do the env-side cuts of a probe episode: GATHER_FORCES, LEAN_FINGERTIPS and PYTHON_SUMS
+(``aas_gym.contacts``),
 LAZY_GRASP_TESTS, CACHED_EXTENTS and LEAN_TELEPORT (``aas_gym.grasp``), LAZY_PLACEMENT_FORWARD (``aas_gym.envs.base``),
 WIDTH_ARRAY (``aas_gym.object_grasps``), LEAN_PAD (``aas_gym.envs.info``):
 per cut on its own inputs (odd ones included), and for whole envs (observations, rewards, infos and the
@@ -29,7 +30,7 @@ from aas_gym.envs import info as env_info
 spring_modes = importlib.import_module("sensors.modal.spring_modes")
 
 FLAGS = ((basis, "FAST_POINT_CHECKS"), (feature_recording, "LEAN_FEATURE_STREAM"),
-         (spring_modes, "FEW_EXTRA_POINTS"), (contacts, "KIND_EQUALITY"), (contacts, "GATHER_FORCES"),
+         (spring_modes, "FEW_EXTRA_POINTS"), (contacts, "KIND_EQUALITY"), (contacts, "GATHER_FORCES"), (contacts, "PYTHON_SUMS"),
          (contacts, "LEAN_FINGERTIPS"), (grasp, "LAZY_GRASP_TESTS"), (grasp, "CACHED_EXTENTS"), (grasp, "LEAN_TELEPORT"),
          (base, "LAZY_PLACEMENT_FORWARD"), (object_grasps, "WIDTH_ARRAY"), (env_info, "LEAN_PAD"))
 
@@ -204,6 +205,23 @@ def test_padded_contacts_lean(n, restore_flags):
     assert out[0] == out[1]
 
 
+def test_row_sums_in_python_are_numpys(restore_flags):
+    rng = np.random.default_rng(9)
+    efc = np.concatenate([[1.0, 1e-16, 1e-16, 1e-16, -0.0, 0.0, -3.0, np.nan, 1e16, -1e16, 5e-324],
+                          rng.normal(0, 30, 40), rng.uniform(0, 1, 40) * 10.0 ** rng.integers(-20, 20, 40)])
+    cases = [np.zeros(0, int), np.array([0, 1, 2]), np.array([1, 2, 0]), np.array([-1, -1]), np.array([4]),
+             np.array([5, 4]), np.array([7, 0]), np.array([8, 9, 0, 1, 2]), np.array([-1, 0, 1, 2, 3, 8, 9]),
+             np.arange(8), np.arange(12)]
+    cases += [rng.integers(-1, len(efc), size) for size in (2, 3, 5, 6, 7, 7, 7, 8, 9) for _ in range(30)]
+    for adr in cases:
+        adr = adr.astype(np.int32)
+        contacts.PYTHON_SUMS = False
+        want = contacts.row_force_sum_n(efc, adr)
+        contacts.PYTHON_SUMS = True
+        got = contacts.row_force_sum_n(efc, adr)
+        assert type(got) is float and np.float64(got).tobytes() == np.float64(want).tobytes(), adr
+
+
 def _read_bytes(stream, d) -> list:
     return [(name, [(f, getattr(c, f).dtype.str, getattr(c, f).tobytes()) for f in
                     ("positions_m", "normals", "normal_forces_n", "forces_n", "friction", "penetration_m")]
@@ -230,9 +248,9 @@ def test_contact_reads_and_fingertip_sums_through_a_squeeze(scene, restore_flags
     seen = set()
     for _ in range(60):
         mujoco.mj_step(m, d)
-        contacts.GATHER_FORCES = contacts.LEAN_FINGERTIPS = False
+        contacts.GATHER_FORCES = contacts.LEAN_FINGERTIPS = contacts.PYTHON_SUMS = False
         want_read, want = _read_bytes(stream, d), stream.fingertip_forces_n(d, body)
-        contacts.GATHER_FORCES = contacts.LEAN_FINGERTIPS = True
+        contacts.GATHER_FORCES = contacts.LEAN_FINGERTIPS = contacts.PYTHON_SUMS = True
         assert _read_bytes(stream, d) == want_read
         got = stream.fingertip_forces_n(d, body)
         efc, actuator, mic = stream.fingertip_rows(d, body)
