@@ -42,6 +42,11 @@ LEAN_FINGERTIPS = True
 #: forces added in the same order give the same float.  False: numpy (the reference;
 #: ``tests/test_episode_glue.py``).  Read at each call.
 PYTHON_SUMS = True
+#: Whether :meth:`ContactStream.read` takes the read arrays as they are for a body that has every
+#: read contact (one sensed body: always), instead of indexing them with all their rows (six
+#: copies of fresh arrays that nothing else holds).  False: the indexing (the reference;
+#: ``tests/test_episode_glue.py``).  Read at each call.
+WHOLE_SELECTION = True
 
 
 def kind_mask(kinds: np.ndarray, names) -> np.ndarray:
@@ -289,6 +294,14 @@ class ContactStream:
         kinds = self._kind_names[self._kind_of_body[other_body]]
         fn = np.maximum(f_contact[:, 0], 0.0)
         out = {}
+        if WHOLE_SELECTION and len(self.bodies) == 1:     # every read contact is the body's, in order
+            b = self.body_ids[0]
+            rot = data.xmat[b].reshape(3, 3)
+            name = self.bodies[0]
+            out[name] = ObjectContacts(
+                name, (pos_w - data.xpos[b]) @ rot, normal_w @ rot, fn, force_w @ rot, mu, pen, kinds,
+                self._body_names[other_body], self._geom_names[other_geom])
+            return out
         for i, name in enumerate(self.bodies):
             sel = np.flatnonzero(obj == i)
             if sel.size == 0:

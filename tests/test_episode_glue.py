@@ -1,8 +1,8 @@
 """The glue cuts of a randomized episode's sensing (issue 27): FAST_POINT_CHECKS
 (``sensors.modal.basis``), LEAN_FEATURE_STREAM (``sensors.synthesis.feature_recording``), FEW_EXTRA_POINTS
 (``sensors.modal.spring_modes``) and KIND_EQUALITY (``aas_gym.contacts``) give the reference's
-bytes; so do the env-side cuts of a probe episode: GATHER_FORCES, LEAN_FINGERTIPS and PYTHON_SUMS
-(``aas_gym.contacts``),
+bytes; so do the env-side cuts of a probe episode: GATHER_FORCES, LEAN_FINGERTIPS, PYTHON_SUMS and
+WHOLE_SELECTION (``aas_gym.contacts``),
 LAZY_GRASP_TESTS, CACHED_EXTENTS and LEAN_TELEPORT (``aas_gym.grasp``), LAZY_PLACEMENT_FORWARD (``aas_gym.envs.base``),
 WIDTH_ARRAY (``aas_gym.object_grasps``), LEAN_PAD (``aas_gym.envs.info``):
 per cut on its own inputs (odd ones included), and for whole envs (observations, rewards, infos and the
@@ -30,7 +30,7 @@ from aas_gym.envs import info as env_info
 spring_modes = importlib.import_module("sensors.modal.spring_modes")
 
 FLAGS = ((basis, "FAST_POINT_CHECKS"), (feature_recording, "LEAN_FEATURE_STREAM"),
-         (spring_modes, "FEW_EXTRA_POINTS"), (contacts, "KIND_EQUALITY"), (contacts, "GATHER_FORCES"), (contacts, "PYTHON_SUMS"),
+         (spring_modes, "FEW_EXTRA_POINTS"), (contacts, "KIND_EQUALITY"), (contacts, "GATHER_FORCES"), (contacts, "PYTHON_SUMS"), (contacts, "WHOLE_SELECTION"),
          (contacts, "LEAN_FINGERTIPS"), (grasp, "LAZY_GRASP_TESTS"), (grasp, "CACHED_EXTENTS"), (grasp, "LEAN_TELEPORT"),
          (base, "LAZY_PLACEMENT_FORWARD"), (object_grasps, "WIDTH_ARRAY"), (env_info, "LEAN_PAD"))
 
@@ -230,8 +230,8 @@ def _read_bytes(stream, d) -> list:
 
 @pytest.mark.parametrize("scene", ["single", "multi"])
 def test_contact_reads_and_fingertip_sums_through_a_squeeze(scene, restore_flags):
-    """``read`` (GATHER_FORCES), ``fingertip_forces_n`` (LEAN_FINGERTIPS) and ``fingertip_rows``'
-    sums against the references step by step, before the pads touch and through the squeeze."""
+    """``read`` (GATHER_FORCES, WHOLE_SELECTION: one sensed body in the single scene),
+    ``fingertip_forces_n`` (LEAN_FINGERTIPS) and ``fingertip_rows``' sums (PYTHON_SUMS) against the references step by step, before the pads touch and through the squeeze."""
     import gymnasium as gym
     import mujoco
 
@@ -242,15 +242,16 @@ def test_contact_reads_and_fingertip_sums_through_a_squeeze(scene, restore_flags
     u.reset(seed=5)
     sc, m, d = u._scene, u.model, u.data
     stream, body = sc.stream, sc.bodies[0]
+    assert (len(sc.bodies) == 1) == (scene == "single")     # WHOLE_SELECTION's path, and the other
     tcp, width = grasp.grasp_pose(m, d, body, 0.03)
     sc.hand.teleport(d, tcp + np.array([0.004, 0.0, 0.0, 0.0]), width + 0.03)
     sc.hand.command(d, opening_m=0.0)
     seen = set()
     for _ in range(60):
         mujoco.mj_step(m, d)
-        contacts.GATHER_FORCES = contacts.LEAN_FINGERTIPS = contacts.PYTHON_SUMS = False
+        contacts.GATHER_FORCES = contacts.LEAN_FINGERTIPS = contacts.PYTHON_SUMS = contacts.WHOLE_SELECTION = False
         want_read, want = _read_bytes(stream, d), stream.fingertip_forces_n(d, body)
-        contacts.GATHER_FORCES = contacts.LEAN_FINGERTIPS = contacts.PYTHON_SUMS = True
+        contacts.GATHER_FORCES = contacts.LEAN_FINGERTIPS = contacts.PYTHON_SUMS = contacts.WHOLE_SELECTION = True
         assert _read_bytes(stream, d) == want_read
         got = stream.fingertip_forces_n(d, body)
         efc, actuator, mic = stream.fingertip_rows(d, body)
