@@ -43,6 +43,11 @@ _SAMPLER_VERSION = 3
 #: reset): the same comparisons, the same mask.  False: the list (the reference;
 #: ``tests/test_episode_glue.py``).  Read at each call.
 WIDTH_ARRAY = True
+#: Whether :func:`rest_rotation` keeps its result by the object's up and main axes (the only
+#: inputs, the catalog's tuples; ~75 us a call, ``np.cross`` most of it, once a FillLevel-v0 reset).  False: computed
+#: each call (the reference; ``tests/test_episode_glue.py``).  Read at each call.
+REST_ROTATION_CACHE = True
+_REST_ROTATIONS: dict = {}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -60,9 +65,22 @@ class ObjectGrasp:
 def rest_rotation(solid) -> np.ndarray:
     """Rotation (3, 3) from the object frame to the world, before the placement's yaw: the
     object's ``up_axis`` to world +z and its main axis (or, parallel to up, object +z) to +x."""
-    up = np.asarray(solid.up_axis, float)
+    if not REST_ROTATION_CACHE or isinstance(solid.up_axis, np.ndarray):   # (an array is normalized in place)
+        return _rest_rotation(solid.up_axis, solid.main_axis)
+    up, main = np.asarray(solid.up_axis, float), np.asarray(solid.main_axis, float)
+    key = (up.shape, up.tobytes(), main.shape, main.tobytes())
+    rot = _REST_ROTATIONS.get(key)
+    if rot is None:
+        if len(_REST_ROTATIONS) >= 256:
+            _REST_ROTATIONS.clear()
+        rot = _REST_ROTATIONS[key] = _rest_rotation(up, main)
+    return rot.copy()
+
+
+def _rest_rotation(up_axis, main_axis) -> np.ndarray:
+    up = np.asarray(up_axis, float)
     up /= np.linalg.norm(up)
-    a = np.asarray(solid.main_axis, float)
+    a = np.asarray(main_axis, float)
     if abs(a @ up) > 0.99:
         a = np.array([0.0, 0.0, 1.0]) if abs(up[2]) < 0.99 else np.array([1.0, 0.0, 0.0])
     a = a - (a @ up) * up

@@ -4,7 +4,7 @@
 bytes; so do the env-side cuts of a probe episode: GATHER_FORCES, LEAN_FINGERTIPS, PYTHON_SUMS and
 WHOLE_SELECTION (``aas_gym.contacts``),
 LAZY_GRASP_TESTS, CACHED_EXTENTS and LEAN_TELEPORT (``aas_gym.grasp``), LAZY_PLACEMENT_FORWARD (``aas_gym.envs.base``),
-WIDTH_ARRAY (``aas_gym.object_grasps``), LEAN_PAD (``aas_gym.envs.info``):
+WIDTH_ARRAY and REST_ROTATION_CACHE (``aas_gym.object_grasps``), LEAN_PAD (``aas_gym.envs.info``):
 per cut on its own inputs (odd ones included), and for whole envs (observations, rewards, infos and the
 MuJoCo state over randomized episodes of GraspPosition-v0, ObjectRecognition-v0 and FillLevel-v0, caches
 emptied between)."""
@@ -32,7 +32,7 @@ spring_modes = importlib.import_module("sensors.modal.spring_modes")
 FLAGS = ((basis, "FAST_POINT_CHECKS"), (feature_recording, "LEAN_FEATURE_STREAM"),
          (spring_modes, "FEW_EXTRA_POINTS"), (contacts, "KIND_EQUALITY"), (contacts, "GATHER_FORCES"), (contacts, "PYTHON_SUMS"), (contacts, "WHOLE_SELECTION"),
          (contacts, "LEAN_FINGERTIPS"), (grasp, "LAZY_GRASP_TESTS"), (grasp, "CACHED_EXTENTS"), (grasp, "LEAN_TELEPORT"),
-         (base, "LAZY_PLACEMENT_FORWARD"), (object_grasps, "WIDTH_ARRAY"), (env_info, "LEAN_PAD"))
+         (base, "LAZY_PLACEMENT_FORWARD"), (object_grasps, "WIDTH_ARRAY"), (object_grasps, "REST_ROTATION_CACHE"), (env_info, "LEAN_PAD"))
 
 
 @pytest.fixture
@@ -220,6 +220,26 @@ def test_row_sums_in_python_are_numpys(restore_flags):
         contacts.PYTHON_SUMS = True
         got = contacts.row_force_sum_n(efc, adr)
         assert type(got) is float and np.float64(got).tobytes() == np.float64(want).tobytes(), adr
+
+
+def test_rest_rotations_cached(restore_flags):
+    import dataclasses
+
+    from sensors.objects.catalog import get_object
+
+    mug = get_object("mug").solid()
+    solids = [mug, dataclasses.replace(mug, up_axis=(0.0, 0.0, 1.0)), dataclasses.replace(mug, up_axis=(0.0, 1.0, 1.0)),
+              dataclasses.replace(mug, up_axis=(1.0, 0.0, 0.001), main_axis=(1.0, 0.0, 0.0)),
+              dataclasses.replace(mug, up_axis=(0.0, 0.0, 1.0), main_axis=(0.0, 0.0, 1.0)),
+              dataclasses.replace(mug, up_axis=(0.0, 0.3, 0.2), main_axis=(0.1, 0.0, 0.9))]
+    for solid in solids + solids:                   # the second round from the cache
+        object_grasps.REST_ROTATION_CACHE = False
+        want = object_grasps.rest_rotation(solid)
+        object_grasps.REST_ROTATION_CACHE = True
+        got = object_grasps.rest_rotation(solid)
+        assert got.tobytes() == want.tobytes() and got.shape == want.shape
+        got[:] = 0.0                                # a caller's edit does not reach the cache
+        assert object_grasps.rest_rotation(solid).tobytes() == want.tobytes()
 
 
 def _read_bytes(stream, d) -> list:
