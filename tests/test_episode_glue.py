@@ -231,6 +231,7 @@ def test_rest_rotations_cached(restore_flags):
     solids = [mug, dataclasses.replace(mug, up_axis=(0.0, 0.0, 1.0)), dataclasses.replace(mug, up_axis=(0.0, 1.0, 1.0)),
               dataclasses.replace(mug, up_axis=(1.0, 0.0, 0.001), main_axis=(1.0, 0.0, 0.0)),
               dataclasses.replace(mug, up_axis=(0.0, 0.0, 1.0), main_axis=(0.0, 0.0, 1.0)),
+              dataclasses.replace(mug, up_axis=(0.0, 0.0, 1.0), main_axis=(0.0, 1.0, 0.0)),
               dataclasses.replace(mug, up_axis=(0.0, 0.3, 0.2), main_axis=(0.1, 0.0, 0.9))]
     for solid in solids + solids:                   # the second round from the cache
         object_grasps.REST_ROTATION_CACHE = False
