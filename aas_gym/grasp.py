@@ -48,13 +48,13 @@ LAZY_GRASP_TESTS = True
 #: arrays it reads (one per object, not one per grasp); False recomputes it (the reference).
 CACHED_EXTENTS = True
 _EXTENTS: dict = {}
+_EXTENTS_MAX = 64
 #: Whether ``Hand.teleport`` and ``Hand.command`` clip a Python-float opening in Python
 #: (``np.clip`` on a scalar: ~8 us; the same value, -0.0 and NaN included) and ``teleport`` sets
 #: the servo targets it has already clipped without ``command`` clipping them again (clipping is
 #: idempotent).  False: ``np.clip`` and ``command`` (the reference; ``tests/test_episode_glue.py``).
 #: Read at each call.
 LEAN_TELEPORT = True
-_EXTENTS_MAX = 64
 
 
 def model_id(model: mujoco.MjModel, kind, name: str, what: str) -> int:
