@@ -91,12 +91,14 @@ def canonical_quat(target: ObjectSpec) -> np.ndarray:
 
 def settle_placed(memo: PhysicsMemo, model: mujoco.MjModel, data: mujoco.MjData,
                   free_joints: Sequence[tuple[int, int]], layout: Layout, settle_s: float,
-                  target_quat: np.ndarray) -> SettledPlacement | None:
+                  target_quat: np.ndarray, forward: bool = True) -> SettledPlacement | None:
     """Let the placed scene in ``data`` settle for ``settle_s`` (as ``aas_gym.scenario.settle``),
     through ``memo``; the objects' free joints ``(qpos address, qvel address)``, target first,
     its planar pose from ``layout`` and its :func:`canonical_quat` ``target_quat``.  The module
     docstring says how and how exactly.  Returns the :class:`SettledPlacement` for
-    :func:`run_after_settle`, or None with :data:`CANONICAL_SETTLE` False (the reference)."""
+    :func:`run_after_settle`, or None with :data:`CANONICAL_SETTLE` False (the reference).
+    ``forward=False``: the moved state's derived quantities left stale (a caller whose next
+    physics is :func:`run_after_settle`)."""
     if not CANONICAL_SETTLE:                            # the reference
         memo.run(data, ("settle", settle_s), lambda: settle(model, data, settle_s))
         return None
@@ -104,7 +106,7 @@ def settle_placed(memo: PhysicsMemo, model: mujoco.MjModel, data: mujoco.MjData,
     start = np.empty(mujoco.mj_stateSize(model, _STATE))
     mujoco.mj_getState(model, data, start, _STATE)
     memo.run(data, ("settle", settle_s), lambda: settle(model, data, settle_s))
-    from_canonical(model, data, free_joints, layout)
+    from_canonical(model, data, free_joints, layout, forward=forward)
     settled = np.empty(start.size)
     mujoco.mj_getState(model, data, settled, _STATE)
     return SettledPlacement(start, float(settle_s), tuple(free_joints), layout, settled, _model_fields(model))

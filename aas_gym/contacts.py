@@ -27,6 +27,26 @@ _ELLIPTIC = int(mujoco.mjtCone.mjCONE_ELLIPTIC)
 #: (string equality either way).  False: ``np.isin`` (the reference; ``tests/test_episode_glue.py``).
 #: Read at each call.
 KIND_EQUALITY = True
+#: Elliptic cones: :meth:`ContactStream.read` gathers every contact's three force rows with one
+#: index when every read contact has them (rows present, ``dim`` >= 3), instead of three masked
+#: assignments (~25 us a read); the same ``efc_force`` values land in the same places.  False:
+#: the masked assignments (the reference; ``tests/test_episode_glue.py``).  Read at each call.
+GATHER_FORCES = True
+#: :meth:`ContactStream.fingertip_rows` (the actuator and mic fingertips' normal rows of a body,
+#: summed when asked: ``aas_gym.grasp.planar_grasp`` sums the mic's only when it tests for
+#: rest) and :meth:`ContactStream.fingertip_forces_n` without the two ``any`` tests (empty sums
+#: are 0.0 either way).  False: the reference.  Read at each call.
+LEAN_FINGERTIPS = True
+#: Whether :func:`row_force_sum_n` sums fewer than 8 rows in Python (~2 us instead of ~10): numpy
+#: adds fewer than 8 values one by one from 0.0 (its pairwise sum starts at 8), so the clipped
+#: forces added in the same order give the same float.  False: numpy (the reference;
+#: ``tests/test_episode_glue.py``).  Read at each call.
+PYTHON_SUMS = True
+#: Whether :meth:`ContactStream.read` takes the read arrays as they are for a body that has every
+#: read contact (one sensed body: always), instead of indexing them with all their rows (six
+#: copies of fresh arrays that nothing else holds).  False: the indexing (the reference;
+#: ``tests/test_episode_glue.py``).  Read at each call.
+WHOLE_SELECTION = True
 
 
 def kind_mask(kinds: np.ndarray, names) -> np.ndarray:
@@ -274,6 +294,14 @@ class ContactStream:
         kinds = self._kind_names[self._kind_of_body[other_body]]
         fn = np.maximum(f_contact[:, 0], 0.0)
         out = {}
+        if WHOLE_SELECTION and len(self.bodies) == 1:     # every read contact is the body's, in order
+            b = self.body_ids[0]
+            rot = data.xmat[b].reshape(3, 3)
+            name = self.bodies[0]
+            out[name] = ObjectContacts(
+                name, (pos_w - data.xpos[b]) @ rot, normal_w @ rot, fn, force_w @ rot, mu, pen, kinds,
+                self._body_names[other_body], self._geom_names[other_geom])
+            return out
         for i, name in enumerate(self.bodies):
             sel = np.flatnonzero(obj == i)
             if sel.size == 0:
@@ -314,6 +342,9 @@ class ContactStream:
         if self.model.opt.cone != _ELLIPTIC:
             c = self.read(data)[body]
             return c.total_normal_force_n("actuator"), c.total_normal_force_n("mic")
+        if LEAN_FINGERTIPS:
+            efc, actuator, mic = self._fingertip_rows(data, body)
+            return row_force_sum_n(efc, actuator), row_force_sum_n(efc, mic)
         n = data.ncon
         if not n or not data.nefc:
             return 0.0, 0.0
@@ -329,10 +360,38 @@ class ContactStream:
         return (float(np.add.reduce(_normal_row_forces(efc, adr[actuator]), axis=None)),
                 float(np.add.reduce(_normal_row_forces(efc, adr[mic]), axis=None)))
 
+    @property
+    def elliptic(self) -> bool:
+        """Whether the model's friction cones are elliptic (:meth:`fingertip_rows` has rows)."""
+        return self.model.opt.cone == _ELLIPTIC
+
+    def fingertip_rows(self, data: mujoco.MjData, body: str):
+        """``(efc_force, actuator rows, mic rows)``: the fingertips' contacts with ``body`` as the
+        ``efc_address`` of their normal rows, in contact order, for :func:`row_force_sum_n`
+        (``fingertip_forces_n`` is the two sums); None where the cone is not elliptic (no rows
+        to sum: use ``fingertip_forces_n``)."""
+        if self.model.opt.cone != _ELLIPTIC:
+            return None
+        return self._fingertip_rows(data, body)
+
+    def _fingertip_rows(self, data: mujoco.MjData, body: str):
+        n = data.ncon
+        if not n or not data.nefc:
+            return _NO_ROWS
+        con = data.contact
+        code = self._kind_code[self.bodies.index(body)][con.geom[:n].dot(self._pair_index)]
+        adr = con.efc_address[:n]
+        return data.efc_force, adr[code == _ACTUATOR + 1], adr[code == _MIC + 1]
+
     def _contact_forces(self, data, con, n: int, rows: np.ndarray) -> np.ndarray:
         """Normal and two tangential force components (contact frame, acting on geom[1])."""
+        elliptic = self.model.opt.cone == _ELLIPTIC
+        if elliptic and GATHER_FORCES:
+            adr = con.efc_address[:n][rows]
+            if adr.size and adr.min() >= 0 and con.dim[:n][rows].min() >= 3:
+                return data.efc_force[adr[:, None] + _THREE_ROWS]
         out = np.zeros((rows.size, 3))
-        if self.model.opt.cone == _ELLIPTIC:
+        if elliptic:
             # Elliptic cones: the solver's rows of a contact are its force components
             # (what mj_contactForce copies); contacts without rows carry no force.
             adr = con.efc_address[:n][rows]
@@ -354,6 +413,24 @@ class ContactStream:
         z3, z = np.zeros((0, 3)), np.zeros(0)
         e = np.zeros(0, dtype=object)
         return ObjectContacts(name, z3, z3.copy(), z, z3.copy(), z.copy(), z.copy(), np.zeros(0, dtype="<U11"), e, e)
+
+
+_THREE_ROWS = np.arange(3)
+_NO_ROWS = (np.zeros(0), np.zeros(0, dtype=int), np.zeros(0, dtype=int))
+
+
+def row_force_sum_n(efc_force: np.ndarray, adr: np.ndarray) -> float:
+    """Summed normal force [N] of the normal rows ``adr`` (a :meth:`ContactStream.fingertip_rows`
+    entry): as ``fingertip_forces_n`` sums them (0.0 for none)."""
+    if PYTHON_SUMS and adr.size < 8:
+        total = 0.0
+        for r in adr.tolist():
+            if r >= 0:                                  # a row: its force clipped at 0 (NaN kept)
+                f = float(efc_force[r])
+                if f > 0.0 or f != f:
+                    total += f
+        return total
+    return float(np.add.reduce(_normal_row_forces(efc_force, adr), axis=None))
 
 
 def _normal_row_forces(efc_force: np.ndarray, adr: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from aas_gym.contacts import ContactStream
+from aas_gym.contacts import ContactStream, row_force_sum_n
 
 DEFAULT_GRIP_FORCE_N = 40.0  # the paper's grasp force
 MAX_GRIP_FORCE_N = 140.0     # Franka hand: 70 N continuous, 140 N peak
@@ -38,6 +38,23 @@ TCP_JOINTS = ("hand_x", "hand_y", "hand_z", "hand_yaw")
 #: and the infos come out bit for bit the same (``tests/test_lean_script.py``); False runs
 #: them as before (the reference).  Read at each call.
 LEAN_SCRIPT = True
+#: Whether ``planar_grasp``'s rest test after each chunk of steps computes the mic fingertip's
+#: force and the hand's motion only when the actuator's force already passes (positive and
+#: steady: the test's other terms are pure, so the outcome is the same), the motion from Python
+#: floats (the same comparisons as ``np.max(np.abs(v)) > tol``, NaN included).  False: every
+#: term every chunk (the reference; ``tests/test_episode_glue.py``).  Read at each call.
+LAZY_GRASP_TESTS = True
+#: Whether ``body_half_extents`` keeps its result per body and content of the model's geom
+#: arrays it reads (one per object, not one per grasp); False recomputes it (the reference).
+CACHED_EXTENTS = True
+_EXTENTS: dict = {}
+_EXTENTS_MAX = 64
+#: Whether ``Hand.teleport`` and ``Hand.command`` clip a Python-float opening in Python
+#: (``np.clip`` on a scalar: ~8 us; the same value, -0.0 and NaN included) and ``teleport`` sets
+#: the servo targets it has already clipped without ``command`` clipping them again (clipping is
+#: idempotent).  False: ``np.clip`` and ``command`` (the reference; ``tests/test_episode_glue.py``).
+#: Read at each call.
+LEAN_TELEPORT = True
 
 
 def model_id(model: mujoco.MjModel, kind, name: str, what: str) -> int:
@@ -133,7 +150,7 @@ class Hand:
         if tcp is not None:
             data.ctrl[self.tcp_actuators] = np.clip(np.asarray(tcp, float), self.tcp_low, self.tcp_high)
         if opening_m is not None:
-            opening_m = float(np.clip(opening_m, 0.0, MAX_OPENING_M))
+            opening_m = clip_opening_m(opening_m)
             data.ctrl[self.gripper_actuator] = SQUEEZE_TARGET_M if opening_m == 0.0 else opening_m
 
     def teleport(self, data: mujoco.MjData, tcp, opening_m: float, forward: bool = True) -> None:
@@ -141,14 +158,27 @@ class Hand:
         ``forward=False`` leaves the derived quantities (poses, contacts) stale, for a caller
         whose next call is ``mj_step``."""
         tcp = np.clip(np.asarray(tcp, float), self.tcp_low, self.tcp_high)
-        opening_m = float(np.clip(opening_m, 0.0, MAX_OPENING_M))
+        opening_m = clip_opening_m(opening_m)
         data.qpos[self.tcp_qpos] = tcp
         data.qvel[self.tcp_qvel] = 0.0
         data.qpos[self.finger_qpos] = opening_m / 2
         data.qvel[self.finger_qvel] = 0.0
-        self.command(data, tcp, opening_m)
+        if LEAN_TELEPORT and type(self).command is Hand.command:    # command's clips would change nothing
+            data.ctrl[self.tcp_actuators] = tcp
+            data.ctrl[self.gripper_actuator] = SQUEEZE_TARGET_M if opening_m == 0.0 else opening_m
+        else:
+            self.command(data, tcp, opening_m)
         if forward:
             mujoco.mj_forward(self.model, data)
+
+
+def clip_opening_m(opening_m) -> float:
+    """``float(np.clip(opening_m, 0.0, MAX_OPENING_M))``; for a Python float (with
+    :data:`LEAN_TELEPORT`) as ``min(max(x, 0.0), MAX_OPENING_M)``: NaN stays NaN and -0.0 stays
+    -0.0, as ``np.clip`` keeps them."""
+    if LEAN_TELEPORT and type(opening_m) is float:
+        return min(max(opening_m, 0.0), MAX_OPENING_M)
+    return float(np.clip(opening_m, 0.0, MAX_OPENING_M))
 
 
 def grasp_pose(model: mujoco.MjModel, data: mujoco.MjData, body: str, position_m: float = 0.0,
@@ -180,13 +210,30 @@ def grasp_pose(model: mujoco.MjModel, data: mujoco.MjData, body: str, position_m
     yaw = (yaw + math.pi / 2) % math.pi - math.pi / 2  # same grasp, fingers swapped: keep |yaw| <= pi/2
     closing = np.array([-math.sin(yaw), math.cos(yaw), 0.0])
     # Extent along the closing direction from the geoms' bounding boxes in the body frame.
-    half = _body_half_extents(model, bid)
+    half = body_half_extents(model, bid)
     width = 2.0 * float(np.abs(rot.T @ closing) @ half)
     return np.array([point[0], point[1], point[2] + height_offset_m, yaw]), width
 
 
-def _body_half_extents(model: mujoco.MjModel, bid: int) -> np.ndarray:
+def body_half_extents(model: mujoco.MjModel, bid: int) -> np.ndarray:
     """Half sizes of the axis-aligned box around the body's colliding geoms (body frame)."""
+    if not CACHED_EXTENTS:
+        return _half_extents(model, bid)
+    # keyed by everything _half_extents reads (a model edited in place gets its own entry)
+    key = (int(bid), b"".join(getattr(model, f).tobytes() for f in _EXTENT_FIELDS))
+    half = _EXTENTS.get(key)
+    if half is None:
+        half = _half_extents(model, bid)
+        if len(_EXTENTS) >= _EXTENTS_MAX:
+            _EXTENTS.clear()
+        _EXTENTS[key] = half
+    return half.copy()
+
+
+_EXTENT_FIELDS = ("geom_bodyid", "geom_contype", "geom_conaffinity", "geom_aabb", "geom_quat", "geom_pos")
+
+
+def _half_extents(model: mujoco.MjModel, bid: int) -> np.ndarray:
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     colliding = (model.geom_bodyid == bid) & ((model.geom_contype != 0) | (model.geom_conaffinity != 0))
     for g in np.flatnonzero(colliding):
@@ -235,26 +282,61 @@ def planar_grasp(model: mujoco.MjModel, data: mujoco.MjData, body: str, position
     hand.command(data, opening_m=0.0)
     t, settled, lifted = 0.0, False, lift_m <= 0
     prev = forces = None
+    lazy = LAZY_GRASP_TESTS and stream.elliptic          # fingertip_rows: the solver's rows
     while t < max_time_s:
         mujoco.mj_step(model, data, nstep=chunk)
         t += chunk * dt
-        fa, fm = forces = stream.fingertip_forces_n(data, body)
-        moving = np.max(np.abs(hand.finger_velocity(data))) > 1e-4 or np.max(np.abs(hand.tcp_velocity(data))) > 1e-3
-        steady = prev is not None and abs(fa - prev) < 1e-3 * grip_force_n
-        prev = fa
-        if fa > 0 and fm > 0 and not moving and steady:
-            if not lifted:
-                hand.command(data, tcp=tcp + np.array([0, 0, lift_m, 0]))
-                lifted = True
-                prev = None
+        if lazy:
+            efc, actuator_rows, mic_rows = stream.fingertip_rows(data, body)
+            fa = row_force_sum_n(efc, actuator_rows)
+            fm = None                                   # summed below when the test needs it
+            steady = prev is not None and abs(fa - prev) < 1e-3 * grip_force_n
+            prev = fa
+            forces = (fa, fm)
+            if not (fa > 0 and steady and not _hand_moving(hand, data)):
                 continue
-            settled = True
-            break
+            fm = row_force_sum_n(efc, mic_rows)
+            forces = (fa, fm)
+            if not fm > 0:
+                continue
+        else:
+            fa, fm = forces = stream.fingertip_forces_n(data, body)
+            moving = np.max(np.abs(hand.finger_velocity(data))) > 1e-4 or np.max(np.abs(hand.tcp_velocity(data))) > 1e-3
+            steady = prev is not None and abs(fa - prev) < 1e-3 * grip_force_n
+            prev = fa
+            if not (fa > 0 and fm > 0 and not moving and steady):
+                continue
+        if not lifted:
+            hand.command(data, tcp=tcp + np.array([0, 0, lift_m, 0]))
+            lifted = True
+            prev = None
+            continue
+        settled = True
+        break
+    if forces is not None and forces[1] is None:        # the mic's sum of the state the loop left
+        forces = (forces[0], row_force_sum_n(efc, mic_rows))
     # the loop's last sums are those of the state it left (no step since)
     fa, fm = forces if lean and forces is not None else stream.fingertip_forces_n(data, body)
     return GraspResult(success=bool(fa > 0 and fm > 0), actuator_force_n=fa, mic_force_n=fm,
                        opening_m=hand.opening_m(data), grasp_position_m=float(position_m),
                        settle_time_s=t, settled=settled)
+
+
+def _hand_moving(hand, data: mujoco.MjData) -> bool:
+    """``planar_grasp``'s motion test on Python floats: ``np.max(np.abs(v)) > tol`` is False
+    for a NaN anywhere in ``v`` (``np.max`` propagates it), else whether any ``|v|`` exceeds it."""
+    return exceeds(hand.finger_velocity(data).tolist(), 1e-4) or exceeds(hand.tcp_velocity(data).tolist(), 1e-3)
+
+
+def exceeds(values: list, tol: float) -> bool:
+    """``np.max(np.abs(values)) > tol`` for a short list of floats (False with a NaN)."""
+    out = False
+    for v in values:
+        if v != v:
+            return False
+        if abs(v) > tol:
+            out = True
+    return out
 
 
 def release(model: mujoco.MjModel, data: mujoco.MjData, hand: Hand | None = None,

@@ -13,6 +13,7 @@ No MuJoCo here: the objects are catalog entries (:class:`sensors.objects.ObjectS
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -37,6 +38,16 @@ N_GRASPS = 200
 GRASP_SEED = 0
 #: Part of the grasp cache key: raise it when the sampler's rules change.
 _SAMPLER_VERSION = 3
+#: Whether ``GraspSet.nearest`` compares the grasps' widths as one array kept with the set
+#: (``widths_m``) instead of a list built per call (~100 us for 200 grasps, twice a FillLevel-v0
+#: reset): the same comparisons, the same mask.  False: the list (the reference;
+#: ``tests/test_episode_glue.py``).  Read at each call.
+WIDTH_ARRAY = True
+#: Whether :func:`rest_rotation` keeps its result by the object's up and main axes (the only
+#: inputs, the catalog's tuples; ~75 us a call, ``np.cross`` most of it, once a FillLevel-v0 reset).  False: computed
+#: each call (the reference; ``tests/test_episode_glue.py``).  Read at each call.
+REST_ROTATION_CACHE = True
+_REST_ROTATIONS: dict = {}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,9 +65,22 @@ class ObjectGrasp:
 def rest_rotation(solid) -> np.ndarray:
     """Rotation (3, 3) from the object frame to the world, before the placement's yaw: the
     object's ``up_axis`` to world +z and its main axis (or, parallel to up, object +z) to +x."""
-    up = np.asarray(solid.up_axis, float)
+    if not REST_ROTATION_CACHE or isinstance(solid.up_axis, np.ndarray):   # (an array is normalized in place)
+        return _rest_rotation(solid.up_axis, solid.main_axis)
+    up, main = np.asarray(solid.up_axis, float), np.asarray(solid.main_axis, float)
+    key = (up.shape, up.tobytes(), main.shape, main.tobytes())
+    rot = _REST_ROTATIONS.get(key)
+    if rot is None:
+        if len(_REST_ROTATIONS) >= 256:
+            _REST_ROTATIONS.clear()
+        rot = _REST_ROTATIONS[key] = _rest_rotation(up, main)
+    return rot.copy()
+
+
+def _rest_rotation(up_axis, main_axis) -> np.ndarray:
+    up = np.asarray(up_axis, float)
     up /= np.linalg.norm(up)
-    a = np.asarray(solid.main_axis, float)
+    a = np.asarray(main_axis, float)
     if abs(a @ up) > 0.99:
         a = np.array([0.0, 0.0, 1.0]) if abs(up[2]) < 0.99 else np.array([1.0, 0.0, 0.0])
     a = a - (a @ up) * up
@@ -82,12 +106,22 @@ class GraspSet:
     def span_m(self) -> tuple[float, float]:
         return float(self.positions_m.min()), float(self.positions_m.max())
 
+    @functools.cached_property
+    def widths_m(self) -> np.ndarray:
+        """The grasps' widths [m] (float64, read-only)."""
+        w = np.array([g.width_m for g in self.grasps], dtype=np.float64)
+        w.flags.writeable = False
+        return w
+
     def nearest(self, position_m: float, avoid_m=(), clearance_m: float = 0.0,
                 min_width_m: float = 0.0) -> ObjectGrasp:
         """The grasp whose position is closest to ``position_m``, among those at least
         ``min_width_m`` wide whose contacts stay ``clearance_m`` from every point of
         ``avoid_m`` (object frame)."""
-        ok = np.array([g.width_m >= min_width_m for g in self.grasps], bool)
+        if WIDTH_ARRAY:
+            ok = self.widths_m >= min_width_m
+        else:
+            ok = np.array([g.width_m >= min_width_m for g in self.grasps], bool)
         for point in avoid_m:
             for g_i, g in enumerate(self.grasps):
                 if ok[g_i] and min(np.linalg.norm(c - point) for c in g.contacts_m) < clearance_m:

@@ -25,6 +25,7 @@ PARTS = (
     ("aas_gym.envs.base", "AasEnv", "_place_objects", "physics: place (rest)"),
     ("aas_gym.contacts", "ContactStream", "read", "contacts: read"),
     ("aas_gym.contacts", "ContactStream", "fingertip_forces_n", "contacts: fingertip forces"),
+    ("aas_gym.contacts", "ContactStream", "fingertip_rows", "contacts: fingertip rows"),  # the grasp's lazy test
     ("sensors.modal.contact", "Contact", "__init__", "Contact()"),
     ("sensors.modal.contact", "Contact", "to_dict", "Contact.to_dict"),
     ("sensors.synthesis.feature_recording", None, "_object_spectra", "features: object spectra (rest)"),

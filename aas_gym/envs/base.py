@@ -63,6 +63,14 @@ _MOTOR_FORCE = STATE_LAYOUT["gripper"].stop - 1
 
 _LAYOUT_ITEMS = tuple(STATE_LAYOUT.items())
 
+#: Whether an env whose reset grasps right after the canonical settle (``_grasp_follows_placement``:
+#: GraspPosition-v0) leaves out the settle's closing ``mj_forward``: the grasp's first release
+#: replays from the settle's start state (``run_after_settle``: ``mj_setState``, then the run's
+#: whole ``MjData`` copied or stepped), so nothing reads the poses it computed; a grasp that does
+#: not replay runs it first.  False: the forward where the settle ends (the reference;
+#: ``tests/test_episode_glue.py``).  Read at each reset.
+LAZY_PLACEMENT_FORWARD = True
+
 
 #: The attributes of a ``_Scene`` that are views into its MjData.
 _DATA_VIEWS = ("sensordata", "qpos", "qvel", "ctrl", "actuator_force", "xpos", "site_xpos")
@@ -228,6 +236,8 @@ class AasEnv(AcousticEnvMixin, gym.Env):
     #: Settle each placement as the same run moved (``aas_gym.canonical_settle``): once per
     #: target and layout of the others instead of every reset.
     _settle_canonical = False
+    #: The reset's first physics after the canonical settle is ``_grasp`` (LAZY_PLACEMENT_FORWARD).
+    _grasp_follows_placement = False
 
     #: Settle each placement until its objects are at rest, at most the settle's duration
     #: (``aas_gym.scenario.settle``): for scenes whose settle is not replayed.
@@ -290,6 +300,7 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         self._variation = SensorVariation()
         self._stream: SimAcousticStream | None = None
         self._placement = None      # the canonical settle of this reset (AasEnv._grasp's first release)
+        self._forward_pending = False   # its closing mj_forward left out (LAZY_PLACEMENT_FORWARD)
         self._at_rest = None        # the state a settle left at rest (AasEnv._grasp skips the first release)
         self._stream_corruption = None  # the stream's sensors.signals.CorruptedStream (acoustic.corruption)
         self._scenes: LRU[_Scene] = LRU(CACHE_SIZES["env.scenes"])
@@ -436,10 +447,14 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         self._layout = place_objects(m, d, sc.objects, sc.free_joints, self.np_random, self.randomization,
                                      far_end_only=self._far_end_only)
         self._placement = self._at_rest = None
+        self._forward_pending = False
         if self._settle_near_rest(settle_s):
             self._at_rest = scenario.SceneState.of(m, d)     # at rest: the first release is skipped
         elif self._settle_canonical:
-            self._placement = settle_placed(sc.memo, m, d, sc.free_joints, self._layout, settle_s, sc.canonical_quat)
+            lazy = LAZY_PLACEMENT_FORWARD and self._grasp_follows_placement
+            self._placement = settle_placed(sc.memo, m, d, sc.free_joints, self._layout, settle_s, sc.canonical_quat,
+                                            forward=not lazy)
+            self._forward_pending = lazy and self._placement is not None
         elif self._settle_until_rest:      # aas_gym.scenario.SETTLE_UNTIL_REST; the key says which
             rest = scenario.SETTLE_UNTIL_REST
             steps = sc.memo.run(d, ("settle", settle_s, "until rest" if rest else "whole"),
@@ -489,6 +504,9 @@ class AasEnv(AcousticEnvMixin, gym.Env):
         # replayed from the canonical run; any other runs here, as part of the grasp.
         placement, self._placement = self._placement, None
         released = placement is not None and placement.is_current(self.model, self.data)
+        pending, self._forward_pending = self._forward_pending, False
+        if pending and not released:                    # the forward settle_placed left out
+            mujoco.mj_forward(self.model, self.data)
         if released:
             run_after_settle(self._scene.memo, self.model, self.data, placement, ("release", 0.06), release_hand,
                              forward=False)   # the grasp reads its poses itself

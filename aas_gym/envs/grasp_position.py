@@ -54,6 +54,7 @@ class GraspPositionEnv(AasEnv):
     _far_end_only = True
     _step_is_probe = True
     _settle_canonical = True
+    _grasp_follows_placement = True
     reset_options = ("object", "position_index")
     reward_term_names = ("error",)
 

@@ -19,6 +19,10 @@ __all__ = ["MAX_INFO_CONTACTS", "contacts_info", "padded_contacts"]
 #: 8-16 contacts; a convex-decomposed everyday object more). Beyond it the weakest (smallest
 #: normal force) are left out and counted in ``n_dropped``.
 MAX_INFO_CONTACTS = 64
+#: Whether :func:`padded_contacts` copies the rows straight in when none is left out (no index
+#: array) and pads zeros with ``np.zeros``: the same arrays.  False: index and ``np.full`` (the
+#: reference; ``tests/test_episode_glue.py``).  Read at each call.
+LEAN_PAD = True
 
 
 def padded_contacts(contacts: ObjectContacts, max_contacts: int = MAX_INFO_CONTACTS) -> dict:
@@ -37,9 +41,14 @@ def padded_contacts(contacts: ObjectContacts, max_contacts: int = MAX_INFO_CONTA
     if n > max_contacts:
         keep = np.sort(np.argsort(-np.asarray(contacts.normal_forces_n), kind="stable")[:max_contacts])
     k = len(keep)
+    lean = LEAN_PAD and k == n
 
     def pad(values, width: int | None = None, dtype=np.float64, fill=0.0) -> np.ndarray:
         shape = (max_contacts,) if width is None else (max_contacts, width)
+        if lean:
+            out = np.zeros(shape, dtype=dtype) if dtype is np.float64 else np.full(shape, fill, dtype=dtype)
+            out[:k] = values
+            return out
         out = np.full(shape, fill, dtype=dtype)
         out[:k] = np.asarray(values)[keep]
         return out
