@@ -142,8 +142,29 @@ def load_sink(sink: str = DEFAULT_SINK, sample_rate_hz: int = DEFAULT_FS, channe
         # so the server never resamples.
         _pactl(runtime_dir, "load-module", "module-null-sink", f"sink_name={sink}",
                "format=float32le", f"rate={int(sample_rate_hz)}", f"channels={int(channels)}")
+        _keep_clocked(sink, sample_rate_hz, channels, runtime_dir)
     _pactl(runtime_dir, "set-default-sink", sink)
     _pactl(runtime_dir, "set-default-source", f"{sink}.monitor")
+
+
+#: The latency [ms] of the silent stream that keeps the null sink rendering in small blocks.
+KEEPER_LATENCY_MS = 10
+
+
+def _keep_clocked(sink: str, sample_rate_hz: int, channels: int, runtime_dir: Path) -> None:
+    """Play silence into the null sink at a low latency, for as long as the sink lives. With
+    nothing playing into it, a null sink renders in 2 s blocks, so a recording of its monitor
+    started then waited up to 2 s for its first input (1.9 s per reset of the streamed real env,
+    where a sound card delivers in milliseconds). Zeros mixed in change no sample (x + 0 = x).
+    The stream belongs to a module, not a client (``pactl`` lists no client for it); it goes
+    with the sink (``unload_sink``) and comes back with it."""
+    silence = f"{sink}_silence"
+    sources = _pactl(runtime_dir, "list", "short", "sources").stdout
+    if not any(line.split("\t")[1:2] == [silence] for line in sources.splitlines()):
+        _pactl(runtime_dir, "load-module", "module-null-source", f"source_name={silence}", "format=float32le",
+               f"rate={int(sample_rate_hz)}", f"channels={int(channels)}")
+    _pactl(runtime_dir, "load-module", "module-loopback", f"source={silence}", f"sink={sink}",
+           f"latency_msec={KEEPER_LATENCY_MS}", "source_dont_move=true", "sink_dont_move=true")
 
 
 def unload_sink(sink: str = DEFAULT_SINK, runtime_dir: str | os.PathLike | None = None) -> None:
