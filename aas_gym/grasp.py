@@ -17,6 +17,7 @@ import mujoco
 import numpy as np
 
 from aas_gym.contacts import ContactStream, row_force_sum_n
+from sensors._infra.lru import CACHE_SIZES, LRU
 
 DEFAULT_GRIP_FORCE_N = 40.0  # the paper's grasp force
 MAX_GRIP_FORCE_N = 140.0     # Franka hand: 70 N continuous, 140 N peak
@@ -47,8 +48,7 @@ LAZY_GRASP_TESTS = True
 #: Whether ``body_half_extents`` keeps its result per body and content of the model's geom
 #: arrays it reads (one per object, not one per grasp); False recomputes it (the reference).
 CACHED_EXTENTS = True
-_EXTENTS: dict = {}
-_EXTENTS_MAX = 64
+_EXTENTS: LRU = LRU(CACHE_SIZES["sim.body_extents"])
 #: Whether ``Hand.teleport`` and ``Hand.command`` clip a Python-float opening in Python
 #: (``np.clip`` on a scalar: ~8 us; the same value, -0.0 and NaN included) and ``teleport`` sets
 #: the servo targets it has already clipped without ``command`` clipping them again (clipping is
@@ -221,13 +221,7 @@ def body_half_extents(model: mujoco.MjModel, bid: int) -> np.ndarray:
         return _half_extents(model, bid)
     # keyed by everything _half_extents reads (a model edited in place gets its own entry)
     key = (int(bid), b"".join(getattr(model, f).tobytes() for f in _EXTENT_FIELDS))
-    half = _EXTENTS.get(key)
-    if half is None:
-        half = _half_extents(model, bid)
-        if len(_EXTENTS) >= _EXTENTS_MAX:
-            _EXTENTS.clear()
-        _EXTENTS[key] = half
-    return half.copy()
+    return _EXTENTS.get_or_build(key, lambda: _half_extents(model, bid)).copy()
 
 
 _EXTENT_FIELDS = ("geom_bodyid", "geom_contype", "geom_conaffinity", "geom_aabb", "geom_quat", "geom_pos")

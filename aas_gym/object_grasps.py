@@ -47,7 +47,7 @@ WIDTH_ARRAY = True
 #: inputs, the catalog's tuples; ~75 us a call, ``np.cross`` most of it, once a FillLevel-v0 reset).  False: computed
 #: each call (the reference; ``tests/test_episode_glue.py``).  Read at each call.
 REST_ROTATION_CACHE = True
-_REST_ROTATIONS: dict = {}
+_REST_ROTATIONS: LRU = LRU(CACHE_SIZES["sim.rest_rotations"])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -69,12 +69,7 @@ def rest_rotation(solid) -> np.ndarray:
         return _rest_rotation(solid.up_axis, solid.main_axis)
     up, main = np.asarray(solid.up_axis, float), np.asarray(solid.main_axis, float)
     key = (up.shape, up.tobytes(), main.shape, main.tobytes())
-    rot = _REST_ROTATIONS.get(key)
-    if rot is None:
-        if len(_REST_ROTATIONS) >= 256:
-            _REST_ROTATIONS.clear()
-        rot = _REST_ROTATIONS[key] = _rest_rotation(up, main)
-    return rot.copy()
+    return _REST_ROTATIONS.get_or_build(key, lambda: _rest_rotation(up, main)).copy()
 
 
 def _rest_rotation(up_axis, main_axis) -> np.ndarray:

@@ -20,8 +20,8 @@ __all__ = ["MAX_INFO_CONTACTS", "contacts_info", "padded_contacts"]
 #: normal force) are left out and counted in ``n_dropped``.
 MAX_INFO_CONTACTS = 64
 #: Whether :func:`padded_contacts` copies the rows straight in when none is left out (no index
-#: array) and pads zeros with ``np.zeros``: the same arrays.  False: index and ``np.full`` (the
-#: reference; ``tests/test_episode_glue.py``).  Read at each call.
+#: array): the same arrays.  False: the index (the reference; ``tests/test_episode_glue.py``).
+#: Read at each call.
 LEAN_PAD = True
 
 
@@ -45,12 +45,8 @@ def padded_contacts(contacts: ObjectContacts, max_contacts: int = MAX_INFO_CONTA
 
     def pad(values, width: int | None = None, dtype=np.float64, fill=0.0) -> np.ndarray:
         shape = (max_contacts,) if width is None else (max_contacts, width)
-        if lean:
-            out = np.zeros(shape, dtype=dtype) if dtype is np.float64 else np.full(shape, fill, dtype=dtype)
-            out[:k] = values
-            return out
         out = np.full(shape, fill, dtype=dtype)
-        out[:k] = np.asarray(values)[keep]
+        out[:k] = values if lean else np.asarray(values)[keep]
         return out
 
     return {"n_contacts": int(k), "n_dropped": int(n - k),

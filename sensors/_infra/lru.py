@@ -59,6 +59,8 @@ CACHE_SIZES: dict[str, int] = {
     "sim.material_views": 16,
     "sim.touching_groups": 16,       # recent coupled groups per (grasped, touching objects) of a sensor
     "sim.grasp_sets": 64,            # antipodal grasps of surface objects the hand can take
+    "sim.body_extents": 64,          # a body's colliding-geom half extents, per body and geom arrays' bytes (24 B each)
+    "sim.rest_rotations": 256,       # an object's rest rotation per (up, main axis) (72 B each)
     "env.scenes": 8,                 # compiled MuJoCo scenes per env
     "env.containers": 8,             # FillLevel-v0: its targets' fluid containers (sensors.fluid.container)
     "env.rest_states": 1024,         # FillLevel-v0: canonical rest states per container, liquid, grid fill
