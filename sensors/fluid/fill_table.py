@@ -42,7 +42,7 @@ import scipy.sparse
 
 from .._infra import cache as cache_mod
 from .acoustic import LIQUID_MODES_BAND_FACTOR, MAX_LIQUID_MODES, liquid_mass_matrix, liquid_modes
-from .added_mass import potential_flow, wall_coupling
+from .added_mass import unit_potential_flow, wall_coupling
 from .cavity import AxisymmetricCavity, p2_mass_properties
 from .filled_model import FilledModalModel
 from .liquid_body import LiquidBody
@@ -104,10 +104,10 @@ def _solve(container, height_m: float, k2_sample: float) -> _Solve:
     cav = container.cavity
     volume = cav.volume_below_m3(height_m)
     mesh = container.liquid_mesh(volume)
-    coupling = wall_coupling(mesh.nodes_m, mesh.tets, mesh.free_surface, container.basis_shapes_at)
-    ma, slip, lu = potential_flow(coupling, 1.0)
-    free = coupling.free
-    H = coupling.laplace[free][:, free].tocsr()
+    # per unit density; its Laplacian and wall load on the free nodes, sliced once
+    flow = unit_potential_flow(wall_coupling(mesh.nodes_m, mesh.tets, mesh.free_surface, container.basis_shapes_at))
+    ma, slip, lu, free = flow.added_mass(1.0), flow.slip, flow.lu, flow.free
+    H = flow.laplace_free.tocsr()
     Q0 = liquid_mass_matrix(mesh.nodes_m, mesh.tets)[free][:, free].tocsr()
     if k2_sample > 0.0:
         # c = 1 m/s: eigenvalues are k^2 and the modes Q0-normalized; a fixed start vector keeps
@@ -117,7 +117,7 @@ def _solve(container, height_m: float, k2_sample: float) -> _Solve:
     else:
         k2, psi = np.zeros(0), np.zeros((H.shape[0], 0))
     mass, centre, inertia = p2_mass_properties(mesh.nodes_m, mesh.tets, 1.0)
-    return _Solve(height_m, volume, ma, slip, H, Q0, np.ascontiguousarray(coupling.load[free]), psi, k2,
+    return _Solve(height_m, volume, ma, slip, H, Q0, np.ascontiguousarray(flow.load_free), psi, k2,
                   centre, inertia / mass, free)
 
 
