@@ -587,3 +587,30 @@ def test_a_full_disk_during_a_recording_loses_nothing(audio_loopback, tmp_path):
     whole = sensors.AcousticObservation.load(out / "whole.npz")
     lat, n = report["latency"], int(round(1.0 * 44100))
     np.testing.assert_array_equal(whole.waveform, rec_input[lat:lat + n, 0])
+
+
+def test_the_null_sink_is_kept_clocked_through_an_unplug(tmp_path):
+    """``real.loopback``: a silent module stream plays into the null sink (an idle null sink
+    renders in 2 s blocks, and a recording started then waited that long for its first input);
+    it goes with the sink when the sink is unloaded (a device unplugged) and comes back with it;
+    no client owns it."""
+    lb = loopback.start_loopback(runtime_dir=tmp_path / "pulse", set_environ=False)
+    env = {**os.environ, **lb.env()}
+
+    def module_streams_into_sink() -> list[list[str]]:
+        sinks = subprocess.run(["pactl", "list", "short", "sinks"], env=env, capture_output=True, text=True,
+                               timeout=10, check=True).stdout
+        index = {f[1]: f[0] for f in (line.split("\t") for line in sinks.splitlines())}
+        inputs = subprocess.run(["pactl", "list", "short", "sink-inputs"], env=env, capture_output=True,
+                                text=True, timeout=10, check=True).stdout
+        return [f for f in (line.split("\t") for line in inputs.splitlines())
+                if f[1:2] == [index.get(lb.sink)] and f[2:4] == ["-", "module-loopback.c"]]
+
+    try:
+        assert len(module_streams_into_sink()) == 1
+        loopback.unload_sink(lb.sink, lb.runtime_dir)
+        assert not loopback.sink_loaded(lb.sink, lb.runtime_dir)
+        loopback.load_sink(lb.sink, runtime_dir=lb.runtime_dir)
+        assert len(module_streams_into_sink()) == 1
+    finally:
+        loopback.stop_loopback(lb.runtime_dir)
