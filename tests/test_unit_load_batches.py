@@ -24,6 +24,14 @@ from sensors import ModalModel
 from sensors.modal.static_correction import ContactFlexibility
 
 
+@pytest.fixture(autouse=True)
+def _solve_every_node(monkeypatch):
+    """Solved, never read from disk (sensors.modal.unit_load_files): the batches are the point."""
+    from sensors.modal import unit_load_files
+
+    monkeypatch.setattr(unit_load_files, "ENABLED", False)
+
+
 @pytest.fixture(scope="module")
 def bar():
     return ModalModel.bar(length_m=0.2, width_m=0.025, height_m=0.025, material="aluminium", resolution=0.008,

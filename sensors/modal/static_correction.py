@@ -61,6 +61,8 @@ from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from ..fem.assembly import shape_functions
 from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
+from .._infra.cache import default_cache_dir
+from . import unit_load_files
 from .basis import check_points_m
 
 __all__ = ["GRAM_PRODUCTS", "KEEP_NODE_ROWS", "NODE_SET_BLOCKS", "MAX_ATTACHMENT_VECTORS", "MIN_PROJECTED_COLUMNS", "MIN_SOLVE_COLUMNS", "SOLVE_COLUMN_BLOCK", "REUSE_UNIT_LOADS", "SINGLE_ELASTIC_PROJECTION", "AttachmentBasis", "reference_paths", "ContactFlexibility", "UnitLoadStore",
@@ -517,6 +519,7 @@ class UnitLoadStore:
         # gathered per node set, with the versions they were gathered at
         self.slot_version = np.zeros(self.capacity, np.int64)
         self._blocks: LRU = LRU(CACHE_SIZES["modal.node_set_blocks"])
+        self._disk = None                                 # unit_load_files.UnitLoadFiles, made on first use
 
     def columns(self, nodes: np.ndarray) -> np.ndarray:
         """The store columns (3 per node, in order) of ``nodes`` (distinct, at most
@@ -529,15 +532,21 @@ class UnitLoadStore:
         missing = [n for n in nodes.tolist() if n not in slot]
         if missing:
             flex = self.flex
-            # zero columns pad a narrow call: each column's bytes are then its own (MIN_SOLVE_COLUMNS, SOLVE_COLUMN_BLOCK)
             m = 3 * len(missing)
-            width = -(-max(m, MIN_SOLVE_COLUMNS) // SOLVE_COLUMN_BLOCK) * SOLVE_COLUMN_BLOCK
-            B = np.zeros((flex.n_dof, width), order="F")
-            rows = (3 * np.asarray(missing)[:, None] + np.arange(3)).ravel()
-            B[rows, np.arange(m)] = 1.0
-            X = np.zeros((flex.n_dof, max(width, MIN_PROJECTED_COLUMNS)), order="F")
-            X[:, :B.shape[1]] = np.asarray(flex.factor.solve(B)).reshape(flex.n_dof, -1)
-            Y = flex.unit_load_projected(X)
+            files = self._files()
+            loaded = files.load(missing) if files is not None else {}
+            solve = [n for n in missing if n not in loaded]
+            Y = self._solved(solve) if solve else None
+            if loaded:  # the read columns in their places, the solved ones in theirs (same width as a solve of all)
+                Yr = np.zeros((flex.n_dof, max(_solve_width(m), MIN_PROJECTED_COLUMNS)), order="F")
+                at = {n: i for i, n in enumerate(missing)}
+                for n, y in loaded.items():
+                    Yr[:, 3 * at[n]:3 * at[n] + 3] = y
+                for j, n in enumerate(solve):
+                    Yr[:, 3 * at[n]:3 * at[n] + 3] = Y[:, 3 * j:3 * j + 3]
+                Y = Yr
+            if solve and files is not None:
+                files.save(solve, Y[:, [c for n in solve for c in range(3 * missing.index(n), 3 * missing.index(n) + 3)]])
             KU = Y.T @ flex.KU
             MY = flex.M @ Y[:, :m]  # a sparse product: each column its own sums, padding not needed
             # the free slots, lowest first (the LRU may have been emptied by clear_all)
@@ -563,6 +572,33 @@ class UnitLoadStore:
                 slot[n] = k
         ks = np.array([slot[n] for n in nodes.tolist()])
         return (3 * ks[:, None] + np.arange(3)).ravel()
+
+    def _solved(self, nodes: list) -> np.ndarray:
+        """The projected unit-load solves of ``nodes`` (3 columns each, in order; zero columns pad
+        a narrow call so that each column's bytes are its own: MIN_SOLVE_COLUMNS, SOLVE_COLUMN_BLOCK)."""
+        flex = self.flex
+        m = 3 * len(nodes)
+        width = _solve_width(m)
+        X = np.zeros((flex.n_dof, max(width, MIN_PROJECTED_COLUMNS)), order="F")
+        if m:
+            B = np.zeros((flex.n_dof, width), order="F")
+            rows = (3 * np.asarray(nodes)[:, None] + np.arange(3)).ravel()
+            B[rows, np.arange(m)] = 1.0
+            X[:, :width] = np.asarray(flex.factor.solve(B)).reshape(flex.n_dof, -1)
+            X = flex.unit_load_projected(X)
+        return X
+
+    def _files(self):
+        """This model's :class:`UnitLoadFiles` (made on first use, again when a setting that
+        changes a solve's bytes or the factorization changed), or None when they are off."""
+        if not unit_load_files.ENABLED:
+            return None
+        settings = (SINGLE_ELASTIC_PROJECTION, MIN_SOLVE_COLUMNS, MIN_PROJECTED_COLUMNS, SOLVE_COLUMN_BLOCK, float(_SHIFT))
+        files = self._disk
+        if files is None or files.settings != settings or files.factor is not self.flex.factor \
+                or files.cache_dir != default_cache_dir():
+            files = self._disk = unit_load_files.UnitLoadFiles(self.flex, settings)
+        return files
 
     def _read_state(self, nodes: np.ndarray, columns: np.ndarray) -> np.ndarray:
         """What blocks gathered at ``nodes`` from ``columns`` depend on: the nodes' slots, the
@@ -661,6 +697,11 @@ class RitzGeometry:
         self.model, self.centroid_m, self.rigid_transform, self.M = model, centroid_m, rigid_transform, M
 
     rigid_at = ContactFlexibility.rigid_at
+
+
+def _solve_width(m: int) -> int:
+    """The solve columns of a call for ``m`` right-hand sides (MIN_SOLVE_COLUMNS, SOLVE_COLUMN_BLOCK)."""
+    return -(-max(m, MIN_SOLVE_COLUMNS) // SOLVE_COLUMN_BLOCK) * SOLVE_COLUMN_BLOCK
 
 
 def contact_flexibility(model) -> ContactFlexibility:

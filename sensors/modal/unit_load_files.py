@@ -1,0 +1,138 @@
+"""Kept unit-load solves on disk: a process reads back what an earlier one solved.
+
+A node's projected unit-load solve Y (n_dof, 3) (:class:`sensors.modal.static_correction.UnitLoadStore`)
+costs a forward and backward solve with the model's factorization per column and two
+projections: ~10 ms per node on the 10,935-dof ABS bar, the largest part of a moving stream's
+first minutes (a rocking bar touches ~300 nodes of the bar and of its plinth before its store
+stops growing).  Every new process (a vector env's worker, a dataset worker, the next run)
+paid it again.  Read from its file a node costs ~0.3 ms.
+
+The bytes are the solve's: a node's columns do not depend on the call that solved them
+(``MIN_SOLVE_COLUMNS``, ``SOLVE_COLUMN_BLOCK``), so a file holds exactly what a solve in this
+process would give.  A file is used only when all of this is the same as when it was written,
+which its folder's key hashes: the model's K, M, kept modes and shift, the factorization
+(solver and pivoting), the settings that change a solve's bytes, the code of the modules that
+compute it, the machine's architecture and the numpy version.  Entries carry a content checksum
+(:func:`sensors._infra.cache.load_arrays`): a corrupt, truncated or foreign file is a miss,
+solved again and rewritten.  Writes are atomic; a full disk only logs (once) and solves on.
+
+Disk use grows with the nodes a scene touches (24 n_dof bytes per node: 0.26 MB on the ABS
+bar, 2.4 MB on a 99k-dof mug), so each model's folder is bounded by
+:data:`MAX_MB_PER_MODEL`; once full, new solves are kept in memory only (said once per model).
+Folder: ``$AAS_GYM_CACHE/unit_loads/<model key>/`` (delete it to free the space).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import logging
+import platform
+from pathlib import Path
+
+import numpy as np
+
+from .._infra import cache as cache_mod
+
+__all__ = ["ENABLED", "MAX_MB_PER_MODEL", "FOLDER", "UnitLoadFiles"]
+
+log = logging.getLogger(__name__)
+
+#: Whether kept unit-load solves are read from and written to disk (True) or solved in every
+#: process (False: the reference path).  Read at each call.
+ENABLED = True
+#: The most disk one model's unit-load files may take [MB]; new solves beyond it stay in memory.
+MAX_MB_PER_MODEL = 256.0
+#: The folder under the cache directory.
+FOLDER = "unit_loads"
+# The modules whose code decides a kept solve's bytes.
+_MODULES = ("sensors.modal.static_correction", "sensors.fem.pardiso", "sensors.fem.direct_solver",
+            "sensors.fem.eigen", "sensors.fem.assembly")
+
+
+@functools.cache
+def _code() -> str:
+    # parsing the modules takes ~0.2 s: once per process
+    return cache_mod.source_version(*_MODULES)
+
+
+def _digest(*arrays) -> str:
+    h = hashlib.sha256()
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(a.data)
+    return h.hexdigest()
+
+
+class UnitLoadFiles:
+    """The unit-load files of one :class:`ContactFlexibility` (made by its store on first use).
+
+    Args:
+        flex: the model's ``ContactFlexibility`` (K, M, U, sigma, factor).
+        settings: the settings that change a solve's bytes (hashed into the folder's key).
+        cache_dir: the cache directory (default ``$AAS_GYM_CACHE`` or ``~/.cache/aas_gym``).
+    """
+
+    def __init__(self, flex, settings: tuple, cache_dir=None) -> None:
+        self.factor, self.settings = flex.factor, settings
+        self.cache_dir = Path(cache_dir) if cache_dir is not None else cache_mod.default_cache_dir()
+        self.n_dof = int(flex.n_dof)
+        pivoting = getattr(getattr(flex.factor, "_f", None), "pivoting", "")
+        K, M = flex.K, flex.M
+        model = _digest(K.data, K.indices, K.indptr, M.data, M.indices, M.indptr, flex.U, np.float64(flex.sigma))
+        self.key = cache_mod.content_key(
+            "unit-loads", model, getattr(flex.factor, "name", type(flex.factor).__name__), pivoting, settings,
+            _code(), platform.machine(), np.__version__, code=False)
+        self.folder = self.cache_dir / FOLDER / self.key[:32]
+        self.node_mb = self.n_dof * 3 * 8 / 1e6
+        self._files: int | None = None      # files in the folder (counted once, then kept up to date)
+        self._full_said = False
+        self._write_failed = False
+
+    def _name(self, node: int) -> str:
+        return f"node-{int(node)}"
+
+    def load(self, nodes) -> dict[int, np.ndarray]:
+        """The kept solves (n_dof, 3) of those ``nodes`` that have a valid file."""
+        out = {}
+        if not self.folder.is_dir():
+            return out
+        for n in nodes:
+            arrays = cache_mod.load_arrays(self._name(n), self.folder)
+            if arrays is None:
+                continue
+            y = arrays.get("y")
+            if (y is None or y.shape != (self.n_dof, 3) or y.dtype != np.float64 or str(arrays.get("key", "")) != self.key
+                    or int(arrays.get("node", -1)) != int(n) or not np.all(np.isfinite(y))):
+                log.warning("ignoring unit-load file %s/%s.npz: not this model's node %d", self.folder, self._name(n), n)
+                continue
+            out[int(n)] = np.asfortranarray(y)
+        return out
+
+    def save(self, nodes, Y: np.ndarray) -> None:
+        """Write each node's columns ``Y[:, 3 i:3 i + 3]`` (within :data:`MAX_MB_PER_MODEL`)."""
+        if self._write_failed:
+            return
+        if self._files is None:
+            self._files = sum(1 for p in self.folder.glob("node-*.npz")) if self.folder.is_dir() else 0
+        room = int(MAX_MB_PER_MODEL // self.node_mb) - self._files
+        if room < len(nodes) and not self._full_said:
+            self._full_said = True
+            log.info("unit-load files of model %s: %.0f MB limit reached (%d nodes of %.2f MB); further solves are "
+                     "kept in memory only (raise sensors.modal.unit_load_files.MAX_MB_PER_MODEL, or delete %s)",
+                     self.key[:12], MAX_MB_PER_MODEL, self._files, self.node_mb, self.folder)
+        for i, n in enumerate(list(nodes)[:max(room, 0)]):
+            try:
+                self.folder.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                self._write_failed = True
+                log.warning("unit-load files: cannot make %s (%s); solves are kept in memory only", self.folder, exc)
+                return
+            path = cache_mod.save_arrays(self._name(n), {"y": np.ascontiguousarray(Y[:, 3 * i:3 * i + 3]),
+                                                         "node": np.int64(n), "key": np.array(self.key)}, self.folder)
+            if path is None:     # full disk or read-only cache: save_arrays logged it; stop trying
+                self._write_failed = True
+                return
+            self._files += 1
+

@@ -1,0 +1,166 @@
+"""Kept unit-load solves read back from disk (``sensors.modal.unit_load_files``) are the solve's bytes.
+
+A store that reads a node's file must hold exactly what a store that solved it holds (Y, M Y,
+Y^T K U rows, Y^T M relief), or a probe's features would depend on what an earlier process
+left in the cache.  The reference is a store with the files off, in a fresh model (its own
+factorization); each column is also checked against SciPy's independent sparse LU solve.
+Then the fault model: a corrupt file, a file of another node, a full budget and an unwritable
+cache folder all fall back to solving, with the same bytes.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import stat
+
+import numpy as np
+import pytest
+import scipy.sparse.linalg
+
+from sensors import ModalModel
+from sensors.modal import unit_load_files
+from sensors.modal.static_correction import ContactFlexibility, UnitLoadStore
+
+NODES = [[3, 57, 120], [57, 150, 190, 211], [4, 5, 6, 7, 8, 9, 10], [211, 3]]
+
+
+@pytest.fixture(scope="module")
+def bar():
+    return ModalModel.bar(length_m=0.2, width_m=0.025, height_m=0.025, material="aluminium", resolution=0.008,
+                          cache=False, max_frequency_hz=12000.0)
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("AAS_GYM_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(unit_load_files, "ENABLED", True)
+    return tmp_path / "cache"
+
+
+class Counting:
+    """A factorization that counts the right-hand sides it solves."""
+
+    def __init__(self, factor):
+        self.factor, self.name, self.columns = factor, factor.name, 0
+        self._f = getattr(factor, "_f", None)
+
+    def solve(self, b):
+        self.columns += np.asarray(b).reshape(len(b), -1).shape[1]
+        return self.factor.solve(b)
+
+
+def run(bar, order=NODES, capacity=None):
+    """A fresh model's store after ``columns`` on each node list: every node's entries and the
+    right-hand sides solved."""
+    flex = ContactFlexibility(bar)
+    flex.factor = Counting(flex.factor)
+    store = flex.unit_loads = UnitLoadStore(flex, capacity)
+    for nodes in order:
+        store.columns(np.asarray(nodes))
+    out = {}
+    for n in sorted({n for nodes in order for n in nodes}):
+        c = store.columns(np.array([n]))
+        out[n] = tuple(a.tobytes() for a in (store.Y[:, c], store.MY[:, c], store.KU[c], store.relief_gram[c]))
+    return out, flex, store
+
+
+def files_of(cache):
+    return sorted((cache / unit_load_files.FOLDER).glob("*/node-*.npz"))
+
+
+def test_read_back_solves_are_the_solved_bytes(bar, cache, monkeypatch):
+    monkeypatch.setattr(unit_load_files, "ENABLED", False)
+    reference, _, _ = run(bar)
+    monkeypatch.setattr(unit_load_files, "ENABLED", True)
+    written, flex_w, _ = run(bar)                               # solves and writes
+    n_nodes = len(reference)
+    assert len(files_of(cache)) == n_nodes and flex_w.factor.columns > 0
+    read, flex_r, store = run(bar)                              # a new process's model: reads
+    assert flex_r.factor.columns == 0                           # nothing solved
+    assert written == reference and read == reference
+    # mixed: some nodes on disk, some new, in one call
+    mixed, flex_m, _ = run(bar, NODES + [[3, 200, 57, 201]])
+    assert flex_m.factor.columns == 8 and mixed[3] == reference[3]   # 2 new nodes: one block of 8
+    monkeypatch.setattr(unit_load_files, "ENABLED", False)
+    fresh, _, _ = run(bar, NODES + [[3, 200, 57, 201]])
+    assert mixed == fresh
+    # and each kept column is the projected solve of its unit loads (SciPy's LU, not PARDISO)
+    nodes = np.array(sorted(reference))
+    rows = (3 * nodes[:, None] + np.arange(3)).ravel()
+    F = np.zeros((flex_r.n_dof, rows.size))
+    F[rows, np.arange(rows.size)] = 1.0
+    independent = flex_r.unit_load_projected(scipy.sparse.linalg.spsolve((flex_r.K + flex_r.sigma * flex_r.M).tocsc(), F))
+    Y = store.Y[:, store.columns(nodes)]
+    assert np.abs(Y - independent).max() < 1e-9 * np.abs(independent).max()
+
+
+def test_a_setting_that_changes_the_bytes_changes_the_folder(bar, cache, monkeypatch):
+    from sensors.modal import static_correction
+
+    run(bar)
+    monkeypatch.setattr(static_correction, "SINGLE_ELASTIC_PROJECTION", False)
+    _, flex, _ = run(bar)
+    assert flex.factor.columns > 0                               # not read from the other setting's files
+    assert len({p.parent for p in files_of(cache)}) == 2
+
+
+def test_corrupt_and_foreign_files_are_solved_again(bar, cache, caplog):
+    reference, _, _ = run(bar)
+    paths = {p.name: p for p in files_of(cache)}
+    damaged = paths["node-57.npz"]
+    data = bytearray(damaged.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    damaged.write_bytes(bytes(data))
+    paths["node-150.npz"].write_bytes(paths["node-120.npz"].read_bytes())    # another node's entry
+    paths["node-190.npz"].write_bytes(b"not an npz")
+    with caplog.at_level(logging.WARNING):
+        again, flex, _ = run(bar)
+    assert again == reference
+    assert flex.factor.columns == 16                             # node 57 alone, then 150 and 190: two blocks of 8
+    assert "node 150" in caplog.text and "corrupt" in caplog.text and "unreadable" in caplog.text
+    _, flex, _ = run(bar)                                        # rewritten: read again
+    assert flex.factor.columns == 0
+
+
+def test_the_budget_bounds_the_files(bar, cache, monkeypatch, caplog):
+    node_mb = ContactFlexibility(bar).n_dof * 3 * 8 / 1e6
+    monkeypatch.setattr(unit_load_files, "MAX_MB_PER_MODEL", 5.5 * node_mb)
+    with caplog.at_level(logging.INFO):
+        reference, _, _ = run(bar)
+    assert len(files_of(cache)) == 5
+    assert caplog.text.count("limit reached") == 1 and "MAX_MB_PER_MODEL" in caplog.text
+    again, flex, _ = run(bar)
+    assert again == reference and 0 < flex.factor.columns
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="root writes into read-only folders")
+def test_an_unwritable_cache_solves_on(bar, cache):
+    cache.mkdir(parents=True)
+    cache.chmod(stat.S_IRUSR | stat.S_IXUSR)
+    try:
+        reference, _, _ = run(bar)
+    finally:
+        cache.chmod(stat.S_IRWXU)
+    assert files_of(cache) == []
+    assert run(bar)[0] == reference
+
+
+def test_a_full_disk_solves_on(bar, cache, monkeypatch, caplog):
+    """A write that fails (here every write: ENOSPC) is tried once per model, then the store
+    solves on in memory with the same bytes."""
+    from sensors._infra import cache as cache_mod
+
+    calls = []
+
+    def full(*args, **kwargs):
+        calls.append(1)
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(cache_mod, "atomic_open", full)
+    with caplog.at_level(logging.WARNING):
+        reference, _, _ = run(bar)
+    assert len(calls) == 1 and "No space left" in caplog.text
+    monkeypatch.undo()
+    monkeypatch.setattr(unit_load_files, "ENABLED", False)
+    assert run(bar)[0] == reference
