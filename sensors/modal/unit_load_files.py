@@ -5,20 +5,24 @@ costs a forward and backward solve with the model's factorization per column and
 projections: ~10 ms per node on the 10,935-dof ABS bar, the largest part of a moving stream's
 first minutes (a rocking bar touches ~300 nodes of the bar and of its plinth before its store
 stops growing).  Every new process (a vector env's worker, a dataset worker, the next run)
-paid it again.  Read from its file a node costs ~0.3 ms.
+paid it again.  Read from its file a node costs ~0.5 ms.
 
 The bytes are the solve's: a node's columns do not depend on the call that solved them
 (``MIN_SOLVE_COLUMNS``, ``SOLVE_COLUMN_BLOCK``), so a file holds exactly what a solve in this
 process would give.  A file is used only when all of this is the same as when it was written,
 which its folder's key hashes: the model's K, M, kept modes and shift, the factorization
 (solver and pivoting), the settings that change a solve's bytes, the code of the modules that
-compute it, the machine's architecture and the numpy version.  Entries carry a content checksum
-(:func:`sensors._infra.cache.load_arrays`): a corrupt, truncated or foreign file is a miss,
-solved again and rewritten.  Writes are atomic; a full disk only logs (once) and solves on.
+compute it, the machine's architecture and the numpy version.  Each file carries the key, its
+node and a sha256 of its bytes: a corrupt, truncated or foreign file is a miss, solved again
+and rewritten.  Raw bytes, not ``.npz``: a node reads in 0.5 ms instead of 2.3 and writes in 1.6
+instead of 3.5 (0.26 MB, with fsync).  Writes are atomic; a full disk only logs (once) and
+solves on.
 
 Disk use grows with the nodes a scene touches (24 n_dof bytes per node: 0.26 MB on the ABS
 bar, 2.4 MB on a 99k-dof mug), so each model's folder is bounded by
 :data:`MAX_MB_PER_MODEL`; once full, new solves are kept in memory only (said once per model).
+Each process counts the folder's files when it first writes, so processes writing at once may
+overshoot the bound by what they write meanwhile.
 Folder: ``$AAS_GYM_CACHE/unit_loads/<model key>/`` (delete it to free the space).
 """
 
@@ -28,11 +32,13 @@ import functools
 import hashlib
 import logging
 import platform
+import struct
 from pathlib import Path
 
 import numpy as np
 
 from .._infra import cache as cache_mod
+from .._infra.atomic import atomic_open
 
 __all__ = ["ENABLED", "MAX_MB_PER_MODEL", "FOLDER", "UnitLoadFiles"]
 
@@ -45,6 +51,9 @@ ENABLED = True
 MAX_MB_PER_MODEL = 256.0
 #: The folder under the cache directory.
 FOLDER = "unit_loads"
+# A file: this, the folder's key (64 hex), node and n_dof (int64), Y (n_dof, 3) column-major float64, and the
+# sha256 of all that.
+_MAGIC = b"AASULF1\n"
 # The modules whose code decides a kept solve's bytes.
 _MODULES = ("sensors.modal.static_correction", "sensors.fem.pardiso", "sensors.fem.direct_solver",
             "sensors.fem.eigen", "sensors.fem.assembly")
@@ -90,24 +99,36 @@ class UnitLoadFiles:
         self._full_said = False
         self._write_failed = False
 
-    def _name(self, node: int) -> str:
-        return f"node-{int(node)}"
+    def _path(self, node: int) -> Path:
+        return self.folder / f"node-{int(node)}.bin"
+
+    def _header(self, node: int) -> bytes:
+        return _MAGIC + self.key.encode() + struct.pack("<qq", int(node), self.n_dof)
 
     def load(self, nodes) -> dict[int, np.ndarray]:
         """The kept solves (n_dof, 3) of those ``nodes`` that have a valid file."""
         out = {}
         if not self.folder.is_dir():
             return out
+        size = len(_MAGIC) + 64 + 16 + 24 * self.n_dof + 32
         for n in nodes:
-            arrays = cache_mod.load_arrays(self._name(n), self.folder)
-            if arrays is None:
+            path = self._path(n)
+            try:
+                data = path.read_bytes()
+            except FileNotFoundError:
                 continue
-            y = arrays.get("y")
-            if (y is None or y.shape != (self.n_dof, 3) or y.dtype != np.float64 or str(arrays.get("key", "")) != self.key
-                    or int(arrays.get("node", -1)) != int(n) or not np.all(np.isfinite(y))):
-                log.warning("ignoring unit-load file %s/%s.npz: not this model's node %d", self.folder, self._name(n), n)
+            except OSError as exc:
+                log.warning("ignoring unreadable unit-load file %s: %s", path, exc)
                 continue
-            out[int(n)] = np.asfortranarray(y)
+            if len(data) != size or hashlib.sha256(data[:-32]).digest() != data[-32:]:
+                log.warning("ignoring corrupt unit-load file %s (truncated or its checksum does not match); solving again", path)
+                continue
+            head = len(_MAGIC) + 80
+            y = np.frombuffer(data, "<f8", 3 * self.n_dof, head).reshape((self.n_dof, 3), order="F")
+            if data[:head] != self._header(n) or not np.isfinite(y).all():
+                log.warning("ignoring unit-load file %s: not this model's node %d; solving again", path, n)
+                continue
+            out[int(n)] = y
         return out
 
     def save(self, nodes, Y: np.ndarray) -> None:
@@ -115,7 +136,8 @@ class UnitLoadFiles:
         if self._write_failed:
             return
         if self._files is None:
-            self._files = sum(1 for p in self.folder.glob("node-*.npz")) if self.folder.is_dir() else 0
+            self._files = sum(1 for _ in self.folder.glob("node-*.bin")) if self.folder.is_dir() else 0
+            cache_mod._clean_once(self.folder)                   # temporary files of killed writers
         room = int(MAX_MB_PER_MODEL // self.node_mb) - self._files
         if room < len(nodes) and not self._full_said:
             self._full_said = True
@@ -123,16 +145,13 @@ class UnitLoadFiles:
                      "kept in memory only (raise sensors.modal.unit_load_files.MAX_MB_PER_MODEL, or delete %s)",
                      self.key[:12], MAX_MB_PER_MODEL, self._files, self.node_mb, self.folder)
         for i, n in enumerate(list(nodes)[:max(room, 0)]):
+            body = self._header(n) + np.asfortranarray(Y[:, 3 * i:3 * i + 3], "<f8").tobytes(order="F")
             try:
-                self.folder.mkdir(parents=True, exist_ok=True)
-            except OSError as exc:
+                with atomic_open(self._path(n)) as fh:
+                    fh.write(body + hashlib.sha256(body).digest())
+            except OSError as exc:  # full disk, read-only cache: say so once, solve on in memory
                 self._write_failed = True
-                log.warning("unit-load files: cannot make %s (%s); solves are kept in memory only", self.folder, exc)
-                return
-            path = cache_mod.save_arrays(self._name(n), {"y": np.ascontiguousarray(Y[:, 3 * i:3 * i + 3]),
-                                                         "node": np.int64(n), "key": np.array(self.key)}, self.folder)
-            if path is None:     # full disk or read-only cache: save_arrays logged it; stop trying
-                self._write_failed = True
+                log.warning("unit-load files: cannot write %s (%s); solves are kept in memory only", self._path(n), exc)
                 return
             self._files += 1
 
