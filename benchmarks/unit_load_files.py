@@ -7,7 +7,8 @@ against solving them again (issue 27: what every vector-env worker, dataset work
 Each trial is a new process that makes the env (modal models already in the cache), then times
 the CPU seconds of its first N steps (random actions, seed 0, resets included; ``moving:OBJ`` is
 ``benchmarks/streaming_env.py``'s moving scene: ContactFormation-v0 streaming OBJ on a steel-bar
-plinth, action 0).  Three kinds, alternating, ``--repeats`` times: ``off`` (files off: every node
+plinth, action 0; ``vec:ENV`` is ``gym.make_vec(ENV, num_envs=2, vectorization_mode="async")``, N
+vector steps, timed in wall seconds: two worker processes that share the files as they write them).  Three kinds, alternating, ``--repeats`` times: ``off`` (files off: every node
 solved, the reference), ``first`` (files on, none yet: solves and writes them) and ``read``
 (files on, those ``first`` wrote).  Every trial's observations are hashed (sha256 over all steps):
 the three must be equal.  The files go to a folder of their own, removed at the end.
@@ -38,6 +39,25 @@ def child(spec: str, steps: int, kind: str, folder: str) -> dict:
 
     unit_load_files.ENABLED = kind != "off"
     unit_load_files.FOLDER = folder
+    if spec.startswith("vec:"):     # two async workers (forked: they inherit the settings above); wall seconds
+        import gymnasium as gym
+
+        import aas_gym  # noqa: F401
+
+        venv = gym.make_vec(spec.split(":", 1)[1], num_envs=2, vectorization_mode="async")
+        venv.reset(seed=0)
+        venv.action_space.seed(0)
+        h = hashlib.sha256()
+        t = time.perf_counter()
+        for _ in range(steps):
+            obs = venv.step(venv.action_space.sample())[0]
+            for k in sorted(obs):
+                h.update(np.ascontiguousarray(obs[k]).tobytes())
+        wall_s = time.perf_counter() - t
+        venv.close()
+        files = list((default_cache_dir() / folder).glob("*/node-*.bin"))
+        return {"cpu_s": wall_s, "sha": h.hexdigest()[:16], "files": len(files),
+                "files_mb": sum(p.stat().st_size for p in files) / 1e6}
     if spec.startswith("moving:"):
         sys.path.insert(0, str(HERE))
         import stream_profile
@@ -84,7 +104,7 @@ def main(argv=None) -> None:
         return
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--envs", nargs="+", default=["aas_gym/ObjectRecognition-v0:1200", "moving:abs_bar:60"],
-                    help="ENV_ID:STEPS or moving:OBJECT:STEPS")
+                    help="ENV_ID:STEPS, moving:OBJECT:STEPS or vec:ENV_ID:STEPS")
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--out", default=None, help="write the table (Markdown) here")
     args = ap.parse_args(argv)
@@ -111,7 +131,7 @@ def main(argv=None) -> None:
         f"`python benchmarks/unit_load_files.py --envs {' '.join(args.envs)} --repeats {args.repeats}`, "
         f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f} at the end.",
         "",
-        "CPU seconds of a new process's first steps (means of the repeats; the processes alternate). *off*: every",
+        "CPU seconds of a new process's first steps (``vec:``: wall seconds of two async workers; means of the repeats; the processes alternate). *off*: every",
         "unit-load solve made (the reference); *first*: files on, none yet (solves and writes them); *read*: files on,",
         "those the first wrote. *Equal*: the observations' sha256 over all steps is the same in every process.",
         "",
