@@ -165,7 +165,9 @@ def _contact_formation():
     return env, step
 
 
-def _moving(obj: str):
+def moving_scene(obj: str):
+    """``streaming_env.py``'s moving scene of ``obj`` (ContactFormation-v0 streaming it on a steel-bar plinth):
+    the env and a step function (action 0) returning the observation."""
     env = gym.make("aas_gym/ContactFormation-v0", objects=[obj], plinths=["steel_bar"], max_episode_steps=None,
                    acoustic={"cadence": "stream"}, disable_env_checker=True)
     env.reset(seed=0)
@@ -255,7 +257,7 @@ def main(argv=None):
     ap.add_argument("--chunk-steps", type=int, default=10)
     args = ap.parse_args(argv)
     if args.ab:
-        make = _contact_formation if args.scene == "contact_formation" else (lambda: _moving(args.object))
+        make = _contact_formation if args.scene == "contact_formation" else (lambda: moving_scene(args.object))
         r = ab(make, args.ab, args.chunks, args.chunk_steps, args.warm_steps)
         print(f"{args.scene}{'' if args.scene == 'contact_formation' else ' ' + args.object}, {args.ab}: "
               f"reference {r['ref_ms']:.2f} ms/step, fast {r['fast_ms']:.2f} ms/step, speed-up {r['speedup']:.2f}x "
@@ -270,7 +272,7 @@ def main(argv=None):
         title = (f"ContactFormation-v0 (defaults, random actions) after "
                  f"{f'{args.warm_s:g} CPU s' if args.warm_s else f'{args.warm_steps} steps'}")
     else:
-        env, step = _moving(args.object)
+        env, step = moving_scene(args.object)
         per_step, prof = profile(step, args.steps, warm_steps=args.warm_steps)
         title = f"moving {args.object} on a steel-bar plinth after {args.warm_steps} steps"
     env.close()

@@ -62,7 +62,7 @@ def child(spec: str, steps: int, kind: str, folder: str) -> dict:
         sys.path.insert(0, str(HERE))
         import stream_profile
 
-        env, step = stream_profile._moving(spec.split(":", 1)[1])
+        env, step = stream_profile.moving_scene(spec.split(":", 1)[1])
     else:
         import gymnasium as gym
 

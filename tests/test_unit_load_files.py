@@ -162,3 +162,21 @@ def test_a_full_disk_solves_on(bar, cache, monkeypatch, caplog):
     monkeypatch.undo()
     monkeypatch.setattr(unit_load_files, "ENABLED", False)
     assert run(bar)[0] == reference
+
+
+def test_old_model_folders_go_first_beyond_the_total(bar, cache, monkeypatch, caplog):
+    """Folders a code or settings change left behind are removed, least recently written first,
+    once all folders together hold more than MAX_MB_TOTAL; the model in use keeps its files."""
+    root = cache / unit_load_files.FOLDER
+    for i, age_s in enumerate((3000, 2000, 1000)):
+        d = root / f"old{i}"
+        d.mkdir(parents=True)
+        (d / "node-1.bin").write_bytes(b"\0" * 400_000)
+        os.utime(d, (d.stat().st_atime - age_s,) * 2)
+    monkeypatch.setattr(unit_load_files, "MAX_MB_TOTAL", 0.5)     # 1.2 MB of old folders; this model has none yet
+    with caplog.at_level(logging.INFO):
+        reference, _, _ = run(bar)
+    left = sorted(p.name for p in root.iterdir())
+    assert "old0" not in left and "old1" not in left and "old2" in left, left   # down to 0.4 MB
+    assert caplog.text.count("least recently written") == 2
+    assert run(bar)[0] == reference and len([p for p in files_of(cache) if p.parent.name != "old2"]) == 13

@@ -32,15 +32,16 @@ import functools
 import hashlib
 import logging
 import platform
+import shutil
 import struct
 from pathlib import Path
 
 import numpy as np
 
 from .._infra import cache as cache_mod
-from .._infra.atomic import atomic_open
+from .._infra.atomic import atomic_open, remove_stale_temp_files
 
-__all__ = ["ENABLED", "MAX_MB_PER_MODEL", "FOLDER", "UnitLoadFiles"]
+__all__ = ["ENABLED", "MAX_MB_PER_MODEL", "MAX_MB_TOTAL", "FOLDER", "UnitLoadFiles"]
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +50,10 @@ log = logging.getLogger(__name__)
 ENABLED = True
 #: The most disk one model's unit-load files may take [MB]; new solves beyond it stay in memory.
 MAX_MB_PER_MODEL = 256.0
+#: The most disk all models' unit-load files may take together [MB]: when a process first writes
+#: a model's files and the others' folders hold more, the least recently written of them are
+#: removed (a change of the code or of a setting in the key leaves its folders behind: they go first).
+MAX_MB_TOTAL = 2048.0
 #: The folder under the cache directory.
 FOLDER = "unit_loads"
 # A file: this, the folder's key (64 hex), node and n_dof (int64), Y (n_dof, 3) column-major float64, and the
@@ -137,7 +142,9 @@ class UnitLoadFiles:
             return
         if self._files is None:
             self._files = sum(1 for _ in self.folder.glob("node-*.bin")) if self.folder.is_dir() else 0
-            cache_mod._clean_once(self.folder)                   # temporary files of killed writers
+            if self.folder.is_dir():
+                remove_stale_temp_files(self.folder)             # temporary files of killed writers
+            _prune(self.folder.parent, self.folder)
         room = int(MAX_MB_PER_MODEL // self.node_mb) - self._files
         if room < len(nodes) and not self._full_said:
             self._full_said = True
@@ -155,3 +162,29 @@ class UnitLoadFiles:
                 return
             self._files += 1
 
+
+def _prune(root: Path, keep: Path) -> None:
+    """Remove the least recently written model folders under ``root`` (never ``keep``) while all
+    of them hold more than :data:`MAX_MB_TOTAL`.  Files another process removes meanwhile are
+    skipped: a reader of a removed folder solves again."""
+    folders, total = [], 0
+    try:
+        entries = [d for d in root.iterdir() if d.is_dir()]
+    except OSError:
+        return
+    for d in entries:
+        try:
+            size = sum(f.stat().st_size for f in d.glob("node-*.bin"))
+            mtime = d.stat().st_mtime
+        except OSError:
+            continue
+        total += size
+        if d != keep:
+            folders.append((mtime, size, d))
+    for _, size, d in sorted(folders):
+        if total <= MAX_MB_TOTAL * 1e6:
+            break
+        shutil.rmtree(d, ignore_errors=True)
+        total -= size
+        log.info("unit-load files: removed %s (%.0f MB, least recently written) to stay within %.0f MB "
+                 "(sensors.modal.unit_load_files.MAX_MB_TOTAL)", d, size / 1e6, MAX_MB_TOTAL)
