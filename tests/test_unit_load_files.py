@@ -58,6 +58,7 @@ def run(bar, order=NODES, capacity=None):
     store = flex.unit_loads = UnitLoadStore(flex, capacity)
     for nodes in order:
         store.columns(np.asarray(nodes))
+    assert unit_load_files.flush(60.0)                          # the background writes are done
     out = {}
     for n in sorted({n for nodes in order for n in nodes}):
         c = store.columns(np.array([n]))
