@@ -57,11 +57,11 @@ import contextlib
 
 import numpy as np
 
+from .._infra.cache import default_cache_dir
 from .._infra.lru import CACHE_SIZES, LRU, IdentityKey
 from ..fem.assembly import shape_functions
 from ..fem.direct_solver import factorize
 from ..fem.eigen import rigid_body_modes
-from .._infra.cache import default_cache_dir
 from . import unit_load_files
 from .basis import check_points_m
 
