@@ -181,3 +181,44 @@ def test_old_model_folders_go_first_beyond_the_total(bar, cache, monkeypatch, ca
     assert "old0" not in left and "old1" not in left and "old2" in left, left   # down to 0.4 MB
     assert caplog.text.count("least recently written") == 2
     assert run(bar)[0] == reference and len([p for p in files_of(cache) if p.parent.name != "old2"]) == 13
+
+
+def test_an_env_observes_the_same_bytes_with_files_off_written_and_read(cache, monkeypatch):
+    """GraspPosition-v0 (a new grasp of the wood bar each episode, so new unit loads): the same
+    observations and rewards with the files off, being written, and read back by a process whose
+    in-memory caches are empty (``clear_all``)."""
+    import hashlib
+
+    import gymnasium as gym
+
+    import aas_gym  # noqa: F401
+    from sensors._infra.lru import clear_all
+
+    def episode_bytes():
+        clear_all()
+        env = gym.make("aas_gym/GraspPosition-v0", disable_env_checker=True)
+        obs, _ = env.reset(seed=5)
+        env.action_space.seed(5)
+        h, heard = hashlib.sha256(), set()
+        for _ in range(25):                                       # one-step episodes: a grasp heard per reset
+            assert np.abs(obs["acoustic"]).max() > 0
+            heard.add(obs["acoustic"].tobytes())
+            h.update(b"".join(np.ascontiguousarray(obs[k]).tobytes() for k in sorted(obs)))
+            obs, reward, term, trunc, _ = env.step(env.action_space.sample())
+            h.update(np.float64(reward).tobytes())
+            if term or trunc:
+                obs, _ = env.reset()
+        env.close()
+        assert unit_load_files.flush(60.0)
+        return h.hexdigest(), len(heard)
+
+    monkeypatch.setattr(unit_load_files, "ENABLED", False)
+    off, distinct = episode_bytes()
+    assert distinct > 20                                          # the grasps differ: not vacuous
+    monkeypatch.setattr(unit_load_files, "ENABLED", True)
+    written = episode_bytes()[0]
+    n_files = len(files_of(cache))
+    assert n_files > 20
+    read = episode_bytes()[0]
+    assert written == off and read == off
+    assert len(files_of(cache)) == n_files                        # all read back: nothing new solved
