@@ -222,3 +222,48 @@ def test_an_env_observes_the_same_bytes_with_files_off_written_and_read(cache, m
     read = episode_bytes()[0]
     assert written == off and read == off
     assert len(files_of(cache)) == n_files                        # all read back: nothing new solved
+
+
+_WRITER = """
+import sys, numpy as np
+from sensors import ModalModel
+from sensors.modal.static_correction import ContactFlexibility, UnitLoadStore
+bar = ModalModel.bar(length_m=0.2, width_m=0.025, height_m=0.025, material="aluminium", resolution=0.008,
+                     cache=False, max_frequency_hz=12000.0)
+flex = ContactFlexibility(bar)
+store = flex.unit_loads = UnitLoadStore(flex)
+print("ready", flush=True)
+for start in range(0, 10**6, 3):
+    store.columns(np.arange(start, start + 3) % 225)
+"""
+
+
+def test_a_writer_killed_mid_run_leaves_nothing_that_loads(bar, cache, monkeypatch):
+    """kill -9 of a process while its writer thread writes: every file left is whole (or ignored),
+    the next process reads the same bytes a solve gives, and the killed writer's temporary files
+    are removed when the next process writes into the folder."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-c", _WRITER], stdout=subprocess.PIPE, text=True,
+                            env={**os.environ, "AAS_GYM_CACHE": str(cache)})
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        deadline = time.monotonic() + 60
+        while len(files_of(cache)) < 40 and time.monotonic() < deadline:
+            time.sleep(0.02)
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    left = files_of(cache)
+    kept = sorted(int(p.stem.split("-")[1]) for p in left)
+    assert len(kept) >= 40 and max(kept) < 220                 # the child writes nodes in order, from 0
+    dead = left[0].parent / f".node-7.bin.{proc.pid}.abc123.tmp"   # what a write cut short leaves
+    dead.write_bytes(b"\0" * 1000)
+    order = [kept[:30], [220, 221, 222, 223, 224]]
+    read, flex, _ = run(bar, order)
+    assert flex.factor.columns == 16 and not dead.exists()      # only the 5 new nodes solved; the temp removed
+    monkeypatch.setattr(unit_load_files, "ENABLED", False)
+    assert run(bar, order)[0] == read
