@@ -153,7 +153,13 @@ def _cause(stream, present, v) -> str:
 
 
 def _contact_formation():
-    env = gym.make("aas_gym/ContactFormation-v0", disable_env_checker=True)
+    return random_steps("aas_gym/ContactFormation-v0")
+
+
+def random_steps(env_id: str, **kwargs):
+    """``env_id`` (made with ``kwargs``) and a step function of seeded random actions (seed 0,
+    resets included) returning the observation."""
+    env = gym.make(env_id, disable_env_checker=True, **kwargs)
     env.reset(seed=0)
     env.action_space.seed(0)
 

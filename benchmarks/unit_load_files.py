@@ -58,25 +58,15 @@ def child(spec: str, steps: int, kind: str, folder: str) -> dict:
         files = list((default_cache_dir() / folder).glob("*/node-*.bin"))
         return {"cpu_s": None, "wall_s": wall_s, "sha": h.hexdigest()[:16], "files": len(files),
                 "files_mb": sum(p.stat().st_size for p in files) / 1e6}
-    if spec.startswith("moving:"):
-        sys.path.insert(0, str(HERE))
-        import stream_profile
+    sys.path.insert(0, str(HERE))
+    import stream_profile
 
+    if spec.startswith("moving:"):
         env, step = stream_profile.moving_scene(spec.split(":", 1)[1])
     else:
-        import gymnasium as gym
-
         import aas_gym  # noqa: F401  (registers the envs)
 
-        env = gym.make(spec, disable_env_checker=True)
-        env.reset(seed=0)
-        env.action_space.seed(0)
-
-        def step():
-            obs, _, term, trunc, _ = env.step(env.action_space.sample())
-            if term or trunc:
-                env.reset()
-            return obs
+        env, step = stream_profile.random_steps(spec)
     h = hashlib.sha256()
     t, w = time.process_time(), time.perf_counter()
     for _ in range(steps):
