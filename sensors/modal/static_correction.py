@@ -523,7 +523,8 @@ class UnitLoadStore:
 
     def columns(self, nodes: np.ndarray) -> np.ndarray:
         """The store columns (3 per node, in order) of ``nodes`` (distinct, at most
-        ``capacity``), solving the missing ones in one call."""
+        ``capacity``): missing ones read from their files (:mod:`.unit_load_files`) or else
+        solved in one call."""
         slot = {}
         for n in nodes.tolist():
             k = self.slots.get(n)          # a hit makes it recent: not evicted below
@@ -537,16 +538,16 @@ class UnitLoadStore:
             loaded = files.load(missing) if files is not None else {}
             solve = [n for n in missing if n not in loaded]
             Y = self._solved(solve) if solve else None
+            at = {n: i for i, n in enumerate(missing)}
             if loaded:  # the read columns in their places, the solved ones in theirs (same width as a solve of all)
                 Yr = np.zeros((flex.n_dof, max(_solve_width(m), MIN_PROJECTED_COLUMNS)), order="F")
-                at = {n: i for i, n in enumerate(missing)}
                 for n, y in loaded.items():
                     Yr[:, 3 * at[n]:3 * at[n] + 3] = y
                 for j, n in enumerate(solve):
                     Yr[:, 3 * at[n]:3 * at[n] + 3] = Y[:, 3 * j:3 * j + 3]
                 Y = Yr
-            if solve and files is not None:
-                files.save(solve, Y[:, [c for n in solve for c in range(3 * missing.index(n), 3 * missing.index(n) + 3)]])
+            if solve and files is not None:   # a copy of their columns: the writer thread keeps it
+                files.save(solve, Y[:, (3 * np.array([at[n] for n in solve])[:, None] + np.arange(3)).ravel()])
             KU = Y.T @ flex.KU
             MY = flex.M @ Y[:, :m]  # a sparse product: each column its own sums, padding not needed
             # the free slots, lowest first (the LRU may have been emptied by clear_all)
