@@ -594,7 +594,7 @@ class UnitLoadStore:
         changes a solve's bytes or the factorization changed), or None when they are off."""
         if not unit_load_files.ENABLED:
             return None
-        settings = (SINGLE_ELASTIC_PROJECTION, MIN_SOLVE_COLUMNS, MIN_PROJECTED_COLUMNS, SOLVE_COLUMN_BLOCK, float(_SHIFT))
+        settings = (SINGLE_ELASTIC_PROJECTION, MIN_SOLVE_COLUMNS, MIN_PROJECTED_COLUMNS, SOLVE_COLUMN_BLOCK)  # sigma: in the key
         files = self._disk
         if files is None or files.settings != settings or files.factor is not self.flex.factor \
                 or files.cache_dir != default_cache_dir():

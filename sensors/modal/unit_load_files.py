@@ -5,7 +5,7 @@ costs a forward and backward solve with the model's factorization per column and
 projections: ~10 ms per node on the 10,935-dof ABS bar, the largest part of a moving stream's
 first minutes (a rocking bar touches ~300 nodes of the bar and of its plinth before its store
 stops growing).  Every new process (a vector env's worker, a dataset worker, the next run)
-paid it again.  Read from its file a node costs ~0.5 ms.
+paid it again.
 
 The bytes are the solve's: a node's columns do not depend on the call that solved them
 (``MIN_SOLVE_COLUMNS``, ``SOLVE_COLUMN_BLOCK``), so a file holds exactly what a solve in this
@@ -75,15 +75,6 @@ def _code() -> str:
     return cache_mod.source_version(*_MODULES)
 
 
-def _digest(*arrays) -> str:
-    h = hashlib.sha256()
-    for a in arrays:
-        a = np.ascontiguousarray(a)
-        h.update(f"{a.dtype.str}{a.shape}".encode())
-        h.update(a.data)
-    return h.hexdigest()
-
-
 class UnitLoadFiles:
     """The unit-load files of one :class:`ContactFlexibility` (made by its store on first use).
 
@@ -99,9 +90,9 @@ class UnitLoadFiles:
         self.n_dof = int(flex.n_dof)
         pivoting = getattr(getattr(flex.factor, "_f", None), "pivoting", "")
         K, M = flex.K, flex.M
-        model = _digest(K.data, K.indices, K.indptr, M.data, M.indices, M.indptr, flex.U, np.float64(flex.sigma))
         self.key = cache_mod.content_key(
-            "unit-loads", model, getattr(flex.factor, "name", type(flex.factor).__name__), pivoting, settings,
+            "unit-loads", [K.data, K.indices, K.indptr, M.data, M.indices, M.indptr, flex.U], float(flex.sigma),
+            getattr(flex.factor, "name", type(flex.factor).__name__), pivoting, settings,
             _code(), platform.machine(), np.__version__, code=False)
         self.folder = self.cache_dir / FOLDER / self.key[:32]
         self.node_mb = self.n_dof * 3 * 8 / 1e6
