@@ -173,6 +173,20 @@ def test_report_from_a_dataset(tmp_path):
     assert (tmp_path / "report" / "confusion.png").stat().st_size > 0
 
 
+def test_report_sets_the_papers_accuracies_beside_the_papers_objects_only():
+    from aas_gym.experiments.protocols import CLASSIFIERS, RecognitionResult
+    from aas_gym.experiments.report import recognition_table
+
+    def results(labels):
+        return [RecognitionResult("linear", "single", c, 50.0, list(labels), np.eye(len(labels))) for c in CLASSIFIERS]
+
+    paper = recognition_table(results(["wood_bar", "pla_tube"]))
+    assert "KNN sim / paper" in paper and "50.0 / 78.6" in paper  # the paper's KNN, linear, 5-fold
+    everyday = recognition_table(results(["mug", "wood_bar"]))
+    assert "paper" not in everyday and "78.6" not in everyday
+    assert "| linear | single -> single (5-fold) | 50.0 | 50.0 | 50.0 |" in everyday
+
+
 def test_report_spectra_come_from_the_dataset(reference):
     from aas_gym.experiments.run import dataset_spectra
     from sensors import feature_frequencies_hz

@@ -11,6 +11,8 @@ from tqdm.auto import tqdm
 
 from sensors._infra.atomic import atomic_savefig, atomic_write_text
 
+from aas_gym.object_names import DEFAULT_OBJECT_NAMES
+
 from aas_gym.experiments.protocols import (
     CLASSIFIERS,
     PAPER_BEST_POSITION_RMSE_MM,
@@ -86,19 +88,30 @@ PROTOCOL_NAMES = {"single": "single -> single (5-fold)", "transfer": "single -> 
                   "geometry": "material, held-out shape"}
 
 
-def recognition_table(results: list[RecognitionResult]) -> str:
-    """Table II layout: simulated accuracy next to the paper's, per excitation and protocol."""
-    lines = ["| excitation | protocol | " + " | ".join(f"{c} sim / paper" for c in CLASSIFIERS) + " |",
+def on_paper_objects(results: list[RecognitionResult]) -> bool:
+    """Whether the objects recognized are among the paper's seven, so that the paper's
+    accuracies are a comparison (another object set, such as the everyday objects, is not)."""
+    labels = {label for r in results if r.protocol != "geometry" for label in r.labels}
+    return bool(labels) and labels <= set(DEFAULT_OBJECT_NAMES)
+
+
+def recognition_table(results: list[RecognitionResult], paper: bool | None = None) -> str:
+    """Table II layout: simulated accuracy per excitation and protocol, next to the paper's
+    when ``paper`` (default: when the objects are the paper's, :func:`on_paper_objects`)."""
+    paper = on_paper_objects(results) if paper is None else paper
+    header = " sim / paper" if paper else " sim"
+    lines = ["| excitation | protocol | " + " | ".join(f"{c}{header}" for c in CLASSIFIERS) + " |",
              "|---|---|" + "---|" * len(CLASSIFIERS)]
     by_key = {(r.excitation, r.protocol, r.classifier): r.accuracy for r in results}
     for exc in ("impulse", "linear", "exponential"):
         for protocol, label in PROTOCOL_NAMES.items():
             if (exc, protocol, "KNN") not in by_key:
                 continue
-            paper = PAPER_RECOGNITION[exc].get(protocol, [float("nan")] * len(CLASSIFIERS))
-            cells = [f"{by_key[(exc, protocol, c)]:.1f} / " + ("-" if p != p else f"{p:.1f}")
-                     for c, p in zip(CLASSIFIERS, paper)]
-            lines.append(f"| {exc} | {label} | " + " | ".join(cells) + " |")
+            ours = [f"{by_key[(exc, protocol, c)]:.1f}" for c in CLASSIFIERS]
+            if paper:
+                theirs = PAPER_RECOGNITION[exc].get(protocol, [float("nan")] * len(CLASSIFIERS))
+                ours = [f"{a} / " + ("-" if p != p else f"{p:.1f}") for a, p in zip(ours, theirs)]
+            lines.append(f"| {exc} | {label} | " + " | ".join(ours) + " |")
     return "\n".join(lines)
 
 
@@ -194,9 +207,14 @@ def write_report(rec: list[RecognitionResult], pos: list[PositionResult], out_di
     """Write ``report.md`` with its figures into ``out_dir`` from the results of
     :func:`run_protocols`."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    parts = ["# aas-gym: the paper's experiments in simulation", ""]
+    paper = on_paper_objects(rec)
+    parts = ["# aas-gym: the paper's experiments in simulation" if paper or not rec
+             else "# aas-gym: the paper's protocols on other objects, in simulation", ""]
     if rec:
-        parts += ["## Object recognition (accuracy %, simulated / paper)", "", recognition_table(rec), ""]
+        parts += [f"## Object recognition (accuracy %, simulated{' / paper' if paper else ''})", "",
+                  recognition_table(rec, paper), ""]
+        if not paper:
+            parts += ["The objects are not the paper's, so its accuracies are not shown beside these.", ""]
         parts += ["![confusion matrices](confusion.png)", ""]
         plot_confusions(rec, out_dir / "confusion.png")
     if pos:
