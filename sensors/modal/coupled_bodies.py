@@ -25,8 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import coupled_basis
-from .spring_modes import MIN_MODE_FREQUENCY_HZ, SpringModes, flexible_base, warn_no_mesh
+from . import coupled_basis, static_correction
+from .spring_modes import (MIN_MODE_FREQUENCY_HZ, SpringModes, flexible_base, merge_close_springs, spring_directions,
+                           warn_no_mesh)
 from .static_correction import contact_flexibility
 
 __all__ = ["MAX_COUPLED_COORDINATES", "BodyLink", "CoupledBodies", "CoupledSizeError", "check_coupled_size",
@@ -117,10 +118,16 @@ class CoupledBodies:
                 part = SpringModes(model, springs)
             else:
                 base, fs, ss = flex
+                keep = own_points[body]
+                if spring_directions(springs) > static_correction.MAX_ATTACHMENT_VECTORS:
+                    # many links on one body (a bar lying along another, a partner on several of
+                    # a mug's collision pieces): its attachment modes at merged points. They are
+                    # a Ritz basis only; every link still acts at its own point and stiffness.
+                    springs = merge_close_springs(springs)
+                    keep = [body == 0 and not coupled_basis.SNAP_GRASPED] * len(springs)
                 if coupled_basis.SNAP_TO_NODES and springs:
                     snapped = coupled_basis.basis_points(base, [sp[0] for sp in springs])
-                    springs = [sp if keep else (q, *sp[1:])
-                               for sp, q, keep in zip(springs, snapped, own_points[body])]
+                    springs = [sp if kept else (q, *sp[1:]) for sp, q, kept in zip(springs, snapped, keep)]
                 part = SpringModes(model, springs, fs, ss, contact_flexibility(base))
             self._parts.append(part)
             blocks.append(part.free_stiffness)

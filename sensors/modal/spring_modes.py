@@ -95,7 +95,9 @@ def contact_springs(model, contacts) -> list[tuple[np.ndarray, np.ndarray, float
 MERGE_RADIUS_M = 2e-3
 
 
-def _n_directions(springs) -> int:
+def spring_directions(springs) -> int:
+    """How many directions ``springs`` (point, normal, k_n, k_t) constrain: their attachment
+    vectors (the normal where k_n > 0, two tangents where k_t > 0)."""
     return sum((kn > _NEGLIGIBLE_STIFFNESS_N_PER_M) + 2 * (kt > _NEGLIGIBLE_STIFFNESS_N_PER_M)
                for _, _, kn, kt in springs)
 
@@ -209,7 +211,7 @@ def merge_close_springs(springs, radius_m: float = MERGE_RADIUS_M):
         groups = _groups_bounded(springs, radius_m) if fast else _groups(springs, radius_m)
         merge = _merged_lean if fast else _merged
         merged = [springs[g[0]] if len(g) == 1 else merge([springs[i] for i in g]) for g in groups]
-        if _n_directions(merged) <= static_correction.MAX_ATTACHMENT_VECTORS or len(merged) <= 1:
+        if spring_directions(merged) <= static_correction.MAX_ATTACHMENT_VECTORS or len(merged) <= 1:
             return merged
         springs, radius_m = merged, 2.0 * radius_m
 
