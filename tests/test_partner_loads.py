@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
 import scipy.sparse.linalg
 
 from sensors import Contact
@@ -16,7 +15,7 @@ from sensors.synthesis.modal_system import contact_modal_model
 from sensors.synthesis.passive import ContactLoads, LoadRead, project_reads
 
 from test_contact_stiffness import bar, reference, vertex  # noqa: F401  (fixtures)
-from test_touching_objects import H, K_LINK, K_PAD, K_TABLE
+from test_touching_objects import K_LINK, full_fem_two_bars
 from test_touching_objects import two_bars as touching_two_bars
 
 DOWN = np.array([0.0, 0.0, -1.0])
@@ -36,23 +35,10 @@ def _full_response(reference, springs, mic_vertex, mic_normal, on_partner: bool)
     """Complex displacement at A's mic vertex along ``mic_normal`` per newton pattern
     ``FORCE_N`` at A's contact vertex (and -FORCE_N at B's, ``on_partner``): the full FEM of
     both bars with the pads, the link and the table as springs, K (1 + i eta) - w^2 M."""
-    K, M, _, dofs = reference
-    n = K.shape[0]
-    K2 = sp.block_diag([K, K]).tolil()
-    for v, axis, kn, kt in springs["pads"]:
-        for j in range(3):
-            K2[dofs[j, v], dofs[j, v]] += kn if j == axis else kt
-    for v in springs["table"]:
-        for j, k in ((0, K_TABLE[1]), (1, K_TABLE[1]), (2, K_TABLE[0])):
-            K2[n + dofs[j, v], n + dofs[j, v]] += k
+    dofs = reference[3]
+    n = reference[0].shape[0]
     va, vb = springs["link"]
-    for j, k in ((0, K_LINK[1]), (1, K_LINK[1]), (2, K_LINK[0])):
-        a, b = dofs[j, va], n + dofs[j, vb]
-        K2[a, a] += k
-        K2[b, b] += k
-        K2[a, b] -= k
-        K2[b, a] -= k
-    K2, M2 = K2.tocsc(), sp.block_diag([M, M]).tocsc()
+    K2, M2 = full_fem_two_bars(reference, springs["pads"], springs["table"], [(va, vb, K_LINK)])
     f = np.zeros(2 * n, complex)
     f[dofs[:, va]] += FORCE_N
     if on_partner:

@@ -46,27 +46,39 @@ def two_bars(reference, partner_model, contact_x_m=0.05, pad_x_m=-0.03, table_x_
     return pad_contacts, partner, springs
 
 
-def test_coupled_grasp_matches_full_fem_of_both_bars(bar, reference):
+def full_fem_two_bars(reference, pads, table, links):
+    """The full FEM of bar A and bar B (B's dofs after A's), both with ``reference``'s K and M:
+    ``pads`` grounded springs on A [(vertex, normal axis, k_n, k_t)], ``table`` vertices of B
+    on the table (K_TABLE), ``links`` springs between them [(vertex of A, vertex of B, (k_n,
+    k_t))], all with vertical or axis-aligned normals. Returns (K, M), sparse CSC."""
     K, M, _, dofs = reference
-    pads, partner, springs = two_bars(reference, bar)
     n = K.shape[0]
     K2 = sp.block_diag([K, K]).tolil()
-    for v, axis, kn, kt in springs["pads"]:                                 # A's pads, grounded
+    for v, axis, kn, kt in pads:                                            # A's pads, grounded
         for j in range(3):
             K2[dofs[j, v], dofs[j, v]] += kn if j == axis else kt
-    for v in springs["table"]:                                              # B on the table
+    for v in table:                                                         # B on the table
         for j, k in ((0, K_TABLE[1]), (1, K_TABLE[1]), (2, K_TABLE[0])):
             K2[n + dofs[j, v], n + dofs[j, v]] += k
-    va, vb = springs["link"]
-    for j, k in ((0, K_LINK[1]), (1, K_LINK[1]), (2, K_LINK[0])):           # A -- B
-        a, b = dofs[j, va], n + dofs[j, vb]
-        K2[a, a] += k
-        K2[b, b] += k
-        K2[a, b] -= k
-        K2[b, a] -= k
-    lam = scipy.sparse.linalg.eigsh(K2.tocsc(), k=30, M=sp.block_diag([M, M]).tocsc(), sigma=-(2 * math.pi * 10) ** 2,
-                                    which="LM", return_eigenvectors=False)
-    true = np.sqrt(np.maximum(np.sort(lam), 0.0)) / (2 * math.pi)
+    for va, vb, (kn, kt) in links:                                          # A -- B
+        for j, k in ((0, kt), (1, kt), (2, kn)):
+            a, b = dofs[j, va], n + dofs[j, vb]
+            K2[a, a] += k
+            K2[b, b] += k
+            K2[a, b] -= k
+            K2[b, a] -= k
+    return K2.tocsc(), sp.block_diag([M, M]).tocsc()
+
+
+def lowest_hz(K, M, k=30) -> np.ndarray:
+    """The lowest ``k`` frequencies [Hz] of (K, M), rigid-body modes at ~0."""
+    lam = scipy.sparse.linalg.eigsh(K, k=k, M=M, sigma=-(2 * math.pi * 10) ** 2, which="LM", return_eigenvectors=False)
+    return np.sqrt(np.maximum(np.sort(lam), 0.0)) / (2 * math.pi)
+
+
+def test_coupled_grasp_matches_full_fem_of_both_bars(bar, reference):
+    pads, partner, springs = two_bars(reference, bar)
+    true = lowest_hz(*full_fem_two_bars(reference, springs["pads"], springs["table"], [(*springs["link"], K_LINK)]))
     modes = contact_modal_model(TouchingObjects(bar, [partner]), pads)
     free = np.sort(np.concatenate([bar.frequencies_hz, bar.frequencies_hz]))
     check_shifts(free, modes.frequencies_hz, true[true > 1.0])
@@ -169,8 +181,7 @@ def test_a_bar_lying_along_another_merges_its_attachment_points_and_matches_full
     attachment mode at every link, above the limit, 0.01 Hz)."""
     from sensors.modal import static_correction
 
-    K, M, V, dofs = reference
-    n = K.shape[0]
+    V = reference[2]
     bottom = np.flatnonzero(np.isclose(V[:, 2], -H / 2))
     top = [int(np.argmin(np.linalg.norm(V - (V[v] + [0, 0, H]), axis=1))) for v in bottom]
     assert np.allclose(V[top] - [0, 0, H], V[bottom])
@@ -185,23 +196,9 @@ def test_a_bar_lying_along_another_merges_its_attachment_points_and_matches_full
     modes = contact_modal_model(TouchingObjects(bar, [partner]), pads)
     for part in modes.assembly.parts:        # bounded: merged attachment points
         assert part.attachment.size <= static_correction.MAX_ATTACHMENT_VECTORS
-    K2 = sp.block_diag([K, K]).tolil()
-    for p, s in zip(pads_at, (1, -1)):
-        v = int(np.argmin(np.linalg.norm(V - p, axis=1)))
-        K2[dofs[1, v], dofs[1, v]] += K_PAD[0]
-    for v, _ in table:
-        for j, k in ((0, K_TABLE[1]), (1, K_TABLE[1]), (2, K_TABLE[0])):
-            K2[n + dofs[j, v], n + dofs[j, v]] += k
-    for va, vb in zip(bottom, top):
-        for j, k in ((0, k_link[1]), (1, k_link[1]), (2, k_link[0])):
-            a, b = dofs[j, va], n + dofs[j, vb]
-            K2[a, a] += k
-            K2[b, b] += k
-            K2[a, b] -= k
-            K2[b, a] -= k
-    lam = scipy.sparse.linalg.eigsh(K2.tocsc(), k=30, M=sp.block_diag([M, M]).tocsc(), sigma=-(2 * math.pi * 10) ** 2,
-                                    which="LM", return_eigenvectors=False)
-    true = np.sqrt(np.maximum(np.sort(lam), 0.0)) / (2 * math.pi)
+    pad_springs = [(int(np.argmin(np.linalg.norm(V - p, axis=1))), 1, K_PAD[0], K_PAD[1]) for p in pads_at]
+    true = lowest_hz(*full_fem_two_bars(reference, pad_springs, [v for v, _ in table],
+                                        [(va, vb, k_link) for va, vb in zip(bottom, top)]))
     free = np.sort(np.concatenate([bar.frequencies_hz, bar.frequencies_hz]))
     check_shifts(free, modes.frequencies_hz, true[true > 1.0], rtol=0.1)
     band = true[(true > 1.0) & (true < 0.6 * FMAX_HZ)]
