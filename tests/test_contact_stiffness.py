@@ -12,6 +12,7 @@ import math
 import numpy as np
 import pytest
 import scipy.signal
+import scipy.sparse as sp
 import scipy.sparse.linalg
 
 import sensors
@@ -285,32 +286,49 @@ def test_switching_every_sample_is_passive_and_matches_reference(bar, reference)
 # ----------------------------------------------------------------------------- two bodies
 
 
+def full_fem_two_bars(reference, pads, table, links, k_table=(0.0, 0.0)):
+    """The full FEM of bar A and bar B (B's dofs after A's), both with ``reference``'s K and M:
+    ``pads`` grounded springs on A [(vertex, normal axis, k_n, k_t)], ``table`` vertices of B
+    on the table (springs ``k_table``: normal, tangential), ``links`` springs between them [(vertex of A, vertex of B, (k_n,
+    k_t))], all with vertical or axis-aligned normals. Returns (K, M), sparse CSC."""
+    K, M, _, dofs = reference
+    n = K.shape[0]
+    K2 = sp.block_diag([K, K]).tolil()
+    for v, axis, kn, kt in pads:                                            # A's pads, grounded
+        for j in range(3):
+            K2[dofs[j, v], dofs[j, v]] += kn if j == axis else kt
+    for v in table:                                                         # B on the table
+        for j, k in ((0, k_table[1]), (1, k_table[1]), (2, k_table[0])):
+            K2[n + dofs[j, v], n + dofs[j, v]] += k
+    for va, vb, (kn, kt) in links:                                          # A -- B
+        for j, k in ((0, kt), (1, kt), (2, kn)):
+            a, b = dofs[j, va], n + dofs[j, vb]
+            K2[a, a] += k
+            K2[b, b] += k
+            K2[a, b] -= k
+            K2[b, a] -= k
+    return K2.tocsc(), sp.block_diag([M, M]).tocsc()
+
+
+def lowest_hz(K, M, k=30) -> np.ndarray:
+    """The lowest ``k`` frequencies [Hz] of (K, M), rigid-body modes at ~0."""
+    lam = scipy.sparse.linalg.eigsh(K, k=k, M=M, sigma=-(2 * math.pi * 10) ** 2, which="LM", return_eigenvectors=False)
+    return np.sqrt(np.maximum(np.sort(lam), 0.0)) / (2 * math.pi)
+
+
 def test_two_bars_joined_by_a_spring_match_full_fem(bar, reference):
     """Component mode synthesis (sensors.modal.coupled_bodies) of two free bars, the second
     stacked on the first (25 mm up), joined at one point by a spring of 1e7 N/m normal and
     5e6 N/m tangential, against the full FEM of both bars with the spring."""
     from sensors.modal.coupled_bodies import BodyLink, coupled_bodies
 
-    K, M, V, dofs = reference
+    V = reference[2]
     h = BAR["height_m"]
     va, pa = vertex(reference, 0.05, 2, +1)                       # top of bar A
     vb = int(np.argmin(np.linalg.norm(V - (pa - [0, 0, h]), axis=1)))  # bottom of bar B (B frame)
     assert np.allclose(V[vb] + [0, 0, h], pa)
     kn, kt = 1e7, 5e6
-    n = K.shape[0]
-    import scipy.sparse as sp
-
-    K2 = sp.block_diag([K, K]).tolil()
-    for j, k in ((0, kt), (1, kt), (2, kn)):
-        a, b = dofs[j, va], n + dofs[j, vb]
-        K2[a, a] += k
-        K2[b, b] += k
-        K2[a, b] -= k
-        K2[b, a] -= k
-    M2 = sp.block_diag([M, M]).tocsc()
-    lam = scipy.sparse.linalg.eigsh(K2.tocsc(), k=24, M=M2, sigma=-(2 * math.pi * 10) ** 2, which="LM",
-                                    return_eigenvectors=False)
-    true = np.sqrt(np.maximum(np.sort(lam), 0.0)) / (2 * math.pi)
+    true = lowest_hz(*full_fem_two_bars(reference, (), (), [(va, vb, (kn, kt))]), k=24)
     true = true[true > 1.0]
     link = BodyLink(0, 1, tuple(pa), (0.0, 0.0, 1.0), kn, kt)
     both = coupled_bodies([(bar, np.eye(3), np.zeros(3)), (bar, np.eye(3), np.array([0.0, 0.0, h]))], [link])

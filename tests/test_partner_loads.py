@@ -15,7 +15,8 @@ from sensors.synthesis.modal_system import contact_modal_model
 from sensors.synthesis.passive import ContactLoads, LoadRead, project_reads
 
 from test_contact_stiffness import bar, reference, vertex  # noqa: F401  (fixtures)
-from test_touching_objects import K_LINK, full_fem_two_bars
+from test_contact_stiffness import full_fem_two_bars
+from test_touching_objects import K_LINK, K_TABLE
 from test_touching_objects import two_bars as touching_two_bars
 
 DOWN = np.array([0.0, 0.0, -1.0])
@@ -38,7 +39,7 @@ def _full_response(reference, springs, mic_vertex, mic_normal, on_partner: bool)
     dofs = reference[3]
     n = reference[0].shape[0]
     va, vb = springs["link"]
-    K2, M2 = full_fem_two_bars(reference, springs["pads"], springs["table"], [(va, vb, K_LINK)])
+    K2, M2 = full_fem_two_bars(reference, springs["pads"], springs["table"], [(va, vb, K_LINK)], K_TABLE)
     f = np.zeros(2 * n, complex)
     f[dofs[:, va]] += FORCE_N
     if on_partner:

@@ -6,12 +6,9 @@ limit it must approach)."""
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
-import scipy.sparse.linalg
 
 from sensors import Contact, ModalSystem
 from sensors.materials import scaled_material
@@ -19,7 +16,7 @@ from sensors.modal import TouchingObjects, TouchingPartner, with_material
 from sensors.modal.coupled_bodies import CoupledSizeError
 from sensors.synthesis.modal_system import contact_modal_model, modal_state_energy
 
-from test_contact_stiffness import BAR, FMAX_HZ, FS, dense_response, bar, check_shifts, reference, vertex  # noqa: F401
+from test_contact_stiffness import BAR, FMAX_HZ, FS, dense_response, full_fem_two_bars, lowest_hz, bar, check_shifts, reference, vertex  # noqa: F401
 
 H = BAR["height_m"]
 DOWN, UP = np.array([0.0, 0.0, -1.0]), np.array([0.0, 0.0, 1.0])
@@ -46,39 +43,9 @@ def two_bars(reference, partner_model, contact_x_m=0.05, pad_x_m=-0.03, table_x_
     return pad_contacts, partner, springs
 
 
-def full_fem_two_bars(reference, pads, table, links):
-    """The full FEM of bar A and bar B (B's dofs after A's), both with ``reference``'s K and M:
-    ``pads`` grounded springs on A [(vertex, normal axis, k_n, k_t)], ``table`` vertices of B
-    on the table (K_TABLE), ``links`` springs between them [(vertex of A, vertex of B, (k_n,
-    k_t))], all with vertical or axis-aligned normals. Returns (K, M), sparse CSC."""
-    K, M, _, dofs = reference
-    n = K.shape[0]
-    K2 = sp.block_diag([K, K]).tolil()
-    for v, axis, kn, kt in pads:                                            # A's pads, grounded
-        for j in range(3):
-            K2[dofs[j, v], dofs[j, v]] += kn if j == axis else kt
-    for v in table:                                                         # B on the table
-        for j, k in ((0, K_TABLE[1]), (1, K_TABLE[1]), (2, K_TABLE[0])):
-            K2[n + dofs[j, v], n + dofs[j, v]] += k
-    for va, vb, (kn, kt) in links:                                          # A -- B
-        for j, k in ((0, kt), (1, kt), (2, kn)):
-            a, b = dofs[j, va], n + dofs[j, vb]
-            K2[a, a] += k
-            K2[b, b] += k
-            K2[a, b] -= k
-            K2[b, a] -= k
-    return K2.tocsc(), sp.block_diag([M, M]).tocsc()
-
-
-def lowest_hz(K, M, k=30) -> np.ndarray:
-    """The lowest ``k`` frequencies [Hz] of (K, M), rigid-body modes at ~0."""
-    lam = scipy.sparse.linalg.eigsh(K, k=k, M=M, sigma=-(2 * math.pi * 10) ** 2, which="LM", return_eigenvectors=False)
-    return np.sqrt(np.maximum(np.sort(lam), 0.0)) / (2 * math.pi)
-
-
 def test_coupled_grasp_matches_full_fem_of_both_bars(bar, reference):
     pads, partner, springs = two_bars(reference, bar)
-    true = lowest_hz(*full_fem_two_bars(reference, springs["pads"], springs["table"], [(*springs["link"], K_LINK)]))
+    true = lowest_hz(*full_fem_two_bars(reference, springs["pads"], springs["table"], [(*springs["link"], K_LINK)], K_TABLE))
     modes = contact_modal_model(TouchingObjects(bar, [partner]), pads)
     free = np.sort(np.concatenate([bar.frequencies_hz, bar.frequencies_hz]))
     check_shifts(free, modes.frequencies_hz, true[true > 1.0])
@@ -198,7 +165,7 @@ def test_a_bar_lying_along_another_merges_its_attachment_points_and_matches_full
         assert part.attachment.size <= static_correction.MAX_ATTACHMENT_VECTORS
     pad_springs = [(int(np.argmin(np.linalg.norm(V - p, axis=1))), 1, K_PAD[0], K_PAD[1]) for p in pads_at]
     true = lowest_hz(*full_fem_two_bars(reference, pad_springs, [v for v, _ in table],
-                                        [(va, vb, k_link) for va, vb in zip(bottom, top)]))
+                                        [(va, vb, k_link) for va, vb in zip(bottom, top)], K_TABLE))
     free = np.sort(np.concatenate([bar.frequencies_hz, bar.frequencies_hz]))
     check_shifts(free, modes.frequencies_hz, true[true > 1.0], rtol=0.1)
     band = true[(true > 1.0) & (true < 0.6 * FMAX_HZ)]
