@@ -11,8 +11,6 @@ from tqdm.auto import tqdm
 
 from sensors._infra.atomic import atomic_savefig, atomic_write_text
 
-from aas_gym.object_names import DEFAULT_OBJECT_NAMES
-
 from aas_gym.experiments.protocols import (
     CLASSIFIERS,
     PAPER_BEST_POSITION_RMSE_MM,
@@ -23,6 +21,7 @@ from aas_gym.experiments.protocols import (
     held_out_geometry,
     recognition,
 )
+from aas_gym.object_names import DEFAULT_OBJECT_NAMES
 
 
 def _plt():
