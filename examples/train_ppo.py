@@ -21,12 +21,13 @@ What makes these learnable in minutes (measured: the env's defaults learn slowly
   every episode is the paper's sequence, one probe, then the answer. Measured: with a learnt
   answer/probe switch and 4-step episodes, PPO at 3k steps probed until the time limit and
   never answered (7 % accuracy).
-- The env's own contacts, springs with coupled touching bodies (``--contact-model damping``
-  trains with the paper's cheaper damping-only model instead). A new grasp costs ~10 ms once
-  the object's unit-load solves are kept (``sensors.modal.unit_load_files``): the first run
-  on a machine fills them, later runs read them.
 - GraspPosition's reward (metres, ~0.02) is normalized by ``VecNormalize``; its Gaussian
   policy starts with a smaller spread (``log_std_init=-1``).
+
+Contacts are the envs' own, springs with coupled touching bodies (``--contact-model damping``
+trains with the paper's cheaper damping-only model instead). A new grasp costs ~10 ms once the
+object's unit-load solves are kept (``sensors.modal.unit_load_files``): the first run on a
+machine fills them, later runs read them.
 
 Writes ``<out>/ppo_<env>.json`` (evaluation log), ``<out>/ppo_<env>.zip`` (the policy) and
 the figure of every log found in ``<out>`` (default ``docs/images/ppo_curves.png``). Paths are

@@ -155,7 +155,7 @@ def test_a_bar_lying_along_another_merges_its_attachment_points_and_matches_full
     k_link = (K_LINK[0] / 8, K_LINK[1] / 8)      # a face of contacts, each a share of one stiff contact
     links = tuple(Contact(V[v], DOWN, 1.0, 0.5, *k_link, counter_material="aluminium") for v in bottom)
     assert 3 * len(links) > static_correction.MAX_ATTACHMENT_VECTORS
-    _, pads_at = zip(*[vertex(reference, -0.03, 1, s) for s in (1, -1)])
+    pad_vertices, pads_at = zip(*[vertex(reference, -0.03, 1, s) for s in (1, -1)])
     pads = [Contact(p, [0.0, s, 0.0], 5.0, 0.5, *K_PAD) for p, s in zip(pads_at, (1, -1))]
     table = [vertex(reference, x, 2, -1) for x in (-0.08, 0.08)]
     ground = tuple(Contact(p, DOWN, 5.0, 0.5, *K_TABLE) for _, p in table)
@@ -163,7 +163,7 @@ def test_a_bar_lying_along_another_merges_its_attachment_points_and_matches_full
     modes = contact_modal_model(TouchingObjects(bar, [partner]), pads)
     for part in modes.assembly.parts:        # bounded: merged attachment points
         assert part.attachment.size <= static_correction.MAX_ATTACHMENT_VECTORS
-    pad_springs = [(int(np.argmin(np.linalg.norm(V - p, axis=1))), 1, K_PAD[0], K_PAD[1]) for p in pads_at]
+    pad_springs = [(v, 1, *K_PAD) for v in pad_vertices]
     true = lowest_hz(*full_fem_two_bars(reference, pad_springs, [v for v, _ in table],
                                         [(va, vb, k_link) for va, vb in zip(bottom, top)], K_TABLE))
     free = np.sort(np.concatenate([bar.frequencies_hz, bar.frequencies_hz]))

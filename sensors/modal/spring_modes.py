@@ -34,7 +34,7 @@ from ..fem.assembly import shape_functions
 from .basis import check_points_m
 from .static_correction import contact_flexibility
 
-__all__ = ["MERGE_RADIUS_M", "merge_close_springs", "MIN_MODE_FREQUENCY_HZ", "SpringModes", "cross3", "contact_springs", "flexible_base", "spring_modes",
+__all__ = ["MERGE_RADIUS_M", "merge_close_springs", "spring_directions", "MIN_MODE_FREQUENCY_HZ", "SpringModes", "cross3", "contact_springs", "flexible_base", "spring_modes",
            "modal_transfer"]
 
 log = logging.getLogger(__name__)
